@@ -1,0 +1,86 @@
+# voxlab — build, test, benchmark and demo targets. `make` builds build/voxlab.
+# SANITIZE=1 builds everything into build-asan/ with AddressSanitizer + UndefinedBehaviorSanitizer.
+
+SANITIZE ?= 0
+ifeq ($(SANITIZE),1)
+BUILD ?= build-asan
+SANFLAGS = -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
+OPT = -O1
+else
+BUILD ?= build
+SANFLAGS =
+OPT = -O2
+endif
+
+# Error messages are built with snprintf into fixed buffers; truncating a very long path is fine.
+NOWARN = -Wno-format-truncation
+CC = gcc
+CXX = g++
+INCLUDES = -Itracer -Imodels -Iscenes/generators -I/usr/include/embree3 -I/usr/include/OpenEXR
+CFLAGS = -std=c11 $(OPT) -g -march=x86-64-v2 -Wall -Wextra -Werror $(NOWARN) -D_GNU_SOURCE -pthread -MMD -MP $(INCLUDES) $(SANFLAGS)
+CXXFLAGS = -std=c++17 $(OPT) -g -Wall -Wextra -Werror -pthread -MMD -MP $(INCLUDES) $(SANFLAGS)
+LDFLAGS = -pthread $(SANFLAGS)
+LDLIBS = -lembree3 -lOpenEXRCore -lOpenImageIO -lOpenImageIO_Util -ltinygltf -lcjson -lm
+
+# Every source file of the library; main.c is the CLI only.
+LIB_SRC = $(filter-out tracer/main.c,$(wildcard tracer/*.c tracer/*.cpp models/*.c scenes/generators/*.c))
+LIB_OBJ = $(patsubst %,$(BUILD)/%.o,$(LIB_SRC))
+UNIT_SRC = $(wildcard tests/unit_*.c)
+UNIT_BIN = $(patsubst tests/%.c,$(BUILD)/tests/%,$(UNIT_SRC))
+BENCH_SRC = $(wildcard tests/bench_*.c)
+BENCH_BIN = $(patsubst tests/%.c,$(BUILD)/tests/%,$(BENCH_SRC))
+
+# Debian packages voxlab needs to build and test (see README).
+DEPS = build-essential libembree-dev libopenexr-dev libopenimageio-dev libtinygltf-dev libcjson-dev \
+       python3-numpy python3-skimage python3-matplotlib python3-openimageio
+
+.PHONY: all deps test test-asan bench demo clean
+all: $(BUILD)/voxlab
+
+$(BUILD)/voxlab: $(BUILD)/tracer/main.c.o $(LIB_OBJ)
+	$(CXX) $(LDFLAGS) -o $@ $^ $(LDLIBS)
+
+$(BUILD)/%.c.o: %.c
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS) -c -o $@ $<
+
+$(BUILD)/%.cpp.o: %.cpp
+	@mkdir -p $(dir $@)
+	$(CXX) $(CXXFLAGS) -c -o $@ $<
+
+$(BUILD)/tests/%: tests/%.c $(LIB_OBJ)
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS) -Itests -c -o $@.o $<
+	$(CXX) $(LDFLAGS) -o $@ $@.o $(LIB_OBJ) $(LDLIBS)
+
+# Installs missing Debian packages; costs well under a second when everything is present.
+deps:
+	@missing=$$(for p in $(DEPS); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q 'ok installed' || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+	  echo "installing:" $$missing >&2; \
+	  export DEBIAN_FRONTEND=noninteractive; \
+	  apt-get update -qq && apt-get install -y -qq $$missing >/dev/null || { echo "make deps: apt-get failed (run as root)" >&2; exit 1; }; \
+	fi
+
+test: deps
+	@$(MAKE) --no-print-directory $(BUILD)/voxlab $(UNIT_BIN)
+	@BUILD=$(BUILD) tests/run_all.sh
+
+test-asan:
+	@$(MAKE) --no-print-directory SANITIZE=1 test
+
+bench: deps
+	@$(MAKE) --no-print-directory $(BUILD)/voxlab $(BENCH_BIN)
+	@BUILD=$(BUILD) tests/bench.sh
+
+demo: deps
+	@$(MAKE) --no-print-directory $(BUILD)/voxlab
+	@mkdir -p results/demo
+	$(BUILD)/voxlab truth scenes/spheres.json --spp 256 -o results/demo/spheres_truth.exr --stats results/demo/spheres_truth.json
+	$(BUILD)/voxlab truth scenes/spheres.json --spp 256 -o results/demo/spheres_truth.png
+	@echo "demo: wrote results/demo/spheres_truth.exr (linear) and .png (sRGB)"
+
+clean:
+	rm -rf build build-asan
+
+-include $(shell find $(BUILD) -name '*.d' 2>/dev/null)

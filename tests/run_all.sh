@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# Runs every test: C unit tests (build/tests/unit_*), shell tests (tests/test_*.sh) and Python tests
+# (tests/test_*.py, under /usr/bin/python3 for numpy and scikit-image). Each prints one line per case,
+# "ok NAME" or "not ok NAME: why"; this script counts them and ends with "N passed, N failed".
+# TESTS=pattern runs only the test files whose name contains the pattern.
+set -u
+cd "$(dirname "$0")/.."
+export BUILD=${BUILD:-build}
+export VOXLAB="$PWD/$BUILD/voxlab"
+export POCL_CACHE_DIR="$PWD/$BUILD/pocl-cache"
+tmp_root=$(mktemp -d)
+trap 'rm -rf "$tmp_root"' EXIT
+passed=0
+failed=0
+failed_names=()
+run_one() {
+  local name=$1; shift
+  case "$name" in *"${TESTS:-}"*) ;; *) return ;; esac
+  local log="$tmp_root/$(basename "$name").log"
+  local start=$SECONDS
+  TEST_TMP="$tmp_root/$(basename "$name").d" "$@" >"$log" 2>&1
+  local rc=$?
+  local p f
+  p=$(grep -c '^ok ' "$log")
+  f=$(grep -c '^not ok ' "$log")
+  if [ "$rc" -ne 0 ] && [ "$f" -eq 0 ]; then
+    f=1
+    echo "not ok $name: exited with status $rc" >>"$log"
+  fi
+  if [ "$p" -eq 0 ] && [ "$f" -eq 0 ]; then
+    f=1
+    echo "not ok $name: reported no test case" >>"$log"
+  fi
+  passed=$((passed + p))
+  failed=$((failed + f))
+  printf '%-40s %3d passed %3d failed  %3ds\n' "$name" "$p" "$f" $((SECONDS - start))
+  if [ "$f" -ne 0 ]; then
+    failed_names+=("$name")
+    sed 's/^/    /' "$log" | tail -40
+  fi
+}
+for t in "$BUILD"/tests/unit_*; do
+  [ -x "$t" ] && [ "${t%.o}" = "$t" ] && [ "${t%.d}" = "$t" ] && run_one "$(basename "$t")" "$t"
+done
+for t in tests/test_*.sh; do
+  [ -f "$t" ] && run_one "$(basename "$t")" bash "$t"
+done
+for t in tests/test_*.py; do
+  [ -f "$t" ] && run_one "$(basename "$t")" /usr/bin/python3 "$t"
+done
+echo
+[ ${#failed_names[@]} -eq 0 ] || echo "failing: ${failed_names[*]}"
+echo "$passed passed, $failed failed"
+[ "$failed" -eq 0 ]

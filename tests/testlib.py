@@ -1,0 +1,81 @@
+"""Python test helpers: report(name, cond, why) prints the protocol lines tests/run_all.sh counts."""
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+VOXLAB = os.environ.get("VOXLAB", os.path.join(REPO, "build", "voxlab"))
+TMP = os.environ.get("TEST_TMP") or tempfile.mkdtemp()
+os.makedirs(TMP, exist_ok=True)
+_failures = 0
+
+
+def report(name, cond, why=""):
+    global _failures
+    if cond:
+        print(f"ok {name}", flush=True)
+    else:
+        _failures += 1
+        print(f"not ok {name}: {why}", flush=True)
+
+
+def voxlab(*args, check=True):
+    """Runs build/voxlab; returns the CompletedProcess (text mode)."""
+    p = subprocess.run([VOXLAB, *map(str, args)], capture_output=True, text=True)
+    if check and p.returncode != 0:
+        raise RuntimeError(f"voxlab {' '.join(map(str, args))} failed: {p.stderr}")
+    return p
+
+
+def voxlab_json(*args):
+    return json.loads(voxlab(*args).stdout)
+
+
+def finish():
+    sys.exit(1 if _failures else 0)
+
+
+def read_image(path):
+    """Reads an image as float32 (H, W, C) with OpenImageIO's Python bindings (Debian's
+    python3-openimageio): an independent reader of the files voxlab writes."""
+    import OpenImageIO as oiio
+    import numpy as np
+
+    inp = oiio.ImageInput.open(path)
+    if inp is None:
+        raise RuntimeError(f"cannot open {path}: {oiio.geterror()}")
+    pixels = inp.read_image(oiio.FLOAT)
+    inp.close()
+    return np.asarray(pixels, dtype=np.float32)
+
+
+def write_ply(path, verts, faces):
+    """An ASCII PLY with positions only."""
+    with open(path, "w") as f:
+        f.write("ply\nformat ascii 1.0\n")
+        f.write(f"element vertex {len(verts)}\nproperty float x\nproperty float y\nproperty float z\n")
+        f.write(f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n")
+        for v in verts:
+            f.write(" ".join(repr(float(c)) for c in v) + "\n")
+        for fc in faces:
+            f.write(f"{len(fc)} " + " ".join(map(str, fc)) + "\n")
+
+
+def write_scene(name, objects, lights, camera, effects=(), materials=None, size=(16, 16), background=(0, 0, 0)):
+    """Writes a scene file into TMP and returns its path."""
+    scene = {
+        "name": name,
+        "size": list(size),
+        "background": list(background),
+        "effects": list(effects),
+        "camera": camera,
+        "lights": lights,
+        "materials": materials or {"grey": {"color": [0.5, 0.5, 0.5]}},
+        "objects": objects,
+    }
+    path = os.path.join(TMP, name + ".json")
+    with open(path, "w") as f:
+        json.dump(scene, f)
+    return path

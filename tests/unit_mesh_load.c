@@ -1,0 +1,334 @@
+/* Tests of mesh_load_ply and mesh_load_gltf against the fixtures in tests/data (binary ones made by
+ * tests/data/make_fixtures.py) and small malformed files written at run time. Runs from the repo
+ * root, as tests/run_all.sh does. */
+#include "mesh_load.h"
+#include "unit.h"
+
+#include <stdbool.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+typedef int (*loader_fn)(const char *, mesh *, uint32_t, vx_err *);
+
+static char tmp_dir[512];
+static bool tmp_dir_is_ours; /* made by mkdtemp, so removed at the end */
+static char tmp_files[32][1024];
+static int tmp_file_count;
+
+/* A scratch directory: $TEST_TMP when run_all.sh provides one, else a fresh one under /tmp. */
+static void make_tmp_dir(void)
+{
+    const char *t = getenv("TEST_TMP");
+    if (t && *t) {
+        snprintf(tmp_dir, sizeof tmp_dir, "%s", t);
+        mkdir(tmp_dir, 0777);
+    } else {
+        snprintf(tmp_dir, sizeof tmp_dir, "/tmp/voxlab_mesh_load_XXXXXX");
+        if (!mkdtemp(tmp_dir))
+            tmp_dir[0] = '\0';
+        tmp_dir_is_ours = tmp_dir[0] != '\0';
+    }
+}
+
+static void remove_tmp_files(void)
+{
+    for (int i = 0; i < tmp_file_count; i++)
+        unlink(tmp_files[i]);
+    if (tmp_dir_is_ours)
+        rmdir(tmp_dir);
+}
+
+/* Writes `text` to a file in the scratch directory and returns its path (static storage, reused). */
+static const char *write_tmp(const char *name, const char *text)
+{
+    static char path[1024];
+    snprintf(path, sizeof path, "%s/%s", tmp_dir, name);
+    if (tmp_file_count < 32)
+        snprintf(tmp_files[tmp_file_count++], sizeof tmp_files[0], "%s", path);
+    FILE *f = fopen(path, "wb");
+    if (f) {
+        fputs(text, f);
+        fclose(f);
+    }
+    return path;
+}
+
+static bool near3(const float *v, float x, float y, float z, float tol)
+{
+    return fabsf(v[0] - x) <= tol && fabsf(v[1] - y) <= tol && fabsf(v[2] - z) <= tol;
+}
+
+/* Loading `path` must fail with -1, a message naming the file and containing `keyword`, and leave
+ * the mesh (which already holds one triangle) as it was. */
+static void expect_fail(const char *name, loader_fn load, const char *path, const char *keyword)
+{
+    mesh m = {0};
+    mesh_add_flat_triangle(&m, v3(0, 0, 0), v3(1, 0, 0), v3(0, 1, 0), 0);
+    vx_err e = {{0}};
+    int rc = load(path, &m, 0, &e);
+    char label[256];
+    printf("# %s: %s\n", name, e.msg);
+    snprintf(label, sizeof label, "%s returns -1", name);
+    CHECK(label, rc == -1);
+    snprintf(label, sizeof label, "%s message names the file", name);
+    CHECK(label, strstr(e.msg, path) != NULL);
+    snprintf(label, sizeof label, "%s message says '%s'", name, keyword);
+    CHECK(label, strstr(e.msg, keyword) != NULL);
+    snprintf(label, sizeof label, "%s leaves the mesh unchanged", name);
+    CHECK(label, m.vertex_count == 3 && m.triangle_count == 1);
+    mesh_free(&m);
+}
+
+static void test_ply_ascii(void)
+{
+    mesh m = {0};
+    vx_err e = {{0}};
+    int rc = mesh_load_ply("tests/data/quad_ascii.ply", &m, 7, &e);
+    CHECK("ply ascii loads", rc == 0);
+    if (rc) {
+        printf("# %s\n", e.msg);
+        return;
+    }
+    CHECK("ply ascii 5 vertices", m.vertex_count == 5);
+    CHECK("ply ascii quad fans into 2 + 1 triangles", m.triangle_count == 3);
+    static const uint32_t want[9] = {0, 1, 2, 0, 2, 3, 1, 4, 2};
+    CHECK("ply ascii fan triangulation", memcmp(m.indices, want, sizeof want) == 0);
+    CHECK("ply ascii material", m.materials[0] == 7 && m.materials[2] == 7);
+    CHECK("ply ascii vertex 4 position", near3(&m.positions[12], 2, 0, 0, 0));
+    bool normals_up = true, white = true;
+    for (size_t i = 0; i < m.vertex_count; i++) {
+        normals_up &= near3(&m.normals[3 * i], 0, 0, 1, 1e-6f);
+        white &= near3(&m.colors[3 * i], 1, 1, 1, 0);
+    }
+    CHECK("ply ascii smooth normals face +z", normals_up);
+    CHECK("ply ascii without colours stays white", white);
+    mesh_free(&m);
+}
+
+static void test_ply_big_endian(void)
+{
+    mesh m = {0};
+    /* Something already in the mesh: the file's indices must be offset past it. */
+    mesh_add_flat_triangle(&m, v3(0, 0, 0), v3(1, 0, 0), v3(0, 1, 0), 0);
+    vx_err e = {{0}};
+    int rc = mesh_load_ply("tests/data/be_normals_colors.ply", &m, 2, &e);
+    CHECK("ply big-endian loads", rc == 0);
+    if (rc) {
+        printf("# %s\n", e.msg);
+        return;
+    }
+    CHECK("ply big-endian counts", m.vertex_count == 3 + 4 && m.triangle_count == 1 + 2);
+    static const uint32_t want[6] = {3, 4, 5, 3, 5, 6};
+    CHECK("ply big-endian indices offset by existing vertices", memcmp(&m.indices[3], want, sizeof want) == 0);
+    CHECK("ply big-endian positions (float x, double y, float z)",
+          near3(&m.positions[3 * 3], 0, 0, 1, 0) && near3(&m.positions[3 * 5], 1, 1, 1, 0) &&
+              near3(&m.positions[3 * 6], 0, 1, 1, 0));
+    CHECK("ply big-endian file normals read and normalised",
+          near3(&m.normals[3 * 3], 1, 0, 0, 1e-6f) && near3(&m.normals[3 * 6], 1, 0, 0, 1e-6f));
+    CHECK("ply big-endian uchar colours / 255",
+          near3(&m.colors[3 * 3], 1, 0, 0, 1e-6f) && near3(&m.colors[3 * 6], 1, 0, 0.6f, 1e-6f));
+    CHECK("ply big-endian leaves earlier vertices alone", near3(&m.colors[0], 1, 1, 1, 0) &&
+                                                              near3(&m.normals[0], 0, 0, 1, 1e-6f));
+    mesh_free(&m);
+}
+
+static void test_ply_degenerate(void)
+{
+    /* Zero-area triangles (a repeated index, collinear corners) are kept for the scene loader to
+     * count and drop; loading them must not crash or produce NaN normals. */
+    const char *path = write_tmp("degenerate.ply", "ply\nformat ascii 1.0\nelement vertex 3\n"
+                                                   "property float x\nproperty float y\nproperty float z\n"
+                                                   "element face 2\nproperty list uchar int vertex_indices\n"
+                                                   "end_header\n0 0 0\n1 0 0\n2 0 0\n3 0 0 1\n3 0 1 2\n");
+    mesh m = {0};
+    vx_err e = {{0}};
+    int rc = mesh_load_ply(path, &m, 0, &e);
+    CHECK("ply zero-area triangles load", rc == 0);
+    CHECK("ply zero-area triangles are kept", m.triangle_count == 2);
+    bool finite = true;
+    for (size_t i = 0; i < 3 * m.vertex_count; i++)
+        finite &= isfinite(m.normals[i]) != 0;
+    CHECK("ply zero-area triangles give finite normals", finite);
+    mesh_free(&m);
+}
+
+static double now_ms(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return t.tv_sec * 1e3 + t.tv_nsec * 1e-6;
+}
+
+static void test_ply_bunny(void)
+{
+    const char *path = "../shared/data/meshes/bunny.ply";
+    if (access(path, R_OK) != 0) {
+        printf("ok ply bunny # skipped: %s not found\n", path);
+        return;
+    }
+    /* Best of three, so a busy machine does not fail the timing check by accident. */
+    double best = 1e30;
+    for (int run = 0; run < 3; run++) {
+        mesh m = {0};
+        vx_err e = {{0}};
+        double t0 = now_ms();
+        int rc = mesh_load_ply(path, &m, 0, &e);
+        double ms = now_ms() - t0;
+        best = ms < best ? ms : best;
+        if (run == 0) {
+            CHECK("ply bunny loads", rc == 0);
+            if (rc)
+                printf("# %s\n", e.msg);
+            CHECK("ply bunny 35947 vertices", m.vertex_count == 35947);
+            CHECK("ply bunny 69451 triangles", m.triangle_count == 69451);
+            bool unit = true;
+            for (size_t i = 0; i < m.vertex_count; i++) {
+                const float *n = &m.normals[3 * i];
+                unit &= fabsf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] - 1.0f) < 1e-4f;
+            }
+            CHECK("ply bunny smooth normals are unit length", unit);
+        }
+        mesh_free(&m);
+    }
+    printf("# bunny.ply loaded in %.1f ms (best of 3)\n", best);
+    CHECK("ply bunny loads in under 100 ms", best < 100.0);
+}
+
+static void test_ply_errors(void)
+{
+    expect_fail("ply NaN vertex", mesh_load_ply, "tests/data/nan_vertex.ply", "vertex 2 has a non-finite coordinate");
+    expect_fail("ply truncated", mesh_load_ply, "tests/data/truncated.ply", "truncated");
+    expect_fail("ply missing file", mesh_load_ply, "tests/data/no_such_file.ply", "cannot open");
+    static const char *head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                              "property float z\n";
+    char text[1024];
+    snprintf(text, sizeof text, "%selement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                                "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n", head);
+    expect_fail("ply index out of range", mesh_load_ply, write_tmp("range.ply", text), "out of range");
+    snprintf(text, sizeof text, "%send_header\n0 0 0\n1 0 0\n0 1 0\n", head);
+    expect_fail("ply no face element", mesh_load_ply, write_tmp("noface.ply", text), "element face");
+    expect_fail("ply no vertex element", mesh_load_ply,
+                write_tmp("novertex.ply", "ply\nformat ascii 1.0\nelement face 0\n"
+                                          "property list uchar int vertex_indices\nend_header\n"),
+                "element vertex");
+    expect_fail("ply no z property", mesh_load_ply,
+                write_tmp("noz.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
+                                     "property float y\nelement face 0\n"
+                                     "property list uchar int vertex_indices\nend_header\n0 0\n"),
+                "lacks property z");
+    expect_fail("ply unknown format", mesh_load_ply,
+                write_tmp("format.ply", "ply\nformat binary_middle_endian 1.0\nelement vertex 0\n"
+                                        "end_header\n"),
+                "unknown PLY format");
+    expect_fail("ply not a ply", mesh_load_ply, write_tmp("notply.ply", "solid cube\n"), "not a PLY file");
+    expect_fail("ply no end_header", mesh_load_ply,
+                write_tmp("noend.ply", "ply\nformat ascii 1.0\nelement vertex 0\n"), "end_header");
+    expect_fail("ply unknown property type", mesh_load_ply,
+                write_tmp("type.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float128 x\n"
+                                      "end_header\n"),
+                "unknown property type");
+    snprintf(text, sizeof text, "%selement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                                "0 0 0\n1 0 0\n0 1 0\n3 0 one 2\n", head);
+    expect_fail("ply ascii garbage", mesh_load_ply, write_tmp("garbage.ply", text), "expected a number");
+}
+
+static void test_gltf_quad(const char *path, bool glb)
+{
+    char label[256];
+    const char *kind = glb ? "glb" : "gltf";
+    mesh m = {0};
+    vx_err e = {{0}};
+    int rc = mesh_load_gltf(path, &m, 5, &e);
+    snprintf(label, sizeof label, "%s loads", kind);
+    CHECK(label, rc == 0);
+    if (rc) {
+        printf("# %s\n", e.msg);
+        return;
+    }
+    /* The glb adds a second, unindexed one-triangle primitive; its POINTS primitive is skipped. */
+    snprintf(label, sizeof label, "%s counts", kind);
+    CHECK(label, m.vertex_count == (glb ? 7u : 4u) && m.triangle_count == (glb ? 3u : 2u));
+    if (m.vertex_count < 4)
+        return;
+    /* world = translate(1, 2, 3) * scale(2, 1, 1) * local */
+    snprintf(label, sizeof label, "%s node transforms applied to positions", kind);
+    CHECK(label, near3(&m.positions[0], 1, 2, 3, 1e-6f) && near3(&m.positions[3], 3, 1, 3, 1e-6f) &&
+                     near3(&m.positions[6], 3, 1, 4, 1e-6f) && near3(&m.positions[9], 1, 2, 4, 1e-6f));
+    static const uint32_t want[6] = {0, 1, 2, 0, 2, 3};
+    snprintf(label, sizeof label, "%s indices", kind);
+    CHECK(label, memcmp(m.indices, want, sizeof want) == 0);
+    snprintf(label, sizeof label, "%s material index", kind);
+    CHECK(label, m.materials[0] == 5 && m.materials[1] == 5);
+    /* (-1, -1, 0) under the inverse transpose of scale(2, 1, 1) is (-1, -2, 0) after normalising. */
+    float s = 1.0f / sqrtf(5.0f);
+    snprintf(label, sizeof label, "%s normals by the inverse transpose", kind);
+    CHECK(label, near3(&m.normals[0], -s, -2 * s, 0, 1e-6f) && near3(&m.normals[9], -s, -2 * s, 0, 1e-6f));
+    snprintf(label, sizeof label, "%s texture coordinates", kind);
+    CHECK(label, m.uvs[2] == 1 && m.uvs[3] == 0 && m.uvs[6] == 0 && m.uvs[7] == 1);
+    snprintf(label, sizeof label, "%s baseColorFactor becomes the vertex colour", kind);
+    CHECK(label, near3(&m.colors[0], 0.8f, 0.4f, 0.2f, 1e-6f) && near3(&m.colors[9], 0.8f, 0.4f, 0.2f, 1e-6f));
+    if (glb && m.vertex_count == 7) {
+        CHECK("glb unindexed primitive positions",
+              near3(&m.positions[12], 1, 2, 3, 1e-6f) && near3(&m.positions[15], 3, 2, 3, 1e-6f) &&
+                  near3(&m.positions[18], 1, 3, 3, 1e-6f));
+        CHECK("glb unindexed primitive triangle", m.indices[6] == 4 && m.indices[7] == 5 && m.indices[8] == 6);
+        CHECK("glb primitive without normals is smoothed", near3(&m.normals[12], 0, 0, 1, 1e-6f));
+        CHECK("glb primitive without material is white", near3(&m.colors[12], 1, 1, 1, 0));
+    }
+    mesh_free(&m);
+}
+
+static void test_gltf_mirrored(void)
+{
+    mesh m = {0};
+    vx_err e = {{0}};
+    int rc = mesh_load_gltf("tests/data/mirrored.gltf", &m, 0, &e);
+    CHECK("gltf mirrored loads", rc == 0);
+    if (rc) {
+        printf("# %s\n", e.msg);
+        return;
+    }
+    /* scale(1, 1, -1) turns the counter-clockwise triangle clockwise: the loader swaps two corners. */
+    CHECK("gltf mirrored winding flipped", m.triangle_count == 1 && m.indices[0] == 0 && m.indices[1] == 2 &&
+                                               m.indices[2] == 1);
+    CHECK("gltf mirrored normal", near3(&m.normals[0], 0, 0, -1, 1e-6f));
+    mesh_free(&m);
+}
+
+static void test_gltf_errors(void)
+{
+    expect_fail("gltf points only", mesh_load_gltf, "tests/data/points.gltf",
+                "no triangle primitives (glTF mode 4)");
+    expect_fail("gltf NaN position (scene-less file)", mesh_load_gltf, "tests/data/nan_position.gltf",
+                "vertex 1 has a non-finite position");
+    expect_fail("gltf accessor out of bounds", mesh_load_gltf, "tests/data/out_of_bounds.gltf", "out of bounds");
+    expect_fail("gltf unknown extension", mesh_load_gltf, "tests/data/quad_ascii.ply", "expected .gltf or .glb");
+    expect_fail("gltf missing file", mesh_load_gltf, "tests/data/no_such_file.gltf", "tinygltf");
+    expect_fail("gltf malformed JSON", mesh_load_gltf, write_tmp("bad.gltf", "{\"asset\": {\"version\": "),
+                "tinygltf");
+    expect_fail("gltf Draco-compressed", mesh_load_gltf,
+                write_tmp("draco.gltf", "{\"asset\":{\"version\":\"2.0\"},"
+                                        "\"extensionsUsed\":[\"KHR_draco_mesh_compression\"],"
+                                        "\"extensionsRequired\":[\"KHR_draco_mesh_compression\"]}"),
+                "KHR_draco_mesh_compression");
+    expect_fail("glb not binary glTF", mesh_load_gltf, write_tmp("bad.glb", "not a glb file at all"), "tinygltf");
+}
+
+int main(void)
+{
+    make_tmp_dir();
+    test_ply_ascii();
+    test_ply_big_endian();
+    test_ply_degenerate();
+    test_ply_bunny();
+    test_ply_errors();
+    test_gltf_quad("tests/data/quad.gltf", false);
+    test_gltf_quad("tests/data/quad.glb", true);
+    test_gltf_mirrored();
+    test_gltf_errors();
+    remove_tmp_files();
+    return unit_exit();
+}

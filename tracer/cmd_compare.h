@@ -1,0 +1,18 @@
+/* `voxlab compare A B [--json] [--heatmap OUT.png]`: MSE, PSNR and SSIM (as scikit-image defines
+ * them, see metrics.c) between two images of the same size, e.g. a render and its ground truth. */
+#ifndef VX_CMD_COMPARE_H
+#define VX_CMD_COMPARE_H
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* argv[0] is "compare". Prints the result on stdout; errors go to stderr as
+ * "voxlab compare: <message naming the file>". Returns 0 on success, 1 on any error. */
+int cmd_compare(int argc, char **argv);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

@@ -1,0 +1,132 @@
+/* voxlab truth SCENE [--spp N] [--size WxH] [--seed S] [--threads T] -o OUT [--stats S.json] */
+#include <cjson/cJSON.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli.h"
+#include "commands.h"
+#include "fileio.h"
+#include "parallel.h"
+#include "truth.h"
+
+static const char usage[] =
+    "usage: voxlab truth SCENE [--spp N] [--size WxH] [--seed S] [--threads T] -o OUT.exr|OUT.png [--stats S.json]\n";
+
+cJSON *stats_scene_fields(const scene *s)
+{
+    cJSON *j = cJSON_CreateObject();
+    cJSON_AddStringToObject(j, "scene", s->name);
+    cJSON_AddNumberToObject(j, "triangles", (double)s->mesh.triangle_count);
+    cJSON_AddNumberToObject(j, "degenerate_triangles", (double)s->degenerate_triangles);
+    cJSON *fx = cJSON_AddArrayToObject(j, "effects");
+    for (unsigned bit = 1; bit <= EFFECT_TEXTURES; bit <<= 1)
+        if (s->effects & bit)
+            cJSON_AddItemToArray(fx, cJSON_CreateString(effect_name(bit)));
+    return j;
+}
+
+int stats_write(cJSON *j, const char *path, const char *cmd)
+{
+    char *text = cJSON_Print(j);
+    vx_err e;
+    size_t n = strlen(text);
+    text = realloc(text, n + 2);
+    text[n] = '\n', text[n + 1] = 0;
+    int rc = fileio_write_text(path, text, &e);
+    free(text);
+    if (rc)
+        fprintf(stderr, "voxlab %s: --stats %s\n", cmd, e.msg);
+    return rc;
+}
+
+int cmd_truth(int argc, char **argv)
+{
+    const char *scene_path = NULL, *out_path = NULL, *stats_path = NULL, *size = NULL;
+    truth_options o = {.spp = 1024, .seed = 1, .progress = 1};
+    long long v;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i], *val;
+        if (strcmp(a, "--spp") == 0 || strcmp(a, "--seed") == 0 || strcmp(a, "--threads") == 0) {
+            if (!(val = cli_value("truth", argc, argv, &i)))
+                return 1;
+            int is_seed = strcmp(a, "--seed") == 0;
+            if (cli_int("truth", a, val, is_seed ? 0 : 1, is_seed ? (1LL << 53) : 1 << 20, &v))
+                return 1;
+            if (strcmp(a, "--spp") == 0)
+                o.spp = (int)v;
+            else if (is_seed)
+                o.seed = (uint64_t)v;
+            else
+                o.threads = (int)v;
+        } else if (strcmp(a, "--size") == 0) {
+            if (!(size = cli_value("truth", argc, argv, &i)))
+                return 1;
+        } else if (strcmp(a, "-o") == 0) {
+            if (!(out_path = cli_value("truth", argc, argv, &i)))
+                return 1;
+        } else if (strcmp(a, "--stats") == 0) {
+            if (!(stats_path = cli_value("truth", argc, argv, &i)))
+                return 1;
+        } else if (a[0] == '-' || scene_path) {
+            fprintf(stderr, "voxlab truth: unexpected argument %s\n%s", a, usage);
+            return 1;
+        } else {
+            scene_path = a;
+        }
+    }
+    if (!scene_path || !out_path) {
+        fprintf(stderr, "voxlab truth: %s\n%s", scene_path ? "missing -o OUT" : "missing SCENE", usage);
+        return 1;
+    }
+    vx_err e;
+    scene s;
+    if (scene_load(scene_path, &s, &e)) {
+        fprintf(stderr, "voxlab truth: %s\n", e.msg);
+        return 1;
+    }
+    o.width = s.width;
+    o.height = s.height;
+    int rc = 1;
+    rt_scene rt = {0};
+    image img = {0};
+    if (size && scene_parse_size_string(size, &o.width, &o.height, &e))
+        goto fail;
+    if (fileio_check_writable(out_path, &e) || (stats_path && fileio_check_writable(stats_path, &e)))
+        goto fail;
+    if (rt_build(&rt, &s, &e))
+        goto fail;
+    truth_counts counts;
+    if (truth_render(&rt, &o, &img, &counts, &e) || image_write(&img, out_path, &e))
+        goto fail;
+    if (stats_path) {
+        cJSON *j = stats_scene_fields(&s);
+        cJSON_AddStringToObject(j, "command", "truth");
+        cJSON_AddNumberToObject(j, "seconds", counts.seconds);
+        cJSON_AddNumberToObject(j, "rays", (double)(counts.primary_rays + counts.shadow_rays));
+        cJSON_AddNumberToObject(j, "primary_rays", (double)counts.primary_rays);
+        cJSON_AddNumberToObject(j, "shadow_rays", (double)counts.shadow_rays);
+        cJSON_AddNumberToObject(j, "voxels", 0);
+        cJSON_AddNumberToObject(j, "bytes_per_voxel", 0);
+        cJSON_AddNumberToObject(j, "spp", o.spp);
+        cJSON_AddNumberToObject(j, "width", o.width);
+        cJSON_AddNumberToObject(j, "height", o.height);
+        cJSON_AddNumberToObject(j, "seed", (double)o.seed);
+        cJSON_AddNumberToObject(j, "threads", parallel_threads(o.threads));
+        int bad = stats_write(j, stats_path, "truth");
+        cJSON_Delete(j);
+        if (bad) {
+            remove(out_path);
+            goto done;
+        }
+    }
+    rc = 0;
+    goto done;
+fail:
+    fprintf(stderr, "voxlab truth: %s\n", e.msg);
+done:
+    image_free(&img);
+    rt_free(&rt);
+    scene_free(&s);
+    return rc;
+}

@@ -1,0 +1,21 @@
+/* Whole-file output that never leaves a partial file: write to a temporary name beside the target,
+ * then rename. */
+#ifndef VX_FILEIO_H
+#define VX_FILEIO_H
+
+#include <stddef.h>
+#include <stdio.h>
+
+#include "error.h"
+
+/* Opens "<path>.tmp.<pid>" for writing; fill *tmp_path (size >= strlen(path) + 32). */
+FILE *fileio_open_temp(const char *path, char *tmp_path, size_t tmp_size, vx_err *e);
+/* Closes f and renames tmp_path to path; on any error removes tmp_path. */
+int fileio_commit(FILE *f, const char *tmp_path, const char *path, vx_err *e);
+/* Closes f and removes tmp_path (after a failure). */
+void fileio_abort(FILE *f, const char *tmp_path);
+int fileio_write_text(const char *path, const char *text, vx_err *e);
+/* Fails early, before long work, when `path` cannot be created (creates and removes a temp file). */
+int fileio_check_writable(const char *path, vx_err *e);
+
+#endif

@@ -1,0 +1,371 @@
+/* Building the sparse voxel grid: bounds and mapping, exact voxelisation of the triangles into a
+ * temporary dense bit array (2 threads), MIP levels by OR-ing children, and compaction of each level
+ * into the sparse column form described in grid.h. */
+#include "grid.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "tribox.h"
+
+/* Triangles handed to a thread at a time: small enough to balance a mesh whose few huge triangles
+ * (ground plates) sit in one place, large enough that the shared counter is not contended. */
+#define BUILD_CHUNK 64
+
+typedef struct {
+    const mesh *m;
+    double origin[3], voxel_size;
+    int n, words_per_col;
+    uint64_t *bits; /* dense level 0: word (x*n + y)*words_per_col + z/64 */
+    size_t next;    /* first triangle not yet handed out (atomic) */
+} build_job;
+
+/* OR m into *w. Both threads write the same array; the relaxed load first skips the locked
+ * instruction in the common case where neighbouring triangles already set the bits. OR commutes,
+ * so the result does not depend on the order the threads get there. */
+static inline void set_bits(uint64_t *w, uint64_t m)
+{
+    if ((__atomic_load_n(w, __ATOMIC_RELAXED) & m) != m)
+        __atomic_fetch_or(w, m, __ATOMIC_RELAXED);
+}
+
+static inline int clampi(int v, int lo, int hi) { return v < lo ? lo : (v > hi ? hi : v); }
+
+/* Range of integer v with A*u + B*v + C >= 0 for the three edges of projection `ax` at row u,
+ * widened by one cell each way against rounding (the exact test decides afterwards). Returns 0 when
+ * the row certainly misses the projected triangle. */
+static int row_range(const tribox_cells *s, int ax, double u, int *vlo, int *vhi)
+{
+    double lo = -INFINITY, hi = INFINITY;
+    for (int i = 0; i < 3; i++) {
+        double A = s->edge[ax][i][0], B = s->edge[ax][i][1], C = s->edge[ax][i][2];
+        double r = A * u + C;
+        if (B > 0.0)
+            lo = fmax(lo, -r / B);
+        else if (B < 0.0)
+            hi = fmin(hi, -r / B);
+        else if (r < 0.0)
+            return 0;
+    }
+    /* Clamp in double before converting: the bounds may be far outside int range. */
+    lo = fmax(lo, (double)*vlo);
+    hi = fmin(hi, (double)*vhi);
+    if (lo > hi + 1.0)
+        return 0;
+    *vlo = clampi((int)floor(lo) - 1, *vlo, *vhi);
+    *vhi = clampi((int)ceil(hi) + 1, *vlo, *vhi);
+    return 1;
+}
+
+/* Marks every cell the triangle overlaps. Cells are enumerated in columns along the axis D where
+ * the normal is largest: over a column the plane's crossing spans at most (|nU|+|nV|)/|nD| <= 2
+ * cells, so the work is proportional to the number of cells marked (plus the rows of the projected
+ * bounding box), never to the bounding-box volume: a 512x512 ground plate costs 512^2 tests. */
+static void voxelize_triangle(build_job *job, size_t t)
+{
+    const mesh *m = job->m;
+    double v[3][3];
+    for (int k = 0; k < 3; k++) {
+        const float *p = m->positions + 3 * (size_t)m->indices[3 * t + k];
+        for (int a = 0; a < 3; a++)
+            v[k][a] = ((double)p[a] - job->origin[a]) / job->voxel_size;
+    }
+    tribox_cells s;
+    if (!tribox_cells_setup(&s, v[0], v[1], v[2]))
+        return; /* zero area: no surface to voxelise */
+    int n = job->n, W = job->words_per_col;
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; a++) {
+        lo[a] = clampi(s.lo[a], 0, n - 1);
+        hi[a] = clampi(s.hi[a], 0, n - 1);
+        if (lo[a] > hi[a])
+            return;
+    }
+    const int D = s.dominant, U = (D + 1) % 3, V = (D + 2) % 3;
+    const double nU = s.n[U], nV = s.n[V], nD = s.n[D];
+    size_t cur_word = SIZE_MAX;
+    uint64_t cur_mask = 0;
+    for (int u = lo[U]; u <= hi[U]; u++) {
+        int v0 = lo[V], v1 = hi[V];
+        if (!row_range(&s, D, (double)u, &v0, &v1))
+            continue;
+        for (int vv = v0; vv <= v1; vv++) {
+            if (!tribox_cells_edges(&s, D, (double)u, (double)vv))
+                continue;
+            /* Plane crossing of this column: plane_lo <= nD*w + nU*u + nV*v <= plane_hi. floor/ceil
+             * of the bounds leave a cell of margin for rounding; the exact test trims it. */
+            double r = nU * (double)u + nV * (double)vv;
+            double wa = (s.plane_lo - r) / nD, wb = (s.plane_hi - r) / nD;
+            if (wa > wb) {
+                double tmp = wa;
+                wa = wb;
+                wb = tmp;
+            }
+            wa = fmax(floor(wa), (double)lo[D]);
+            wb = fmin(ceil(wb), (double)hi[D]);
+            if (wa > wb)
+                continue; /* also keeps the int conversions below in range */
+            for (int w = (int)wa; w <= (int)wb; w++) {
+                int p[3];
+                p[D] = w;
+                p[U] = u;
+                p[V] = vv;
+                if (!tribox_cells_test(&s, p[0], p[1], p[2]))
+                    continue;
+                size_t word = ((size_t)p[0] * (size_t)n + (size_t)p[1]) * (size_t)W + (size_t)(p[2] >> 6);
+                uint64_t bit = UINT64_C(1) << (p[2] & 63);
+                /* Runs along z (D = 2) fall in one word: gather them into one OR. */
+                if (word != cur_word) {
+                    if (cur_mask)
+                        set_bits(&job->bits[cur_word], cur_mask);
+                    cur_word = word;
+                    cur_mask = 0;
+                }
+                cur_mask |= bit;
+            }
+        }
+    }
+    if (cur_mask)
+        set_bits(&job->bits[cur_word], cur_mask);
+}
+
+static void *build_worker(void *arg)
+{
+    build_job *job = arg;
+    size_t total = job->m->triangle_count;
+    for (;;) {
+        size_t first = __atomic_fetch_add(&job->next, BUILD_CHUNK, __ATOMIC_RELAXED);
+        if (first >= total)
+            break;
+        size_t last = first + BUILD_CHUNK < total ? first + BUILD_CHUNK : total;
+        for (size_t t = first; t < last; t++)
+            voxelize_triangle(job, t);
+    }
+    return NULL;
+}
+
+/* The even bits of x, packed into the low 32 bits (bit 2k -> bit k). */
+static inline uint64_t even_bits(uint64_t x)
+{
+    x &= UINT64_C(0x5555555555555555);
+    x = (x | (x >> 1)) & UINT64_C(0x3333333333333333);
+    x = (x | (x >> 2)) & UINT64_C(0x0f0f0f0f0f0f0f0f);
+    x = (x | (x >> 4)) & UINT64_C(0x00ff00ff00ff00ff);
+    x = (x | (x >> 8)) & UINT64_C(0x0000ffff0000ffff);
+    x = (x | (x >> 16)) & UINT64_C(0x00000000ffffffff);
+    return x;
+}
+
+/* Dense bits of the next coarser level: OR of the 4 child columns, then pairs of z bits. Word j of
+ * a coarse column covers child words 2j and 2j+1 (2j is always inside the child column). */
+static void downsample(const uint64_t *src, int n, int W, uint64_t *dst, int n1, int W1)
+{
+    for (int X = 0; X < n1; X++)
+        for (int Y = 0; Y < n1; Y++)
+            for (int j = 0; j < W1; j++) {
+                uint64_t a = 0, b = 0;
+                for (int dx = 0; dx < 2; dx++)
+                    for (int dy = 0; dy < 2; dy++) {
+                        int x = 2 * X + dx, y = 2 * Y + dy;
+                        if (x >= n || y >= n)
+                            continue;
+                        const uint64_t *col = src + ((size_t)x * (size_t)n + (size_t)y) * (size_t)W;
+                        a |= col[2 * j];
+                        if (2 * j + 1 < W)
+                            b |= col[2 * j + 1];
+                    }
+                dst[((size_t)X * (size_t)n1 + (size_t)Y) * (size_t)W1 + (size_t)j] =
+                    even_bits(a | (a >> 1)) | (even_bits(b | (b >> 1)) << 32);
+            }
+}
+
+/* Sparse form of a dense level (see grid.h). */
+static int compact_level(grid_level *L, const uint64_t *dense, int n, int W, vx_err *e)
+{
+    size_t total = (size_t)n * (size_t)n * (size_t)W, words = 0, count = 0;
+    for (size_t i = 0; i < total; i++)
+        if (dense[i]) {
+            words++;
+            count += (size_t)__builtin_popcountll(dense[i]);
+        }
+    L->n = n;
+    L->words_per_col = W;
+    L->words = words;
+    L->count = count;
+    L->cols = malloc((size_t)n * (size_t)n * sizeof *L->cols);
+    /* +1 so that an empty level still gets non-NULL arrays. */
+    L->bits = malloc((words + 1) * sizeof *L->bits);
+    L->prefix = malloc((words + 1) * sizeof *L->prefix);
+    L->coords = malloc((count + 1) * sizeof *L->coords);
+    if (!L->cols || !L->bits || !L->prefix || !L->coords)
+        return vx_fail(e, "grid_build: out of memory for a %d^3 level (%zu voxels)", n, count);
+    size_t wi = 0, c = 0;
+    for (int x = 0; x < n; x++)
+        for (int y = 0; y < n; y++) {
+            const uint64_t *col = dense + ((size_t)x * (size_t)n + (size_t)y) * (size_t)W;
+            uint64_t first = wi, mask = 0;
+            for (int j = 0; j < W; j++) {
+                uint64_t w = col[j];
+                if (!w)
+                    continue;
+                mask |= UINT64_C(1) << j;
+                L->bits[wi] = w;
+                L->prefix[wi] = (uint32_t)c;
+                wi++;
+                uint32_t xy = (uint32_t)x << 20 | (uint32_t)y << 10;
+                while (w) {
+                    L->coords[c++] = xy | (uint32_t)(j * 64 + __builtin_ctzll(w));
+                    w &= w - 1;
+                }
+            }
+            L->cols[(size_t)x * (size_t)n + (size_t)y] = first << 16 | mask;
+        }
+    return 0;
+}
+
+/* Bounds over the vertices of all triangles, validating indices and coordinates on the way. */
+static int mesh_bounds(const mesh *m, double lo[3], double hi[3], vx_err *e)
+{
+    for (int a = 0; a < 3; a++) {
+        lo[a] = INFINITY;
+        hi[a] = -INFINITY;
+    }
+    for (size_t t = 0; t < m->triangle_count; t++)
+        for (int k = 0; k < 3; k++) {
+            uint32_t i = m->indices[3 * t + k];
+            if (i >= m->vertex_count)
+                return vx_fail(e, "grid_build: triangle %zu uses vertex %u but the mesh has %zu vertices", t,
+                               i, m->vertex_count);
+            const float *p = m->positions + 3 * (size_t)i;
+            for (int a = 0; a < 3; a++) {
+                if (!isfinite(p[a]))
+                    return vx_fail(e, "grid_build: vertex %u (triangle %zu) has a non-finite coordinate %g", i,
+                                   t, (double)p[a]);
+                lo[a] = fmin(lo[a], p[a]);
+                hi[a] = fmax(hi[a], p[a]);
+            }
+        }
+    return 0;
+}
+
+int grid_build_threads(voxel_grid *g, const mesh *m, int n, int threads, vx_err *e)
+{
+    memset(g, 0, sizeof *g);
+    if (n < 1 || n > GRID_MAX_N)
+        return vx_fail(e, "grid_build: resolution %d is outside 1..%d", n, GRID_MAX_N);
+    if (!m || m->triangle_count == 0)
+        return vx_fail(e, "grid_build: the mesh has no triangles");
+    double lo[3], hi[3];
+    if (mesh_bounds(m, lo, hi, e))
+        return -1;
+
+    /* The mapping documented in grid.h, in double so that scenes far from the origin (1e6) or
+     * smaller than a float ulp there keep exact cell boundaries. */
+    double extent = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
+    if (!(extent > 0.0)) {
+        /* Every vertex at one point: only zero-area triangles, nothing to mark, but the mapping
+         * must still be valid. */
+        double mag = fmax(fmax(fabs(lo[0]), fabs(lo[1])), fabs(lo[2]));
+        extent = mag > 0.0 ? mag * 1e-6 : 1e-6;
+    }
+    double pad = fmin(1.5, n / 4.0);
+    g->n = n;
+    g->voxel_size_d = extent / (n - 2.0 * pad);
+    for (int a = 0; a < 3; a++)
+        g->origin_d[a] = lo[a] - pad * g->voxel_size_d;
+    g->origin = v3((float)g->origin_d[0], (float)g->origin_d[1], (float)g->origin_d[2]);
+    g->voxel_size = (float)g->voxel_size_d;
+    g->levels = 1;
+    for (int s = n; s > 1; s = (s + 1) / 2)
+        g->levels++;
+
+    int W = (n + 63) / 64;
+    uint64_t *dense = calloc((size_t)n * (size_t)n * (size_t)W, sizeof *dense);
+    if (!dense) {
+        memset(g, 0, sizeof *g);
+        return vx_fail(e, "grid_build: out of memory for the %d^3 occupancy bits", n);
+    }
+    build_job job = {.m = m, .voxel_size = g->voxel_size_d, .n = n, .words_per_col = W, .bits = dense};
+    memcpy(job.origin, g->origin_d, sizeof job.origin);
+    if (threads < 1)
+        threads = 1;
+    if (threads > 64)
+        threads = 64;
+    pthread_t tid[64];
+    int started = 0;
+    for (int i = 1; i < threads; i++) {
+        if (pthread_create(&tid[started], NULL, build_worker, &job) != 0)
+            break; /* fewer threads only costs time: the calling thread finishes the work */
+        started++;
+    }
+    build_worker(&job);
+    for (int i = 0; i < started; i++)
+        pthread_join(tid[i], NULL);
+
+    /* Level by level: compact the dense bits, derive the next level's, drop the finer ones. */
+    int ln = n, lw = W;
+    for (int l = 0; l < g->levels; l++) {
+        if (compact_level(&g->level[l], dense, ln, lw, e)) {
+            free(dense);
+            grid_free(g);
+            return -1;
+        }
+        if (l + 1 == g->levels)
+            break;
+        int n1 = (ln + 1) / 2, w1 = (n1 + 63) / 64;
+        uint64_t *coarse = malloc((size_t)n1 * (size_t)n1 * (size_t)w1 * sizeof *coarse);
+        if (!coarse) {
+            free(dense);
+            grid_free(g);
+            return vx_fail(e, "grid_build: out of memory for MIP level %d", l + 1);
+        }
+        downsample(dense, ln, lw, coarse, n1, w1);
+        free(dense);
+        dense = coarse;
+        ln = n1;
+        lw = w1;
+    }
+    free(dense);
+    return 0;
+}
+
+int grid_build(voxel_grid *g, const mesh *m, int n, vx_err *e) { return grid_build_threads(g, m, n, 2, e); }
+
+void grid_free(voxel_grid *g)
+{
+    for (int l = 0; l < GRID_MAX_LEVELS; l++) {
+        free(g->level[l].cols);
+        free(g->level[l].bits);
+        free(g->level[l].prefix);
+        free(g->level[l].coords);
+    }
+    memset(g, 0, sizeof *g);
+}
+
+size_t grid_bytes(const voxel_grid *g)
+{
+    size_t bytes = sizeof *g;
+    for (int l = 0; l < g->levels; l++) {
+        const grid_level *L = &g->level[l];
+        bytes += (size_t)L->n * (size_t)L->n * sizeof *L->cols + (L->words + 1) * (sizeof *L->bits + sizeof *L->prefix) +
+                 (L->count + 1) * sizeof *L->coords;
+    }
+    return bytes;
+}
+
+void grid_cell_box(const voxel_grid *g, int level, int x, int y, int z, vec3 *lo, vec3 *hi)
+{
+    double s = ldexp(g->voxel_size_d, level);
+    const double *o = g->origin_d;
+    *lo = v3((float)(o[0] + x * s), (float)(o[1] + y * s), (float)(o[2] + z * s));
+    *hi = v3((float)(o[0] + (x + 1) * s), (float)(o[1] + (y + 1) * s), (float)(o[2] + (z + 1) * s));
+}
+
+vec3 grid_cell_center(const voxel_grid *g, int level, int x, int y, int z)
+{
+    double s = ldexp(g->voxel_size_d, level);
+    const double *o = g->origin_d;
+    return v3((float)(o[0] + (x + 0.5) * s), (float)(o[1] + (y + 0.5) * s), (float)(o[2] + (z + 0.5) * s));
+}

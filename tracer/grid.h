@@ -1,0 +1,135 @@
+/* A sparse voxel grid over a triangle mesh: which cells of an N^3 lattice the surface touches
+ * (exact triangle/box overlap, touching counts), with a dense index 0..count-1 for every non-empty
+ * cell so that models keep per-voxel data in plain arrays of length count, and a MIP hierarchy
+ * (level l has ceil(N / 2^l) cells a side, a cell non-empty when any of its 8 children is).
+ *
+ * Grid mapping (tests and models depend on it; computed in double, see grid_build):
+ *   lo, hi    = component-wise min / max over the vertices of all triangles
+ *   extent    = max over axes of (hi - lo)    (when 0, a tiny positive extent is substituted)
+ *   pad       = min(1.5, N / 4) cells         (1.5 for every N >= 6)
+ *   voxel_size = extent / (N - 2 * pad)       (= extent / (N - 3) for N >= 6)
+ *   origin    = lo - pad * voxel_size         (on every axis: the grid starts 1.5 cells below the
+ *                                              scene on x, y and z and is not centred)
+ *   level-0 cell (x, y, z) is the closed box origin + [x, x+1] * voxel_size (per axis), likewise
+ *   level-l cell (x, y, z) is origin + [x, x+1] * voxel_size * 2^l.
+ * So the scene's minimum faces on every axis, and its maximum face on the largest axis, lie on
+ * cell centres (1.5 and N - 1.5): a wall or ground plate on the scene bounds makes one layer of
+ * voxels, not two, and at least one empty cell surrounds everything (for N >= 6).
+ *
+ * Storage per level (in the spirit of the slicemap's bit-packed columns): occupancy is kept as
+ * 64-cell words along z. Only non-zero words are stored; a table with one entry per (x, y) column
+ * holds a 16-bit mask of the column's non-zero words (N <= 1024 means at most 16 words) and the
+ * position of its first stored word. Each stored word has a prefix count (set bits in all earlier
+ * stored words), so a cell's dense index is prefix + popcount(bits below it): O(1), 3 loads.
+ * Memory is 8 bytes per column (N^2) + 12 bytes per non-zero word + 4 bytes per non-empty voxel
+ * (its packed coordinates), instead of N^3/8 bytes of bits: it grows with the surface, not the
+ * volume. Dense indices follow (x, y, z) lexicographic order.
+ *
+ * A built grid is read-only, so any number of threads may query and traverse it. */
+#ifndef VX_GRID_H
+#define VX_GRID_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "error.h"
+#include "mesh.h"
+#include "vec.h"
+
+#define GRID_MAX_N 1024
+#define GRID_MAX_LEVELS 11 /* 1024, 512, ..., 1 */
+
+typedef struct {
+    int n;             /* cells per side: ceil(grid n / 2^level) */
+    int words_per_col; /* ceil(n / 64) */
+    uint64_t *cols;    /* n*n, index x*n + y: (first stored word << 16) | mask of non-zero words */
+    uint64_t *bits;    /* stored (non-zero) words, bit z%64 of word z/64 of its column */
+    uint32_t *prefix;  /* per stored word: non-empty cells in all earlier stored words */
+    uint32_t *coords;  /* per non-empty cell, by dense index: x << 20 | y << 10 | z */
+    size_t words;      /* stored words */
+    size_t count;      /* non-empty cells */
+} grid_level;
+
+typedef struct voxel_grid {
+    int n;              /* cells per side at level 0 */
+    vec3 origin;        /* float copy of origin_d (for display; the exact mapping is origin_d) */
+    float voxel_size;   /* float copy of voxel_size_d */
+    double origin_d[3]; /* the mapping used by the build and the traversal */
+    double voxel_size_d;
+    int levels;         /* level 0 (n) to levels-1 (1 cell) */
+    grid_level level[GRID_MAX_LEVELS];
+} voxel_grid;
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Voxelises every triangle of m into an n^3 grid (mapping above) and builds all MIP levels, with
+ * 2 threads. Errors (g is then zeroed): n outside 1..GRID_MAX_N, a mesh without triangles, a vertex
+ * index out of range, non-finite coordinates. Zero-area triangles are skipped (they have no surface;
+ * they still count for the bounds). The result does not depend on the thread count. */
+int grid_build(voxel_grid *g, const mesh *m, int n, vx_err *e);
+/* Same with an explicit thread count (>= 1), for benchmarks and determinism tests. */
+int grid_build_threads(voxel_grid *g, const mesh *m, int n, int threads, vx_err *e);
+void grid_free(voxel_grid *g);
+
+/* Bytes allocated by the grid (all levels, tables, coordinates). */
+size_t grid_bytes(const voxel_grid *g);
+
+/* A world-space point in level-0 lattice units (double: exact enough far from the origin). */
+VX_INLINE void grid_to_lattice(const voxel_grid *g, vec3 p, double out[3])
+{
+    out[0] = ((double)p.x - g->origin_d[0]) / g->voxel_size_d;
+    out[1] = ((double)p.y - g->origin_d[1]) / g->voxel_size_d;
+    out[2] = ((double)p.z - g->origin_d[2]) / g->voxel_size_d;
+}
+
+/* World-space corners and centre of a cell of `level`. */
+void grid_cell_box(const voxel_grid *g, int level, int x, int y, int z, vec3 *lo, vec3 *hi);
+vec3 grid_cell_center(const voxel_grid *g, int level, int x, int y, int z);
+
+VX_INLINE size_t grid_count(const voxel_grid *g, int level)
+{
+    return level >= 0 && level < g->levels ? g->level[level].count : 0;
+}
+
+/* Dense index of a cell known to be inside the level (no range checks), -1 when empty. */
+VX_INLINE int64_t grid_level_index(const grid_level *L, int x, int y, int z)
+{
+    uint64_t col = L->cols[(size_t)x * (size_t)L->n + (size_t)y];
+    unsigned j = (unsigned)z >> 6, b = (unsigned)z & 63u;
+    uint32_t mask = (uint32_t)(col & 0xffffu);
+    if (!((mask >> j) & 1u))
+        return -1;
+    size_t w = (size_t)(col >> 16) + (size_t)__builtin_popcount(mask & ((1u << j) - 1u));
+    uint64_t bits = L->bits[w];
+    if (!((bits >> b) & 1u))
+        return -1;
+    return (int64_t)L->prefix[w] + __builtin_popcountll(bits & ((UINT64_C(1) << b) - 1u));
+}
+
+/* Dense index of cell (x, y, z) of `level`, -1 when the cell is empty or outside the grid. */
+VX_INLINE int64_t grid_index(const voxel_grid *g, int level, int x, int y, int z)
+{
+    if (level < 0 || level >= g->levels)
+        return -1;
+    const grid_level *L = &g->level[level];
+    if ((unsigned)x >= (unsigned)L->n || (unsigned)y >= (unsigned)L->n || (unsigned)z >= (unsigned)L->n)
+        return -1;
+    return grid_level_index(L, x, y, z);
+}
+
+/* Coordinates of the non-empty cell with dense index `index` (< grid_count) of `level`. */
+VX_INLINE void grid_coords(const voxel_grid *g, int level, size_t index, int *x, int *y, int *z)
+{
+    uint32_t c = g->level[level].coords[index];
+    *x = (int)(c >> 20);
+    *y = (int)((c >> 10) & 1023u);
+    *z = (int)(c & 1023u);
+}
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

@@ -1,0 +1,64 @@
+/* Front-to-back traversal of the non-empty cells of one level of a voxel_grid along a ray: a 3D-DDA
+ * (Amanatides & Woo 1987) that jumps over empty space using the coarser MIP levels (when the cell is
+ * empty, the largest empty ancestor is left in one step, so a ray through an empty region costs
+ * about log2 of its length in lookups rather than one per cell).
+ *
+ * Iterator style: grid_iter_init, then grid_iter_next until it returns 0; stop whenever you like.
+ * The iterator is a plain value, so copying it saves the position; to resume from a distance t
+ * later, init again with t_min = t. For a shadow ray toward a point light pass t_max = the
+ * distance to the light (same units as t, i.e. in multiples of |dir|).
+ *
+ * Conventions:
+ *  - t is the parameter of origin + t * dir in world space (dir need not be unit length); the
+ *    reported [t0, t1] is the ray's overlap with the cell clipped to [t_min, t_max], t0 <= t1, and
+ *    successive cells have non-decreasing t0 (t1 of one cell = t0 of the next, whether or not the
+ *    cells in between were empty).
+ *  - A cell is [x, x+1) on an axis where the ray does not move: a ray lying exactly in a grid
+ *    plane (a zero direction component with the origin on a cell boundary) belongs to the cells
+ *    above the plane, and one on the grid's upper boundary plane misses the grid.
+ *  - Where the ray is moving, the starting cell is the one it occupies just after t_min (an
+ *    origin on a boundary going down starts below it). A ray crossing an edge or corner exactly
+ *    may report a cell with t0 == t1 there.
+ *  - A zero or non-finite direction, a NaN origin or an invalid level gives no cells. */
+#ifndef VX_GRID_TRAVERSE_H
+#define VX_GRID_TRAVERSE_H
+
+#include <stdint.h>
+
+#include "grid.h"
+
+typedef struct {
+    int x, y, z;    /* cell coordinates at the iterator's level */
+    int64_t index;  /* dense index at that level (see grid_index) */
+    float t0, t1;   /* where the ray enters and leaves the cell */
+} grid_hit;
+
+typedef struct {
+    const voxel_grid *g;
+    int level, n;       /* level traversed, its cells per side */
+    int active;         /* 0 once the ray has left the grid or passed t_max */
+    int c[3], dir[3];   /* current cell, step per axis (-1, 0, +1) */
+    double o[3], inv[3]; /* ray origin in the level's lattice units, 1 / direction (0 where d = 0) */
+    double d[3];
+    double t, t_end;    /* entry of the current cell, end of the ray in the grid */
+    double t_next[3];   /* where the ray crosses the current cell's exit plane on each axis */
+} grid_iter;
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Sets up the traversal of `level` for origin + t*dir, t in [t_min, t_max] (t_max may be
+ * INFINITY). Returns 1 when the ray overlaps the grid (with positive length), 0 when it misses it
+ * (the iterator then yields nothing). */
+int grid_iter_init(grid_iter *it, const voxel_grid *g, int level, vec3 origin, vec3 dir, float t_min,
+                   float t_max);
+
+/* The next non-empty cell along the ray: fills *hit and returns 1, or returns 0 when there is none. */
+int grid_iter_next(grid_iter *it, grid_hit *hit);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

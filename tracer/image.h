@@ -1,0 +1,50 @@
+/* A linear float image, channels interleaved (1 = grey, 2 = grey+alpha, 3 = RGB, 4 = RGBA), row 0 at the top. */
+#ifndef VX_IMAGE_H
+#define VX_IMAGE_H
+
+#include "error.h"
+
+typedef struct {
+    int width, height, channels;
+    float *data; /* width * height * channels floats */
+} image;
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+int image_alloc(image *img, int width, int height, int channels, vx_err *e);
+void image_free(image *img);
+
+/* Writes by extension: .exr = linear 32-bit float EXR (OpenEXR C API), .png = sRGB-encoded 8-bit
+ * (alpha, the last of 2 or 4 channels, stored linearly); anything else is an error.
+ * Writes to a temporary name in the same directory and renames, so a failure never leaves a partial file. */
+int image_write(const image *img, const char *path, vx_err *e);
+int image_write_exr(const image *img, const char *path, vx_err *e);
+int image_write_png(const image *img, const char *path, vx_err *e);
+
+/* Reads any format OpenImageIO knows, as float values as stored (no colour conversion). */
+int image_read(const char *path, image *out, vx_err *e);
+
+/* --- Pieces the writers share (image.c, image_exr.c, image_oiio.cpp); usable by tests. --- */
+
+/* Linear value -> 8-bit sRGB code: IEC 61966-2-1 curve, clamped to [0,1] (NaN -> 0), rounded. */
+unsigned char image_linear_to_srgb8(float linear);
+
+/* Creates an empty, uniquely named temporary file "<path>.tmp.<pid>.<n>" next to path (so the
+ * final rename() stays within one file system) and puts its name in tmp. Fails with a message
+ * naming path and the reason (e.g. the directory is missing or not writable). */
+int image_tmp_create(const char *path, char *tmp, size_t tmp_size, vx_err *e);
+/* Renames tmp onto path; on failure removes tmp. */
+int image_tmp_commit(const char *tmp, const char *path, vx_err *e);
+
+/* Writes already-encoded 8-bit samples as a PNG at exactly `path` through OpenImageIO, which
+ * only stores them (no colour conversion, no alpha association). `what` names the file in errors. */
+int image_write_png8_oiio(const unsigned char *px, int width, int height, int channels, const char *path,
+                          const char *what, vx_err *e);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

@@ -1,0 +1,115 @@
+/* EXR output through the OpenEXR C core API: one scanline part, 32-bit float channels (Y or R,G,B,
+ * plus A), ZIP compression. Float rather than half because these files are ground truth for error
+ * metrics: half would add ~1e-3 relative quantisation error to every comparison. */
+#include <openexr.h>
+#include <stdio.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "image.h"
+
+/* The library reports details through a callback; keep the first message for our error text
+ * instead of letting it print to stderr behind the caller's back. */
+typedef struct {
+    char msg[512];
+} exr_capture;
+
+static void capture_error(exr_const_context_t ctxt, exr_result_t code, const char *msg)
+{
+    void *ud = NULL;
+    if (exr_get_user_data(ctxt, &ud) != EXR_ERR_SUCCESS || !ud)
+        return;
+    exr_capture *cap = ud;
+    if (!cap->msg[0])
+        snprintf(cap->msg, sizeof cap->msg, "%s (%s)", msg ? msg : "", exr_get_error_code_as_string(code));
+}
+
+static const char *channel_name(int channels, int c)
+{
+    static const char *grey[] = {"Y", "A"};
+    static const char *rgba[] = {"R", "G", "B", "A"};
+    return channels <= 2 ? grey[c] : rgba[c];
+}
+
+/* Writes img to tmp (already created, empty). Returns 0 or the failing exr_result_t. */
+static exr_result_t write_file(const image *img, const char *tmp, exr_capture *cap)
+{
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = capture_error;
+    init.user_data = cap;
+    exr_context_t f = NULL;
+    exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
+    int have_enc = 0;
+    int part = 0, lines = 1;
+    const int w = img->width, h = img->height, nc = img->channels;
+
+    exr_result_t rv = exr_start_write(&f, tmp, EXR_WRITE_FILE_DIRECTLY, &init);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_add_part(f, NULL, EXR_STORAGE_SCANLINE, &part);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_initialize_required_attr_simple(f, part, w, h, EXR_COMPRESSION_ZIP);
+    for (int c = 0; c < nc && rv == EXR_ERR_SUCCESS; c++) {
+        int alpha = (nc == 2 || nc == 4) && c == nc - 1;
+        rv = exr_add_channel(f, part, channel_name(nc, c), EXR_PIXEL_FLOAT,
+                             alpha ? EXR_PERCEPTUALLY_LINEAR : EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
+    }
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_write_header(f);
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_get_scanlines_per_chunk(f, part, &lines);
+
+    for (int y = 0; y < h && rv == EXR_ERR_SUCCESS; y += lines) {
+        exr_chunk_info_t cinfo;
+        rv = exr_write_scanline_chunk_info(f, part, y, &cinfo);
+        if (rv != EXR_ERR_SUCCESS)
+            break;
+        rv = have_enc ? exr_encoding_update(f, part, &cinfo, &enc) : exr_encoding_initialize(f, part, &cinfo, &enc);
+        if (rv != EXR_ERR_SUCCESS)
+            break;
+        have_enc = 1;
+        /* The library orders channels alphabetically (A,B,G,R), so match them by name to our
+         * interleaved offsets; the strides let it read straight from img->data without a copy. */
+        for (int k = 0; k < enc.channel_count; k++) {
+            exr_coding_channel_info_t *ch = &enc.channels[k];
+            int c = 0;
+            while (c < nc && strcmp(ch->channel_name, channel_name(nc, c)) != 0)
+                c++;
+            ch->user_bytes_per_element = 4;
+            ch->user_data_type = EXR_PIXEL_FLOAT;
+            ch->user_pixel_stride = nc * (int32_t)sizeof(float);
+            ch->user_line_stride = w * nc * (int32_t)sizeof(float);
+            ch->encode_from_ptr = (const uint8_t *)(img->data + ((size_t)cinfo.start_y * w * nc + c));
+        }
+        if (y == 0)
+            rv = exr_encoding_choose_default_routines(f, part, &enc);
+        if (rv == EXR_ERR_SUCCESS)
+            rv = exr_encoding_run(f, part, &enc);
+    }
+    if (have_enc)
+        exr_encoding_destroy(f, &enc);
+    /* exr_finish flushes the chunk offset table, so its result matters as much as the writes'. */
+    if (f) {
+        exr_result_t frv = exr_finish(&f);
+        if (rv == EXR_ERR_SUCCESS)
+            rv = frv;
+    }
+    return rv;
+}
+
+int image_write_exr(const image *img, const char *path, vx_err *e)
+{
+    if (!img || !img->data || img->width <= 0 || img->height <= 0 || img->channels < 1 || img->channels > 4)
+        return vx_fail(e, "%s: cannot write an empty image or one with %d channels as EXR (expected 1-4)", path,
+                       img ? img->channels : 0);
+    char tmp[4096];
+    if (image_tmp_create(path, tmp, sizeof tmp, e) != 0)
+        return -1;
+    exr_capture cap = {{0}};
+    exr_result_t rv = write_file(img, tmp, &cap);
+    if (rv != EXR_ERR_SUCCESS) {
+        unlink(tmp);
+        return vx_fail(e, "cannot write %s: OpenEXR error: %s", path,
+                       cap.msg[0] ? cap.msg : exr_get_default_error_message(rv));
+    }
+    return image_tmp_commit(tmp, path, e);
+}

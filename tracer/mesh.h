@@ -1,0 +1,48 @@
+/* A triangle mesh being built: positions, shading normals and texture coordinates per vertex,
+ * a material index per triangle. Scene loaders and procedural generators append to it. */
+#ifndef VX_MESH_H
+#define VX_MESH_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "vec.h"
+
+typedef struct {
+    float *positions; /* 3 per vertex */
+    float *normals;   /* 3 per vertex, unit length */
+    float *uvs;       /* 2 per vertex */
+    float *colors;    /* 3 per vertex, multiplies the material's colour; white unless set */
+    size_t vertex_count, vertex_capacity;
+    uint32_t *indices;   /* 3 per triangle */
+    uint32_t *materials; /* 1 per triangle */
+    size_t triangle_count, triangle_capacity;
+} mesh;
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+void mesh_free(mesh *m);
+/* Appends a vertex and returns its index. Allocation failure aborts with a message: a mesh too
+ * large for memory is not a recoverable input error. */
+uint32_t mesh_add_vertex(mesh *m, vec3 position, vec3 normal, float u, float v);
+void mesh_add_triangle(mesh *m, uint32_t a, uint32_t b, uint32_t c, uint32_t material);
+/* A flat-shaded triangle with its own three vertices (normal from the winding, counter-clockwise
+ * = front). */
+void mesh_add_flat_triangle(mesh *m, vec3 a, vec3 b, vec3 c, uint32_t material);
+/* A flat quad a,b,c,d (counter-clockwise seen from the front) as two triangles, uv 0..1. */
+void mesh_add_quad(mesh *m, vec3 a, vec3 b, vec3 c, vec3 d, uint32_t material);
+/* An axis-aligned box with outward-facing flat faces. */
+void mesh_add_box(mesh *m, vec3 lo, vec3 hi, uint32_t material);
+/* Replaces every vertex normal by the area-weighted mean of its triangles' normals (for meshes
+ * that come without normals, such as the PLY scans). */
+void mesh_smooth_normals(mesh *m, size_t first_vertex, size_t first_triangle);
+vec3 mesh_position(const mesh *m, uint32_t vertex);
+void mesh_set_vertex_color(mesh *m, uint32_t vertex, vec3 color);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

@@ -1,0 +1,516 @@
+// glTF 2.0 loading for mesh_load_gltf through tinygltf (Debian's shared libtinygltf: the
+// implementation lives in the library, so TINYGLTF_IMPLEMENTATION must not be defined here).
+// tinygltf parses the JSON and decodes buffers; it does not check that accessors stay inside their
+// buffers, so every accessor is validated here before a byte of it is read. Errors inside the
+// loader are thrown as load_error and turned into a vx_err at the C boundary, which also catches
+// anything else C++ may throw (std::bad_alloc from tinygltf's vectors, for instance).
+#include "mesh_load.h"
+
+#include <tiny_gltf.h>
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <exception>
+#include <string>
+#include <vector>
+
+namespace {
+
+struct load_error {
+    std::string msg;
+};
+
+[[noreturn]] void fail(const std::string &msg) { throw load_error{msg}; }
+
+// 4x4 matrices column-major, as glTF stores them: m[col * 4 + row].
+using mat4 = std::array<double, 16>;
+
+mat4 identity()
+{
+    mat4 m{};
+    m[0] = m[5] = m[10] = m[15] = 1.0;
+    return m;
+}
+
+mat4 mul(const mat4 &a, const mat4 &b)
+{
+    mat4 r{};
+    for (int c = 0; c < 4; c++)
+        for (int row = 0; row < 4; row++) {
+            double s = 0.0;
+            for (int k = 0; k < 4; k++)
+                s += a[k * 4 + row] * b[c * 4 + k];
+            r[c * 4 + row] = s;
+        }
+    return r;
+}
+
+// A node's local transform: its matrix when given, else T * R * S (the order glTF specifies).
+mat4 node_local(const tinygltf::Node &n, const std::string &where)
+{
+    if (n.matrix.size() == 16) {
+        mat4 m;
+        for (int i = 0; i < 16; i++)
+            m[i] = n.matrix[i];
+        return m;
+    }
+    if (!n.matrix.empty())
+        fail(where + ": matrix has " + std::to_string(n.matrix.size()) + " values (expected 16)");
+    double t[3] = {0, 0, 0}, s[3] = {1, 1, 1}, q[4] = {0, 0, 0, 1};
+    if (n.translation.size() == 3)
+        for (int i = 0; i < 3; i++)
+            t[i] = n.translation[i];
+    if (n.scale.size() == 3)
+        for (int i = 0; i < 3; i++)
+            s[i] = n.scale[i];
+    if (n.rotation.size() == 4) {
+        // Normalised so that exporters' slightly-off quaternions do not scale the mesh.
+        double len = std::sqrt(n.rotation[0] * n.rotation[0] + n.rotation[1] * n.rotation[1] +
+                               n.rotation[2] * n.rotation[2] + n.rotation[3] * n.rotation[3]);
+        if (len > 0.0)
+            for (int i = 0; i < 4; i++)
+                q[i] = n.rotation[i] / len;
+    }
+    double x = q[0], y = q[1], z = q[2], w = q[3];
+    double r[9] = {// column-major rotation matrix of the unit quaternion (x, y, z, w)
+                   1 - 2 * (y * y + z * z), 2 * (x * y + z * w),     2 * (x * z - y * w),
+                   2 * (x * y - z * w),     1 - 2 * (x * x + z * z), 2 * (y * z + x * w),
+                   2 * (x * z + y * w),     2 * (y * z - x * w),     1 - 2 * (x * x + y * y)};
+    mat4 m = identity();
+    for (int c = 0; c < 3; c++)
+        for (int row = 0; row < 3; row++)
+            m[c * 4 + row] = r[c * 3 + row] * s[c];
+    m[12] = t[0];
+    m[13] = t[1];
+    m[14] = t[2];
+    return m;
+}
+
+// A validated view of an accessor's elements: element i starts at base + i * stride.
+struct accessor_view {
+    const unsigned char *base = nullptr; // null: no bufferView, every element is zero (glTF spec)
+    size_t stride = 0, count = 0;
+    int component_type = 0, components = 0;
+    bool normalized = false;
+};
+
+size_t component_size(int t)
+{
+    switch (t) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return 1;
+    case TINYGLTF_COMPONENT_TYPE_SHORT:
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return 2;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: return 4;
+    default: return 0;
+    }
+}
+
+int type_components(int t)
+{
+    switch (t) {
+    case TINYGLTF_TYPE_SCALAR: return 1;
+    case TINYGLTF_TYPE_VEC2: return 2;
+    case TINYGLTF_TYPE_VEC3: return 3;
+    case TINYGLTF_TYPE_VEC4: return 4;
+    default: return 0;
+    }
+}
+
+const char *component_name(int t)
+{
+    switch (t) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE: return "byte";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return "unsigned byte";
+    case TINYGLTF_COMPONENT_TYPE_SHORT: return "short";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: return "unsigned short";
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: return "unsigned int";
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: return "float";
+    default: return "unknown";
+    }
+}
+
+// Resolves accessor `index` and checks that all of its elements lie inside its bufferView and the
+// view inside its buffer; `what` names the use for messages ("POSITION of mesh 0 primitive 1").
+accessor_view resolve_accessor(const tinygltf::Model &model, int index, const std::string &what)
+{
+    std::string where = "accessor " + std::to_string(index) + " (" + what + ")";
+    if (index < 0 || size_t(index) >= model.accessors.size())
+        fail(where + " does not exist (the file has " + std::to_string(model.accessors.size()) +
+             " accessors)");
+    const tinygltf::Accessor &a = model.accessors[size_t(index)];
+    if (a.sparse.isSparse)
+        fail(where + " is sparse (sparse accessors are not supported)");
+    accessor_view v;
+    v.count = a.count;
+    v.component_type = a.componentType;
+    v.components = type_components(a.type);
+    v.normalized = a.normalized;
+    size_t elem = component_size(a.componentType) * size_t(v.components);
+    if (elem == 0)
+        fail(where + " has an unknown component type or element type");
+    if (a.bufferView < 0)
+        return v;
+    if (size_t(a.bufferView) >= model.bufferViews.size())
+        fail(where + " refers to bufferView " + std::to_string(a.bufferView) + ", which does not exist");
+    const tinygltf::BufferView &bv = model.bufferViews[size_t(a.bufferView)];
+    if (bv.buffer < 0 || size_t(bv.buffer) >= model.buffers.size())
+        fail(where + ": bufferView " + std::to_string(a.bufferView) + " refers to buffer " +
+             std::to_string(bv.buffer) + ", which does not exist");
+    const tinygltf::Buffer &buf = model.buffers[size_t(bv.buffer)];
+    if (bv.byteOffset > buf.data.size() || bv.byteLength > buf.data.size() - bv.byteOffset)
+        fail(where + " is out of bounds: bufferView " + std::to_string(a.bufferView) + " spans bytes " +
+             std::to_string(bv.byteOffset) + " + " + std::to_string(bv.byteLength) + " of buffer " +
+             std::to_string(bv.buffer) + ", which has " + std::to_string(buf.data.size()) + " bytes");
+    v.stride = bv.byteStride ? bv.byteStride : elem;
+    if (v.stride < elem)
+        fail(where + ": bufferView byteStride " + std::to_string(v.stride) +
+             " is smaller than the element size " + std::to_string(elem));
+    if (v.count > 0) {
+        // (count - 1) * stride + elem <= byteLength - byteOffset, written to avoid overflow.
+        bool fits = a.byteOffset <= bv.byteLength && elem <= bv.byteLength - a.byteOffset &&
+                    (v.count - 1) <= (bv.byteLength - a.byteOffset - elem) / v.stride;
+        if (!fits)
+            fail(where + " is out of bounds: " + std::to_string(v.count) + " elements of " +
+                 std::to_string(elem) + " bytes at byteOffset " + std::to_string(a.byteOffset) +
+                 " with stride " + std::to_string(v.stride) + " do not fit bufferView " +
+                 std::to_string(a.bufferView) + " of " + std::to_string(bv.byteLength) + " bytes");
+    }
+    v.base = buf.data.data() + bv.byteOffset + a.byteOffset;
+    return v;
+}
+
+// Component k of element i as a double; normalised integers map to [0, 1] (or [-1, 1]).
+double read_component(const accessor_view &v, size_t i, int k)
+{
+    if (!v.base)
+        return 0.0;
+    const unsigned char *p = v.base + i * v.stride + size_t(k) * component_size(v.component_type);
+    // memcpy: glTF only guarantees component alignment, and only for conforming files.
+    switch (v.component_type) {
+    case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+        float f;
+        std::memcpy(&f, p, 4);
+        return f;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return v.normalized ? p[0] / 255.0 : p[0];
+    case TINYGLTF_COMPONENT_TYPE_BYTE: {
+        double x = int8_t(p[0]);
+        return v.normalized ? std::fmax(x / 127.0, -1.0) : x;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+        uint16_t x;
+        std::memcpy(&x, p, 2);
+        return v.normalized ? x / 65535.0 : x;
+    }
+    case TINYGLTF_COMPONENT_TYPE_SHORT: {
+        int16_t x;
+        std::memcpy(&x, p, 2);
+        return v.normalized ? std::fmax(x / 32767.0, -1.0) : x;
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+        uint32_t x;
+        std::memcpy(&x, p, 4);
+        return x;
+    }
+    default: return 0.0;
+    }
+}
+
+struct loader {
+    const tinygltf::Model &model;
+    mesh *out;
+    uint32_t material;
+    size_t triangle_primitives = 0, other_primitives = 0;
+
+    // Requires the accessor to hold `components`-vectors of float (or, when allow_normalized, of
+    // normalised unsigned bytes/shorts, which glTF permits for texture coordinates and colours).
+    accessor_view attribute(const tinygltf::Primitive &prim, const char *name, const std::string &prim_name,
+                            int min_components, int max_components, bool allow_normalized, size_t count)
+    {
+        auto it = prim.attributes.find(name);
+        if (it == prim.attributes.end())
+            return accessor_view{};
+        std::string what = std::string(name) + " of " + prim_name;
+        accessor_view v = resolve_accessor(model, it->second, what);
+        bool type_ok = v.component_type == TINYGLTF_COMPONENT_TYPE_FLOAT ||
+                       (allow_normalized && v.normalized &&
+                        (v.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                         v.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT));
+        if (!type_ok || v.components < min_components || v.components > max_components)
+            fail("accessor " + std::to_string(it->second) + " (" + what + ") holds " +
+                 std::to_string(v.components) + "-component " + component_name(v.component_type) +
+                 " values (expected " +
+                 (min_components == max_components ? "VEC" + std::to_string(min_components)
+                                                   : "VEC" + std::to_string(min_components) + " or VEC" +
+                                                         std::to_string(max_components)) +
+                 (allow_normalized ? " of float or normalised unsigned byte/short)" : " of float)"));
+        if (v.count != count)
+            fail("accessor " + std::to_string(it->second) + " (" + what + ") has " +
+                 std::to_string(v.count) + " elements but POSITION has " + std::to_string(count));
+        return v;
+    }
+
+    void add_primitive(const tinygltf::Primitive &prim, const std::string &prim_name, const mat4 &m)
+    {
+        auto pos_it = prim.attributes.find("POSITION");
+        if (pos_it == prim.attributes.end())
+            fail(prim_name + " has no POSITION attribute");
+        accessor_view pos = resolve_accessor(model, pos_it->second, "POSITION of " + prim_name);
+        if (pos.component_type != TINYGLTF_COMPONENT_TYPE_FLOAT || pos.components != 3)
+            fail("accessor " + std::to_string(pos_it->second) + " (POSITION of " + prim_name + ") holds " +
+                 std::to_string(pos.components) + "-component " + component_name(pos.component_type) +
+                 " values (expected VEC3 of float)");
+        accessor_view nrm = attribute(prim, "NORMAL", prim_name, 3, 3, false, pos.count);
+        accessor_view uv = attribute(prim, "TEXCOORD_0", prim_name, 2, 2, true, pos.count);
+        accessor_view col = attribute(prim, "COLOR_0", prim_name, 3, 4, true, pos.count);
+        bool has_normals = prim.attributes.count("NORMAL") != 0;
+        bool has_uvs = prim.attributes.count("TEXCOORD_0") != 0;
+        bool has_colors = prim.attributes.count("COLOR_0") != 0;
+
+        double base_color[3] = {1.0, 1.0, 1.0};
+        if (prim.material >= 0) {
+            if (size_t(prim.material) >= model.materials.size())
+                fail(prim_name + " refers to material " + std::to_string(prim.material) +
+                     ", which does not exist");
+            const std::vector<double> &f = model.materials[size_t(prim.material)].pbrMetallicRoughness.baseColorFactor;
+            if (f.size() >= 3)
+                for (int k = 0; k < 3; k++)
+                    base_color[k] = f[size_t(k)];
+        }
+
+        // Normals transform by the inverse transpose of the linear part; the cofactor matrix is that
+        // times det, so it serves once the sign of det is restored (the length is renormalised).
+        double a[9]; // row-major 3x3 linear part
+        for (int r = 0; r < 3; r++)
+            for (int c = 0; c < 3; c++)
+                a[r * 3 + c] = m[c * 4 + r];
+        double cof[9] = {a[4] * a[8] - a[5] * a[7], a[5] * a[6] - a[3] * a[8], a[3] * a[7] - a[4] * a[6],
+                         a[2] * a[7] - a[1] * a[8], a[0] * a[8] - a[2] * a[6], a[1] * a[6] - a[0] * a[7],
+                         a[1] * a[5] - a[2] * a[4], a[2] * a[3] - a[0] * a[5], a[0] * a[4] - a[1] * a[3]};
+        double det = a[0] * cof[0] + a[1] * cof[1] + a[2] * cof[2];
+        double sign = det < 0.0 ? -1.0 : 1.0;
+
+        size_t v0 = out->vertex_count, t0 = out->triangle_count;
+        if (pos.count > size_t(UINT32_MAX) - v0)
+            fail(prim_name + ": " + std::to_string(pos.count) + " vertices do not fit 32-bit indices");
+        for (size_t i = 0; i < pos.count; i++) {
+            double p[3] = {read_component(pos, i, 0), read_component(pos, i, 1), read_component(pos, i, 2)};
+            float w[3];
+            for (int r = 0; r < 3; r++)
+                w[r] = float(m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r]);
+            if (!std::isfinite(w[0]) || !std::isfinite(w[1]) || !std::isfinite(w[2]))
+                fail(prim_name + ": vertex " + std::to_string(i) + " has a non-finite position");
+            vec3 n = v3(0.0f, 0.0f, 1.0f);
+            if (has_normals) {
+                double ln[3] = {read_component(nrm, i, 0), read_component(nrm, i, 1), read_component(nrm, i, 2)};
+                double wn[3];
+                for (int r = 0; r < 3; r++)
+                    wn[r] = sign * (cof[r * 3] * ln[0] + cof[r * 3 + 1] * ln[1] + cof[r * 3 + 2] * ln[2]);
+                if (!std::isfinite(wn[0]) || !std::isfinite(wn[1]) || !std::isfinite(wn[2]))
+                    fail(prim_name + ": vertex " + std::to_string(i) + " has a non-finite normal");
+                double len = std::sqrt(wn[0] * wn[0] + wn[1] * wn[1] + wn[2] * wn[2]);
+                if (len > 0.0)
+                    n = v3(float(wn[0] / len), float(wn[1] / len), float(wn[2] / len));
+            }
+            float u = has_uvs ? float(read_component(uv, i, 0)) : 0.0f;
+            float t = has_uvs ? float(read_component(uv, i, 1)) : 0.0f;
+            uint32_t vi = mesh_add_vertex(out, v3(w[0], w[1], w[2]), n, u, t);
+            double c[3] = {base_color[0], base_color[1], base_color[2]};
+            if (has_colors)
+                for (int k = 0; k < 3; k++)
+                    c[k] *= read_component(col, i, k); // glTF: COLOR_0 multiplies the base colour
+            mesh_set_vertex_color(out, vi, v3(float(c[0]), float(c[1]), float(c[2])));
+        }
+
+        // A mirroring transform (det < 0) turns counter-clockwise into clockwise; glTF says the
+        // front face flips with it, so the winding is swapped to keep counter-clockwise = front.
+        bool flip = det < 0.0;
+        uint32_t base = uint32_t(v0);
+        auto add = [&](size_t i0, size_t i1, size_t i2) {
+            if (flip)
+                mesh_add_triangle(out, base + uint32_t(i0), base + uint32_t(i2), base + uint32_t(i1), material);
+            else
+                mesh_add_triangle(out, base + uint32_t(i0), base + uint32_t(i1), base + uint32_t(i2), material);
+        };
+        if (prim.indices >= 0) {
+            std::string what = "indices of " + prim_name;
+            accessor_view idx = resolve_accessor(model, prim.indices, what);
+            bool ok = idx.components == 1 && (idx.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                                              idx.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT ||
+                                              idx.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT);
+            if (!ok)
+                fail("accessor " + std::to_string(prim.indices) + " (" + what + ") holds " +
+                     std::to_string(idx.components) + "-component " + component_name(idx.component_type) +
+                     " values (expected SCALAR unsigned byte, short or int)");
+            if (idx.count % 3 != 0)
+                fail("accessor " + std::to_string(prim.indices) + " (" + what + ") has " +
+                     std::to_string(idx.count) + " indices (expected a multiple of 3 for triangles)");
+            for (size_t t = 0; t < idx.count; t += 3) {
+                size_t i[3];
+                for (int k = 0; k < 3; k++) {
+                    double x = read_component(idx, t + size_t(k), 0);
+                    if (!(x < double(pos.count)))
+                        fail(what + ": index " + std::to_string(t + size_t(k)) + " is " +
+                             std::to_string(size_t(x)) + ", out of range (POSITION has " +
+                             std::to_string(pos.count) + " vertices)");
+                    i[k] = size_t(x);
+                }
+                add(i[0], i[1], i[2]);
+            }
+        } else {
+            if (pos.count % 3 != 0)
+                fail(prim_name + " has no indices and " + std::to_string(pos.count) +
+                     " vertices (expected a multiple of 3 for triangles)");
+            for (size_t t = 0; t < pos.count; t += 3)
+                add(t, t + 1, t + 2);
+        }
+        if (!has_normals)
+            mesh_smooth_normals(out, v0, t0);
+    }
+
+    void walk(int node_index, const mat4 &parent, std::vector<char> &on_path)
+    {
+        if (node_index < 0 || size_t(node_index) >= model.nodes.size())
+            fail("node " + std::to_string(node_index) + " does not exist (the file has " +
+                 std::to_string(model.nodes.size()) + " nodes)");
+        // A node that is its own ancestor would recurse forever; glTF forbids it, tinygltf lets it by.
+        if (on_path[size_t(node_index)])
+            fail("node " + std::to_string(node_index) + " is its own ancestor (the node hierarchy "
+                 "must be a tree)");
+        on_path[size_t(node_index)] = 1;
+        const tinygltf::Node &node = model.nodes[size_t(node_index)];
+        mat4 m = mul(parent, node_local(node, "node " + std::to_string(node_index)));
+        if (node.mesh >= 0) {
+            if (size_t(node.mesh) >= model.meshes.size())
+                fail("node " + std::to_string(node_index) + " refers to mesh " + std::to_string(node.mesh) +
+                     ", which does not exist");
+            const tinygltf::Mesh &me = model.meshes[size_t(node.mesh)];
+            for (size_t p = 0; p < me.primitives.size(); p++) {
+                const tinygltf::Primitive &prim = me.primitives[p];
+                // tinygltf fills in the spec's default (4) when "mode" is absent; -1 means the same.
+                int mode = prim.mode < 0 ? TINYGLTF_MODE_TRIANGLES : prim.mode;
+                if (mode != TINYGLTF_MODE_TRIANGLES) {
+                    other_primitives++;
+                    continue;
+                }
+                triangle_primitives++;
+                add_primitive(prim, "mesh " + std::to_string(node.mesh) + " primitive " + std::to_string(p), m);
+            }
+        }
+        for (int child : node.children)
+            walk(child, m, on_path);
+        on_path[size_t(node_index)] = 0;
+    }
+};
+
+// Images are never used (appearance comes from the material and vertex colours), so decoding them
+// would only cost time and fail on textures we do not need.
+bool skip_image(tinygltf::Image *, const int, std::string *, std::string *, int, int,
+                const unsigned char *, int, void *)
+{
+    return true;
+}
+
+std::string trimmed(std::string s)
+{
+    while (!s.empty() && (s.back() == '\n' || s.back() == '\r' || s.back() == ' '))
+        s.pop_back();
+    return s;
+}
+
+bool ends_with_nocase(const std::string &s, const char *suffix)
+{
+    size_t n = std::strlen(suffix);
+    if (s.size() < n)
+        return false;
+    for (size_t i = 0; i < n; i++) {
+        char a = s[s.size() - n + i], b = suffix[i];
+        if (a >= 'A' && a <= 'Z')
+            a = char(a - 'A' + 'a');
+        if (a != b)
+            return false;
+    }
+    return true;
+}
+
+void load(const char *path, mesh *out, uint32_t material)
+{
+    std::string file(path);
+    bool binary;
+    if (ends_with_nocase(file, ".gltf"))
+        binary = false;
+    else if (ends_with_nocase(file, ".glb"))
+        binary = true;
+    else
+        fail("unknown glTF file extension (expected .gltf or .glb)");
+
+    tinygltf::Model model;
+    tinygltf::TinyGLTF ctx;
+    ctx.SetImageLoader(skip_image, nullptr);
+    std::string err, warn;
+    bool ok = binary ? ctx.LoadBinaryFromFile(&model, &err, &warn, file)
+                     : ctx.LoadASCIIFromFile(&model, &err, &warn, file);
+    if (!ok) {
+        std::string msg = "tinygltf could not load the file: " + trimmed(err);
+        if (!trimmed(warn).empty())
+            msg += " (warnings: " + trimmed(warn) + ")";
+        fail(msg);
+    }
+    // Compressed geometry leaves the accessors without data (tinygltf is built without Draco and
+    // meshopt), which would load as a heap of zero-area triangles rather than fail.
+    for (const std::string &ext : model.extensionsRequired)
+        if (ext == "KHR_draco_mesh_compression" || ext == "EXT_meshopt_compression" ||
+            ext == "KHR_meshopt_compression")
+            fail("requires extension " + ext + " (compressed geometry is not supported; expected plain "
+                 "accessors)");
+
+    loader l{model, out, material};
+    std::vector<char> on_path(model.nodes.size(), 0);
+    if (!model.scenes.empty()) {
+        size_t s = model.defaultScene >= 0 && size_t(model.defaultScene) < model.scenes.size()
+                       ? size_t(model.defaultScene)
+                       : 0;
+        for (int n : model.scenes[s].nodes)
+            l.walk(n, identity(), on_path);
+    } else {
+        // No scene: every root node (one that is nobody's child) stands for the model.
+        std::vector<char> is_child(model.nodes.size(), 0);
+        for (const tinygltf::Node &n : model.nodes)
+            for (int c : n.children)
+                if (c >= 0 && size_t(c) < is_child.size())
+                    is_child[size_t(c)] = 1;
+        for (size_t n = 0; n < model.nodes.size(); n++)
+            if (!is_child[n])
+                l.walk(int(n), identity(), on_path);
+    }
+    if (l.triangle_primitives == 0)
+        fail("no triangle primitives (glTF mode 4) in the scene's nodes; " +
+             std::to_string(l.other_primitives) + " primitives of other modes were skipped");
+}
+
+} // namespace
+
+extern "C" int mesh_load_gltf(const char *path, mesh *out, uint32_t material, vx_err *e)
+{
+    size_t v0 = out->vertex_count, t0 = out->triangle_count;
+    int rc = 0;
+    try {
+        load(path, out, material);
+    } catch (const load_error &err) {
+        rc = vx_fail(e, "%s: %s", path, err.msg.c_str());
+    } catch (const std::exception &ex) {
+        rc = vx_fail(e, "%s: glTF loading failed (%s)", path, ex.what());
+    } catch (...) {
+        rc = vx_fail(e, "%s: glTF loading failed (unknown C++ exception)", path);
+    }
+    if (rc != 0) {
+        // Leave the mesh as the caller gave it: a failed load must not leave half a model behind.
+        out->vertex_count = v0;
+        out->triangle_count = t0;
+    }
+    return rc;
+}

@@ -1,0 +1,34 @@
+/* Loading triangle meshes from files into a mesh (see mesh.h). Every triangle gets `material`
+ * (glTF files may carry their own base colours: see mesh_load_gltf). Errors name the file and what
+ * was wrong with it; on error the mesh keeps its earlier vertices, triangles and counts unchanged. */
+#ifndef VX_MESH_LOAD_H
+#define VX_MESH_LOAD_H
+
+#include "error.h"
+#include "mesh.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Binary (little or big endian) or ASCII PLY: "vertex" element with x, y, z (optional nx, ny, nz;
+ * red/green/blue as uchar 0..255 or float 0..1; u/v or s/t), of any PLY scalar type in any order,
+ * other properties and elements (lists included) skipped; "face" element with a vertex_indices (or
+ * vertex_index) list of integers (polygons are fan-triangulated, zero-area triangles kept). Without
+ * normals in the file, smooth area-weighted normals are computed. Non-finite coordinates,
+ * out-of-range indices, truncated data are errors. */
+int mesh_load_ply(const char *path, mesh *out, uint32_t material, vx_err *e);
+
+/* glTF 2.0, .gltf (with external or data-URI buffers) or .glb, through tinygltf. Every mesh
+ * primitive of mode TRIANGLES in the default scene (or under every root node when there is none) is
+ * added with its node transforms applied (winding swapped under mirroring transforms); POSITION is
+ * required, NORMAL and TEXCOORD_0 are used when present, a material's baseColorFactor (times
+ * COLOR_0, if any) becomes the vertex colour. A file with no triangle primitive, an accessor outside
+ * its buffer, a non-finite position or compressed geometry (Draco, meshopt) is an error. */
+int mesh_load_gltf(const char *path, mesh *out, uint32_t material, vx_err *e);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

@@ -1,0 +1,20 @@
+/* A small thread pool loop: items are handed out dynamically, but every item's result must depend
+ * only on the item (never on the thread), which keeps renders deterministic for any thread count. */
+#ifndef VX_PARALLEL_H
+#define VX_PARALLEL_H
+
+#include <stdint.h>
+
+typedef void (*parallel_fn)(void *ctx, int64_t item, int thread);
+
+/* Number of threads to use: `requested` when > 0, else the online CPU count. */
+int parallel_threads(int requested);
+
+/* Runs fn(ctx, i, thread) for i in [0, count) on `threads` threads. When `label` is not NULL and
+ * stderr is a terminal, shows "label: NN%" progress there. */
+void parallel_for(int64_t count, int threads, parallel_fn fn, void *ctx, const char *label);
+
+/* Seconds from a monotonic clock. */
+double now_seconds(void);
+
+#endif

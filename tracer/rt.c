@@ -1,0 +1,139 @@
+#include "rt.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "shading.h"
+
+static void embree_error(void *user, enum RTCError code, const char *str)
+{
+    (void)user;
+    (void)code;
+    (void)str; /* reported through rtcGetDeviceError where it matters */
+}
+
+int rt_build(rt_scene *rt, const scene *s, vx_err *e)
+{
+    memset(rt, 0, sizeof *rt);
+    rt->scene = s;
+    rt->device = rtcNewDevice(NULL);
+    if (!rt->device)
+        return vx_fail(e, "Embree: cannot create a device (error %d)", (int)rtcGetDeviceError(NULL));
+    rtcSetDeviceErrorFunction(rt->device, embree_error, NULL);
+    rt->bvh = rtcNewScene(rt->device);
+    rtcSetSceneBuildQuality(rt->bvh, RTC_BUILD_QUALITY_HIGH);
+    RTCGeometry geom = rtcNewGeometry(rt->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    const mesh *m = &s->mesh;
+    /* Embree's own buffers: it may read past the last vertex with 16-byte loads, which a shared
+     * buffer of ours would have to be padded for. */
+    float *vb = rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                        m->vertex_count);
+    unsigned *ib = rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
+                                           m->triangle_count);
+    if (!vb || !ib) {
+        rtcReleaseGeometry(geom);
+        rt_free(rt);
+        return vx_fail(e, "Embree: cannot allocate geometry buffers for %zu triangles", m->triangle_count);
+    }
+    memcpy(vb, m->positions, m->vertex_count * 3 * sizeof(float));
+    memcpy(ib, m->indices, m->triangle_count * 3 * sizeof(unsigned));
+    rtcCommitGeometry(geom);
+    rtcAttachGeometry(rt->bvh, geom);
+    rtcReleaseGeometry(geom);
+    rtcCommitScene(rt->bvh);
+    if (rtcGetDeviceError(rt->device) != RTC_ERROR_NONE) {
+        rt_free(rt);
+        return vx_fail(e, "Embree: building the BVH failed");
+    }
+    vec3 ext = v3_sub(s->bounds_hi, s->bounds_lo);
+    float size = fmaxf(ext.x, fmaxf(ext.y, ext.z));
+    float far = fmaxf(fmaxf(fabsf(s->bounds_lo.x), fabsf(s->bounds_hi.x)),
+                      fmaxf(fmaxf(fabsf(s->bounds_lo.y), fabsf(s->bounds_hi.y)),
+                            fmaxf(fabsf(s->bounds_lo.z), fabsf(s->bounds_hi.z))));
+    /* Large enough to leave the surface at float precision far from the origin, small against the scene. */
+    rt->epsilon = fmaxf(1e-5f * size, 4e-7f * far);
+    return 0;
+}
+
+void rt_free(rt_scene *rt)
+{
+    if (rt->bvh)
+        rtcReleaseScene(rt->bvh);
+    if (rt->device)
+        rtcReleaseDevice(rt->device);
+    rt->bvh = NULL;
+    rt->device = NULL;
+}
+
+static vec3 vertex_attr(const float *a, const uint32_t *tri, float u, float v)
+{
+    float w = 1.0f - u - v;
+    const float *p0 = &a[3 * tri[0]], *p1 = &a[3 * tri[1]], *p2 = &a[3 * tri[2]];
+    return v3(w * p0[0] + u * p1[0] + v * p2[0], w * p0[1] + u * p1[1] + v * p2[1], w * p0[2] + u * p1[2] + v * p2[2]);
+}
+
+void rt_surface(const rt_scene *rt, unsigned prim, float u, float v, vec3 origin, vec3 dir, float t,
+                surface_hit *out)
+{
+    const scene *s = rt->scene;
+    const mesh *m = &s->mesh;
+    const uint32_t *tri = &m->indices[3 * (size_t)prim];
+    vec3 a = mesh_position(m, tri[0]), b = mesh_position(m, tri[1]), c = mesh_position(m, tri[2]);
+    vec3 ng = v3_normalize(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+    const material *mat = &s->materials[m->materials[prim]];
+    out->position = v3_madd(origin, dir, t);
+    out->geometric_normal = ng;
+    out->front_facing = v3_dot(ng, dir) < 0.0f;
+    out->material = mat;
+    out->shaded = out->front_facing || mat->double_sided;
+    vec3 n = v3_normalize_or(vertex_attr(m->normals, tri, u, v), ng);
+    /* Keep the shading normal on the geometric side: interpolated normals can tip over at
+     * silhouettes, which would shade a visible point as if facing away. */
+    if (v3_dot(n, ng) < 0.0f)
+        n = ng;
+    if (!out->front_facing) /* seen from behind (double-sided): both normals face the viewer */
+        n = v3_scale(n, -1.0f);
+    out->normal = n;
+    vec3 albedo = v3_mul(mat->color, vertex_attr(m->colors, tri, u, v));
+    if ((s->effects & EFFECT_TEXTURES) && mat->texture >= 0) {
+        float w = 1.0f - u - v;
+        const float *t0 = &m->uvs[2 * tri[0]], *t1 = &m->uvs[2 * tri[1]], *t2 = &m->uvs[2 * tri[2]];
+        float tu = w * t0[0] + u * t1[0] + v * t2[0], tv = w * t0[1] + u * t1[1] + v * t2[1];
+        albedo = v3_mul(albedo, texture_lookup(&s->textures[mat->texture], tu, tv));
+    }
+    out->albedo = out->shaded ? albedo : v3(0, 0, 0);
+}
+
+void rt_light_at(const scene *s, int li, vec3 p, vec3 *to_light, vec3 *irradiance, float *distance)
+{
+    const light *L = &s->lights[li];
+    if (L->type == LIGHT_DIRECTIONAL) {
+        *to_light = L->direction;
+        *irradiance = L->radiance;
+        *distance = INFINITY;
+        return;
+    }
+    vec3 d = v3_sub(L->position, p);
+    float d2 = fmaxf(v3_dot(d, d), 1e-20f);
+    *distance = sqrtf(d2);
+    *to_light = v3_scale(d, 1.0f / *distance);
+    *irradiance = v3_scale(L->radiance, 1.0f / d2);
+}
+
+vec3 rt_shade_light(const scene *s, const surface_hit *h, vec3 to_viewer, vec3 to_light, vec3 irradiance)
+{
+    if (!h->shaded)
+        return v3(0, 0, 0);
+    float cos_l = v3_dot(h->normal, to_light);
+    /* A light below the geometric surface cannot reach it, whatever the shading normal says. */
+    float side = v3_dot(h->front_facing ? h->geometric_normal : v3_scale(h->geometric_normal, -1.0f), to_light);
+    if (cos_l <= 0.0f || side <= 0.0f)
+        return v3(0, 0, 0);
+    vec3 f = v3_scale(h->albedo, 1.0f / VX_PI);
+    if (s->effects & EFFECT_SPECULAR) {
+        float spec = shading_specular_brdf(h->normal, to_viewer, to_light, h->material->specular,
+                                           h->material->roughness);
+        f = v3_add(f, v3(spec, spec, spec));
+    }
+    return v3_scale(v3_mul(f, irradiance), cos_l);
+}

@@ -1,0 +1,50 @@
+/* The scene's triangles in an Embree 3 BVH, and what a hit means: position, normals, colour. Used by
+ * the ground truth and the bake sampler, so both see exactly the same surfaces. */
+#ifndef VX_RT_H
+#define VX_RT_H
+
+#include <embree3/rtcore.h>
+
+#include "scene.h"
+
+typedef struct {
+    RTCDevice device;
+    RTCScene bvh;
+    const scene *scene;
+    float epsilon; /* offset for secondary rays, relative to the scene's size */
+} rt_scene;
+
+typedef struct {
+    vec3 position;
+    vec3 normal;           /* shading normal, on the side the ray came from when double-sided */
+    vec3 geometric_normal; /* unit, pointing to the triangle's front (counter-clockwise) side */
+    int front_facing;      /* the ray hit the front side */
+    int shaded;            /* 0 for the back of a single-sided surface: a black occluder */
+    vec3 albedo;           /* material colour x vertex colour x texture (when declared) */
+    const material *material;
+} surface_hit;
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+int rt_build(rt_scene *rt, const scene *s, vx_err *e);
+void rt_free(rt_scene *rt);
+
+/* Describes the hit of a ray with direction dir on triangle prim at barycentrics (u, v). */
+void rt_surface(const rt_scene *rt, unsigned prim, float u, float v, vec3 origin, vec3 dir, float t,
+                surface_hit *out);
+
+/* Unit direction and irradiance from light li at point p (irradiance on a surface facing the light;
+ * the caller applies the cosine). *distance is the light's distance (INFINITY for directional). */
+void rt_light_at(const scene *s, int li, vec3 p, vec3 *to_light, vec3 *irradiance, float *distance);
+
+/* Outgoing radiance toward `to_viewer` from light li arriving along to_light with irradiance E:
+ * Lambert plus, when the scene declares "specular", the Beckmann lobe. */
+vec3 rt_shade_light(const scene *s, const surface_hit *h, vec3 to_viewer, vec3 to_light, vec3 irradiance);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

@@ -1,0 +1,570 @@
+/* Scene file loading: JSON (cJSON) → scene. Every error names the scene file and the field. */
+#include "scene.h"
+
+#include <cjson/cJSON.h>
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "generator.h"
+#include "json_util.h"
+#include "mesh_load.h"
+
+#define MAX_IMAGE_SIDE 16384
+#define MAX_IMAGE_PIXELS (64 * 1024 * 1024)
+
+static const char *const effect_names[] = {"shadows", "specular", "dof", "textures"};
+
+unsigned effect_from_name(const char *name)
+{
+    for (unsigned i = 0; i < sizeof effect_names / sizeof *effect_names; i++)
+        if (strcmp(name, effect_names[i]) == 0)
+            return 1u << i;
+    return 0;
+}
+
+const char *effect_name(unsigned effect)
+{
+    for (unsigned i = 0; i < sizeof effect_names / sizeof *effect_names; i++)
+        if (effect == (1u << i))
+            return effect_names[i];
+    return "?";
+}
+
+static char *read_file(const char *path, vx_err *e)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        vx_fail(e, "%s: cannot open scene file: %s", path, strerror(errno));
+        return NULL;
+    }
+    fseek(f, 0, SEEK_END);
+    long size = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    char *text = size >= 0 ? malloc((size_t)size + 1) : NULL;
+    if (!text || fread(text, 1, (size_t)size, f) != (size_t)size) {
+        fclose(f);
+        free(text);
+        vx_fail(e, "%s: cannot read scene file", path);
+        return NULL;
+    }
+    fclose(f);
+    text[size] = 0;
+    return text;
+}
+
+/* Resolves a path relative to the scene file's directory (absolute paths stay as they are). */
+static void resolve_path(const char *scene_path, const char *rel, char *out, size_t out_size)
+{
+    const char *slash = strrchr(scene_path, '/');
+    if (rel[0] == '/' || !slash)
+        snprintf(out, out_size, "%s", rel);
+    else
+        snprintf(out, out_size, "%.*s/%s", (int)(slash - scene_path), scene_path, rel);
+}
+
+static int parse_color(const cJSON *obj, const char *field, const char *where, vec3 *out, vx_err *e)
+{
+    if (json_vec3(obj, field, where, out, e))
+        return -1;
+    if (out->x < 0 || out->y < 0 || out->z < 0)
+        return vx_fail(e, "%s.%s: expected non-negative values", where, field);
+    return 0;
+}
+
+static int parse_texture(scene *s, const cJSON *tex, const char *where, vx_err *e)
+{
+    texture t;
+    memset(&t, 0, sizeof t);
+    char path[4096];
+    if (cJSON_IsString(tex)) {
+        resolve_path(s->path, tex->valuestring, path, sizeof path);
+        if (texture_load_image(&t, path, e))
+            return vx_wrap(e, "%s.texture", where);
+    } else if (cJSON_IsObject(tex) && cJSON_GetObjectItemCaseSensitive(tex, "checker")) {
+        const cJSON *c = cJSON_GetObjectItemCaseSensitive(tex, "checker");
+        char w2[512];
+        snprintf(w2, sizeof w2, "%s.texture.checker", where);
+        static const char *const known[] = {"scale", "color2", NULL};
+        double scale = 8;
+        t.kind = TEXTURE_CHECKER;
+        t.color2 = v3(0.25f, 0.25f, 0.25f);
+        if (!cJSON_IsObject(c))
+            return vx_fail(e, "%s: expected an object", w2);
+        if (json_only_fields(c, w2, known, e) || json_number_in(c, "scale", w2, 1e-6, 1e6, &scale, e) ||
+            parse_color(c, "color2", w2, &t.color2, e))
+            return -1;
+        t.scale = (float)scale;
+    } else {
+        return vx_fail(e, "%s.texture: expected an image path or {\"checker\": {...}}", where);
+    }
+    s->textures = realloc(s->textures, sizeof(texture) * (size_t)(s->texture_count + 1));
+    s->textures[s->texture_count] = t;
+    return s->texture_count++;
+}
+
+static int parse_materials(scene *s, const cJSON *root, vx_err *e)
+{
+    const cJSON *mats = cJSON_GetObjectItemCaseSensitive(root, "materials");
+    if (!mats)
+        return vx_fail(e, "%s: missing field \"materials\" (an object of named materials)", s->path);
+    if (!cJSON_IsObject(mats) || cJSON_GetArraySize(mats) == 0)
+        return vx_fail(e, "%s.materials: expected a non-empty object of named materials", s->path);
+    int n = cJSON_GetArraySize(mats);
+    s->materials = calloc((size_t)n, sizeof(material));
+    s->material_names = calloc((size_t)n, sizeof(char *));
+    const cJSON *m;
+    cJSON_ArrayForEach(m, mats)
+    {
+        char where[512];
+        snprintf(where, sizeof where, "%s: materials.%s", s->path, m->string);
+        static const char *const known[] = {"color", "specular", "roughness", "double_sided", "texture", NULL};
+        if (!cJSON_IsObject(m))
+            return vx_fail(e, "%s: expected an object", where);
+        material mat = {v3(0.8f, 0.8f, 0.8f), 0.04f, 0.3f, 0, -1};
+        double spec = mat.specular, rough = mat.roughness;
+        if (json_only_fields(m, where, known, e) || parse_color(m, "color", where, &mat.color, e) ||
+            json_number_in(m, "specular", where, 0, 1, &spec, e) ||
+            json_number_in(m, "roughness", where, 1e-3, 2, &rough, e) ||
+            json_bool(m, "double_sided", where, &mat.double_sided, e))
+            return -1;
+        mat.specular = (float)spec;
+        mat.roughness = (float)rough;
+        const cJSON *tex = cJSON_GetObjectItemCaseSensitive(m, "texture");
+        if (tex && (mat.texture = parse_texture(s, tex, where, e)) < 0)
+            return -1;
+        s->materials[s->material_count] = mat;
+        s->material_names[s->material_count++] = strdup(m->string);
+    }
+    return 0;
+}
+
+static int find_material(const scene *s, const char *name, const char *where, vx_err *e)
+{
+    for (int i = 0; i < s->material_count; i++)
+        if (strcmp(s->material_names[i], name) == 0)
+            return i;
+    return vx_fail(e, "%s: unknown material \"%s\" (not in \"materials\")", where, name);
+}
+
+static int parse_effects(scene *s, const cJSON *root, vx_err *e)
+{
+    const cJSON *fx = cJSON_GetObjectItemCaseSensitive(root, "effects");
+    if (!fx)
+        return 0;
+    if (!cJSON_IsArray(fx))
+        return vx_fail(e, "%s: effects: expected an array of effect names", s->path);
+    int i = 0;
+    const cJSON *f;
+    cJSON_ArrayForEach(f, fx)
+    {
+        unsigned bit = cJSON_IsString(f) ? effect_from_name(f->valuestring) : 0;
+        if (!bit)
+            return vx_fail(e, "%s: effects[%d]: unknown effect %s (expected one of shadows, specular, dof, textures)",
+                           s->path, i, cJSON_IsString(f) ? f->valuestring : "(not a string)");
+        s->effects |= bit;
+        i++;
+    }
+    return 0;
+}
+
+static int parse_size(const cJSON *obj, const char *where, int *w, int *h, vx_err *e)
+{
+    const cJSON *size = cJSON_GetObjectItemCaseSensitive(obj, "size");
+    if (!size)
+        return 0;
+    if (!cJSON_IsArray(size) || cJSON_GetArraySize(size) != 2 || !cJSON_IsNumber(cJSON_GetArrayItem(size, 0)) ||
+        !cJSON_IsNumber(cJSON_GetArrayItem(size, 1)))
+        return vx_fail(e, "%s.size: expected [width, height]", where);
+    double dw = cJSON_GetArrayItem(size, 0)->valuedouble, dh = cJSON_GetArrayItem(size, 1)->valuedouble;
+    if (dw != floor(dw) || dh != floor(dh) || dw < 1 || dh < 1 || dw > MAX_IMAGE_SIDE || dh > MAX_IMAGE_SIDE ||
+        dw * dh > MAX_IMAGE_PIXELS)
+        return vx_fail(e, "%s.size: %gx%g is not a valid image size (integers from 1 to %d, at most %d pixels)", where,
+                       dw, dh, MAX_IMAGE_SIDE, MAX_IMAGE_PIXELS);
+    *w = (int)dw;
+    *h = (int)dh;
+    return 0;
+}
+
+int scene_parse_size_string(const char *text, int *w, int *h, vx_err *e)
+{
+    char extra;
+    long lw, lh;
+    if (sscanf(text, "%ldx%ld%c", &lw, &lh, &extra) != 2 || lw < 1 || lh < 1 || lw > MAX_IMAGE_SIDE ||
+        lh > MAX_IMAGE_SIDE || lw * lh > MAX_IMAGE_PIXELS)
+        return vx_fail(e, "--size %s: expected WxH with integers from 1 to %d (at most %d pixels)", text,
+                       MAX_IMAGE_SIDE, MAX_IMAGE_PIXELS);
+    *w = (int)lw;
+    *h = (int)lh;
+    return 0;
+}
+
+static int parse_camera(scene *s, const cJSON *root, vx_err *e)
+{
+    const cJSON *cam = cJSON_GetObjectItemCaseSensitive(root, "camera");
+    char where[512];
+    snprintf(where, sizeof where, "%s: camera", s->path);
+    if (!cJSON_IsObject(cam))
+        return vx_fail(e, "%s: missing or invalid field \"camera\" (an object)", s->path);
+    static const char *const known[] = {"position", "orbit", "look_at", "up", "fov_deg", "aperture",
+                                        "focus_distance", NULL};
+    vec3 pos = v3(0, 0, 5), at = v3(0, 0, 0), up = v3(0, 1, 0);
+    double fov = 40, aperture = 0, focus = -1;
+    if (json_only_fields(cam, where, known, e) || json_vec3(cam, "look_at", where, &at, e) ||
+        json_vec3(cam, "up", where, &up, e) || json_number_in(cam, "fov_deg", where, 0.01, 179, &fov, e) ||
+        json_number_in(cam, "aperture", where, 0, 1e6, &aperture, e) ||
+        json_number_in(cam, "focus_distance", where, 1e-6, 1e9, &focus, e))
+        return -1;
+    const cJSON *orbit = cJSON_GetObjectItemCaseSensitive(cam, "orbit");
+    if (orbit) {
+        char w2[600];
+        snprintf(w2, sizeof w2, "%s.orbit", where);
+        static const char *const okeys[] = {"distance", "elevation_deg", "azimuth_deg", NULL};
+        double dist = 5, elev = 30, azim = 0;
+        if (!cJSON_IsObject(orbit))
+            return vx_fail(e, "%s: expected an object", w2);
+        if (json_only_fields(orbit, w2, okeys, e) || json_number_in(orbit, "distance", w2, 1e-6, 1e9, &dist, e) ||
+            json_number_in(orbit, "elevation_deg", w2, -90, 90, &elev, e) ||
+            json_number(orbit, "azimuth_deg", w2, &azim, e))
+            return -1;
+        double el = elev * M_PI / 180, az = azim * M_PI / 180;
+        pos = v3_add(at, v3((float)(dist * cos(el) * sin(az)), (float)(dist * sin(el)), (float)(dist * cos(el) * cos(az))));
+    } else if (!cJSON_GetObjectItemCaseSensitive(cam, "position")) {
+        return vx_fail(e, "%s: needs \"position\" or \"orbit\"", where);
+    } else if (json_vec3(cam, "position", where, &pos, e)) {
+        return -1;
+    }
+    camera *c = &s->camera;
+    c->position = pos;
+    vec3 fwd = v3_sub(at, pos);
+    if (v3_length(fwd) < 1e-12f)
+        return vx_fail(e, "%s: look_at equals the position", where);
+    c->forward = v3_normalize(fwd);
+    vec3 right = v3_cross(c->forward, up);
+    if (v3_length(right) < 1e-6f)
+        return vx_fail(e, "%s.up: parallel to the viewing direction", where);
+    c->right = v3_normalize(right);
+    c->up = v3_cross(c->right, c->forward);
+    c->tan_half_fov_y = (float)tan(fov * M_PI / 360);
+    c->aperture_radius = (float)aperture;
+    c->focus_distance = focus > 0 ? (float)focus : v3_length(fwd);
+    return 0;
+}
+
+static int parse_lights(scene *s, const cJSON *root, vx_err *e)
+{
+    const cJSON *lights = cJSON_GetObjectItemCaseSensitive(root, "lights");
+    if (!cJSON_IsArray(lights) || cJSON_GetArraySize(lights) == 0)
+        return vx_fail(e, "%s: lights: expected a non-empty array of lights", s->path);
+    s->light_count = cJSON_GetArraySize(lights);
+    s->lights = calloc((size_t)s->light_count, sizeof(light));
+    int i = 0;
+    const cJSON *l;
+    cJSON_ArrayForEach(l, lights)
+    {
+        char where[512];
+        snprintf(where, sizeof where, "%s: lights[%d]", s->path, i);
+        const char *type = NULL;
+        light *L = &s->lights[i++];
+        static const char *const known[] = {"type", "direction", "position", "irradiance", "intensity", NULL};
+        if (!cJSON_IsObject(l))
+            return vx_fail(e, "%s: expected an object", where);
+        if (json_only_fields(l, where, known, e) || json_string(l, "type", where, &type, e))
+            return -1;
+        if (type && strcmp(type, "directional") == 0) {
+            L->type = LIGHT_DIRECTIONAL;
+            L->direction = v3(0, 1, 0);
+            L->radiance = v3(3, 3, 3);
+            if (json_vec3(l, "direction", where, &L->direction, e) ||
+                parse_color(l, "irradiance", where, &L->radiance, e))
+                return -1;
+            if (v3_length(L->direction) < 1e-12f)
+                return vx_fail(e, "%s.direction: must not be zero", where);
+            L->direction = v3_normalize(L->direction);
+        } else if (type && strcmp(type, "point") == 0) {
+            L->type = LIGHT_POINT;
+            L->radiance = v3(10, 10, 10);
+            if (!cJSON_GetObjectItemCaseSensitive(l, "position"))
+                return vx_fail(e, "%s: a point light needs \"position\"", where);
+            if (json_vec3(l, "position", where, &L->position, e) ||
+                parse_color(l, "intensity", where, &L->radiance, e))
+                return -1;
+        } else {
+            return vx_fail(e, "%s.type: expected \"directional\" or \"point\"", where);
+        }
+    }
+    return 0;
+}
+
+/* Scale, then rotate about x, y, z (degrees), then translate; normals rotate (and flip with a
+ * negative scale determinant, which also reverses the winding to keep fronts outside). */
+static int apply_transform(mesh *m, size_t v0, size_t t0, const cJSON *xf, const char *where, vx_err *e)
+{
+    if (!xf)
+        return 0;
+    char w2[600];
+    snprintf(w2, sizeof w2, "%s.transform", where);
+    static const char *const known[] = {"scale", "rotate_deg", "translate", NULL};
+    if (!cJSON_IsObject(xf))
+        return vx_fail(e, "%s: expected an object", w2);
+    vec3 scale = v3(1, 1, 1), rot = v3(0, 0, 0), tr = v3(0, 0, 0);
+    const cJSON *sc = cJSON_GetObjectItemCaseSensitive(xf, "scale");
+    if (json_only_fields(xf, w2, known, e))
+        return -1;
+    if (cJSON_IsNumber(sc)) {
+        double k = 1;
+        if (json_number(xf, "scale", w2, &k, e))
+            return -1;
+        scale = v3((float)k, (float)k, (float)k);
+    } else if (json_vec3(xf, "scale", w2, &scale, e)) {
+        return -1;
+    }
+    if (scale.x == 0 || scale.y == 0 || scale.z == 0)
+        return vx_fail(e, "%s.scale: must not be zero", w2);
+    if (json_vec3(xf, "rotate_deg", w2, &rot, e) || json_vec3(xf, "translate", w2, &tr, e))
+        return -1;
+    double ang[3] = {rot.x * M_PI / 180, rot.y * M_PI / 180, rot.z * M_PI / 180};
+    for (size_t i = v0; i < m->vertex_count; i++) {
+        float *p = &m->positions[3 * i], *n = &m->normals[3 * i];
+        double P[3] = {p[0] * scale.x, p[1] * scale.y, p[2] * scale.z};
+        double N[3] = {n[0] / scale.x, n[1] / scale.y, n[2] / scale.z};
+        for (int axis = 0; axis < 3; axis++) {
+            int a = (axis + 1) % 3, b = (axis + 2) % 3;
+            double c = cos(ang[axis]), s = sin(ang[axis]);
+            double pa = c * P[a] - s * P[b], pb = s * P[a] + c * P[b];
+            double na = c * N[a] - s * N[b], nb = s * N[a] + c * N[b];
+            P[a] = pa, P[b] = pb, N[a] = na, N[b] = nb;
+        }
+        vec3 nn = v3_normalize(v3((float)N[0], (float)N[1], (float)N[2]));
+        p[0] = (float)(P[0] + tr.x), p[1] = (float)(P[1] + tr.y), p[2] = (float)(P[2] + tr.z);
+        n[0] = nn.x, n[1] = nn.y, n[2] = nn.z;
+    }
+    if (scale.x * scale.y * scale.z < 0)
+        for (size_t t = t0; t < m->triangle_count; t++) {
+            uint32_t tmp = m->indices[3 * t + 1];
+            m->indices[3 * t + 1] = m->indices[3 * t + 2];
+            m->indices[3 * t + 2] = tmp;
+        }
+    return 0;
+}
+
+static int parse_generator_object(scene *s, const cJSON *o, const char *where, vx_err *e)
+{
+    const char *name = NULL;
+    uint64_t seed = 1;
+    if (json_string(o, "generator", where, &name, e) || json_u64(o, "seed", where, &seed, e))
+        return -1;
+    const scene_generator *g = generator_find(name);
+    if (!g) {
+        char list[512] = "";
+        for (const scene_generator *const *it = generator_all(); *it; it++)
+            snprintf(list + strlen(list), sizeof list - strlen(list), "%s%s", list[0] ? ", " : "", (*it)->name);
+        return vx_fail(e, "%s.generator: unknown generator \"%s\" (known: %s)", where, name, list);
+    }
+    uint32_t slots[16];
+    const cJSON *mats = cJSON_GetObjectItemCaseSensitive(o, "materials");
+    const char *fallback = NULL;
+    if (json_string(o, "material", where, &fallback, e))
+        return -1;
+    if (mats && !cJSON_IsObject(mats))
+        return vx_fail(e, "%s.materials: expected an object mapping slots to material names", where);
+    int nslots = 0;
+    for (; g->slots[nslots] && nslots < 16; nslots++) {
+        const char *mat = fallback;
+        char w2[600];
+        snprintf(w2, sizeof w2, "%s.materials", where);
+        if (mats && json_string(mats, g->slots[nslots], w2, &mat, e))
+            return -1;
+        if (!mat)
+            return vx_fail(e, "%s.materials.%s: no material for generator slot \"%s\" (and no \"material\")", where,
+                           g->slots[nslots], g->slots[nslots]);
+        int idx = find_material(s, mat, where, e);
+        if (idx < 0)
+            return -1;
+        slots[nslots] = (uint32_t)idx;
+    }
+    if (mats && json_only_fields(mats, where, g->slots, e))
+        return -1;
+    const cJSON *params = cJSON_GetObjectItemCaseSensitive(o, "params");
+    char w3[600];
+    snprintf(w3, sizeof w3, "%s.params", where);
+    if (params && !cJSON_IsObject(params))
+        return vx_fail(e, "%s: expected an object", w3);
+    return g->generate(params, w3, seed, slots, &s->mesh, e);
+}
+
+static int parse_objects(scene *s, const cJSON *root, vx_err *e)
+{
+    const cJSON *objs = cJSON_GetObjectItemCaseSensitive(root, "objects");
+    if (!cJSON_IsArray(objs) || cJSON_GetArraySize(objs) == 0)
+        return vx_fail(e, "%s: objects: expected a non-empty array of objects", s->path);
+    int i = 0;
+    const cJSON *o;
+    cJSON_ArrayForEach(o, objs)
+    {
+        char where[512];
+        snprintf(where, sizeof where, "%s: objects[%d]", s->path, i++);
+        static const char *const known[] = {"generator", "seed", "params", "materials", "material",
+                                            "ply", "gltf", "transform", NULL};
+        if (!cJSON_IsObject(o))
+            return vx_fail(e, "%s: expected an object", where);
+        if (json_only_fields(o, where, known, e))
+            return -1;
+        size_t v0 = s->mesh.vertex_count, t0 = s->mesh.triangle_count;
+        const char *file = NULL, *matname = NULL;
+        if (cJSON_GetObjectItemCaseSensitive(o, "generator")) {
+            if (parse_generator_object(s, o, where, e))
+                return -1;
+        } else {
+            int is_ply = cJSON_GetObjectItemCaseSensitive(o, "ply") != NULL;
+            if (json_string(o, is_ply ? "ply" : "gltf", where, &file, e) || json_string(o, "material", where, &matname, e))
+                return -1;
+            if (!file)
+                return vx_fail(e, "%s: expected one of \"generator\", \"ply\" or \"gltf\"", where);
+            if (!matname)
+                return vx_fail(e, "%s: missing field \"material\"", where);
+            int mat = find_material(s, matname, where, e);
+            if (mat < 0)
+                return -1;
+            char path[4096];
+            resolve_path(s->path, file, path, sizeof path);
+            int rc = is_ply ? mesh_load_ply(path, &s->mesh, (uint32_t)mat, e)
+                            : mesh_load_gltf(path, &s->mesh, (uint32_t)mat, e);
+            if (rc)
+                return vx_wrap(e, "%s.%s", where, is_ply ? "ply" : "gltf");
+        }
+        if (apply_transform(&s->mesh, v0, t0, cJSON_GetObjectItemCaseSensitive(o, "transform"), where, e))
+            return -1;
+        for (size_t v = v0; v < s->mesh.vertex_count; v++)
+            for (int k = 0; k < 3; k++)
+                if (!isfinite(s->mesh.positions[3 * v + (size_t)k]))
+                    return vx_fail(e, "%s: vertex %zu has a non-finite coordinate", where, v - v0);
+    }
+    return 0;
+}
+
+/* Drops zero-area triangles (they have no surface to shade or voxelise) and counts them. */
+static void drop_degenerate(scene *s)
+{
+    mesh *m = &s->mesh;
+    size_t kept = 0;
+    for (size_t t = 0; t < m->triangle_count; t++) {
+        const uint32_t *tri = &m->indices[3 * t];
+        vec3 a = mesh_position(m, tri[0]), b = mesh_position(m, tri[1]), c = mesh_position(m, tri[2]);
+        vec3 n = v3_cross(v3_sub(b, a), v3_sub(c, a));
+        if (!(v3_dot(n, n) > 0.0f)) {
+            s->degenerate_triangles++;
+            continue;
+        }
+        memmove(&m->indices[3 * kept], tri, 3 * sizeof(uint32_t));
+        m->materials[kept++] = m->materials[t];
+    }
+    m->triangle_count = kept;
+}
+
+static uint64_t hash_bytes(uint64_t h, const void *data, size_t n)
+{
+    const unsigned char *p = data;
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ p[i]) * 0x100000001b3ULL; /* FNV-1a */
+    return h;
+}
+
+static void compute_bounds_and_identity(scene *s)
+{
+    mesh *m = &s->mesh;
+    vec3 lo = v3(INFINITY, INFINITY, INFINITY), hi = v3(-INFINITY, -INFINITY, -INFINITY);
+    for (size_t t = 0; t < m->triangle_count; t++)
+        for (int k = 0; k < 3; k++) {
+            vec3 p = mesh_position(m, m->indices[3 * t + (size_t)k]);
+            lo = v3_min(lo, p);
+            hi = v3_max(hi, p);
+        }
+    s->bounds_lo = lo;
+    s->bounds_hi = hi;
+    uint64_t h = 0xcbf29ce484222325ULL;
+    h = hash_bytes(h, m->positions, m->vertex_count * 3 * sizeof(float));
+    h = hash_bytes(h, m->normals, m->vertex_count * 3 * sizeof(float));
+    h = hash_bytes(h, m->colors, m->vertex_count * 3 * sizeof(float));
+    h = hash_bytes(h, m->uvs, m->vertex_count * 2 * sizeof(float));
+    h = hash_bytes(h, m->indices, m->triangle_count * 3 * sizeof(uint32_t));
+    h = hash_bytes(h, m->materials, m->triangle_count * sizeof(uint32_t));
+    for (int i = 0; i < s->material_count; i++)
+        h = hash_bytes(h, &s->materials[i], sizeof(material));
+    h = hash_bytes(h, &s->effects, sizeof s->effects);
+    s->identity = h;
+}
+
+int scene_load(const char *path, scene *s, vx_err *e)
+{
+    memset(s, 0, sizeof *s);
+    s->path = strdup(path);
+    char *text = read_file(path, e);
+    if (!text)
+        return -1;
+    cJSON *root = cJSON_Parse(text);
+    if (!root) {
+        const char *at = cJSON_GetErrorPtr();
+        int line = 1;
+        for (const char *c = text; at && c < at; c++)
+            line += *c == '\n';
+        free(text);
+        return vx_fail(e, "%s: malformed JSON near line %d", path, line);
+    }
+    free(text);
+    int rc = -1;
+    static const char *const known[] = {"name", "size", "background", "effects", "camera", "lights",
+                                        "materials", "objects", "description", NULL};
+    const char *name = NULL;
+    s->width = s->height = 256;
+    s->background = v3(0, 0, 0);
+    if (!cJSON_IsObject(root)) {
+        vx_fail(e, "%s: expected a JSON object at the top level", path);
+        goto done;
+    }
+    if (json_only_fields(root, path, known, e) || json_string(root, "name", path, &name, e) ||
+        parse_size(root, path, &s->width, &s->height, e) || parse_color(root, "background", path, &s->background, e) ||
+        parse_effects(s, root, e) || parse_camera(s, root, e) || parse_lights(s, root, e) ||
+        parse_materials(s, root, e) || parse_objects(s, root, e))
+        goto done;
+    if (name)
+        s->name = strdup(name);
+    else {
+        const char *base = strrchr(path, '/');
+        s->name = strdup(base ? base + 1 : path);
+        char *dot = strrchr(s->name, '.');
+        if (dot)
+            *dot = 0;
+    }
+    drop_degenerate(s);
+    if (s->mesh.triangle_count == 0) {
+        vx_fail(e, "%s: objects: the scene has no triangles (after dropping %zu zero-area ones)", path,
+                s->degenerate_triangles);
+        goto done;
+    }
+    compute_bounds_and_identity(s);
+    rc = 0;
+done:
+    cJSON_Delete(root);
+    if (rc)
+        scene_free(s);
+    return rc;
+}
+
+void scene_free(scene *s)
+{
+    mesh_free(&s->mesh);
+    for (int i = 0; i < s->material_count; i++)
+        free(s->material_names[i]);
+    for (int i = 0; i < s->texture_count; i++)
+        texture_free(&s->textures[i]);
+    free(s->material_names);
+    free(s->materials);
+    free(s->textures);
+    free(s->lights);
+    free(s->path);
+    free(s->name);
+    memset(s, 0, sizeof *s);
+}

@@ -1,0 +1,81 @@
+/* A loaded scene: triangles with materials, camera, lights, background, default image size and the
+ * declared effects. Loaded from a JSON scene file (format in README.md). */
+#ifndef VX_SCENE_H
+#define VX_SCENE_H
+
+#include <stdint.h>
+
+#include "error.h"
+#include "mesh.h"
+#include "texture.h"
+#include "vec.h"
+
+/* Effects a scene may declare; nothing undeclared is computed anywhere. */
+enum {
+    EFFECT_SHADOWS = 1u << 0,
+    EFFECT_SPECULAR = 1u << 1,
+    EFFECT_DOF = 1u << 2,
+    EFFECT_TEXTURES = 1u << 3,
+};
+
+typedef struct {
+    vec3 color;       /* diffuse albedo (multiplied by the texture and vertex colour) */
+    float specular;   /* specular reflectance at normal incidence (used only with EFFECT_SPECULAR) */
+    float roughness;  /* Beckmann RMS slope alpha of the specular lobe */
+    int double_sided; /* back faces are shaded like front faces; otherwise they are black occluders */
+    int texture;      /* index into scene.textures, or -1 */
+} material;
+
+enum { LIGHT_DIRECTIONAL = 0, LIGHT_POINT = 1 };
+
+typedef struct {
+    int type;
+    vec3 direction; /* directional: unit vector from the scene toward the light */
+    vec3 position;  /* point light */
+    vec3 radiance;  /* directional: irradiance on a facing surface; point: intensity (W/sr) */
+} light;
+
+typedef struct {
+    vec3 position, forward, right, up; /* orthonormal frame */
+    float tan_half_fov_y;
+    float aperture_radius; /* thin lens; used only with EFFECT_DOF */
+    float focus_distance;
+} camera;
+
+typedef struct {
+    char *path; /* the scene file, for messages */
+    char *name;
+    mesh mesh;
+    material *materials;
+    char **material_names;
+    int material_count;
+    texture *textures;
+    int texture_count;
+    light *lights;
+    int light_count;
+    camera camera;
+    vec3 background;
+    int width, height;
+    unsigned effects;
+    size_t degenerate_triangles; /* zero-area triangles dropped at load time */
+    vec3 bounds_lo, bounds_hi;
+    uint64_t identity; /* hash of geometry and materials: baked files name the scene they belong to */
+} scene;
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+int scene_load(const char *path, scene *s, vx_err *e);
+void scene_free(scene *s);
+/* Parses "shadows", "specular", "dof", "textures"; returns 0 for an unknown name. */
+unsigned effect_from_name(const char *name);
+const char *effect_name(unsigned effect);
+/* Parses a --size WxH option with the same limits as a scene's "size". */
+int scene_parse_size_string(const char *text, int *w, int *h, vx_err *e);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

@@ -1,0 +1,170 @@
+#include "truth.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "camera.h"
+#include "parallel.h"
+#include "rng.h"
+
+#define PACKET 16
+
+typedef struct {
+    const rt_scene *rt;
+    const truth_options *o;
+    image *out;
+    truth_counts *per_thread;
+} truth_job;
+
+void truth_stratified_sample(int i, int n, float r1, float r2, float *x, float *y)
+{
+    int sx = (int)floor(sqrt((double)n));
+    if (sx < 1)
+        sx = 1;
+    int sy = n / sx;
+    if (i < sx * sy) {
+        *x = ((float)(i % sx) + r1) / (float)sx;
+        *y = ((float)(i / sx) + r2) / (float)sy;
+    } else {
+        *x = r1;
+        *y = r2;
+    }
+}
+
+/* Traces up to 16 samples of one pixel and adds their radiance to sum. */
+static void trace_packet(const rt_scene *rt, const truth_options *o, int px, int py, int first, int count, rng *r,
+                         vec3 *sum, truth_counts *counts)
+{
+    const scene *s = rt->scene;
+    int dof = (s->effects & EFFECT_DOF) != 0;
+    struct RTCRayHit16 rh;
+    int valid[PACKET] __attribute__((aligned(64)));
+    vec3 dirs[PACKET];
+    for (int k = 0; k < PACKET; k++) {
+        valid[k] = k < count ? -1 : 0;
+        float sx = 0, sy = 0, lu = 0, lv = 0;
+        if (k < count) {
+            float r1 = rng_float(r), r2 = rng_float(r);
+            truth_stratified_sample(first + k, o->spp, r1, r2, &sx, &sy);
+            if (dof) {
+                lu = rng_float(r);
+                lv = rng_float(r);
+            }
+        }
+        vec3 org, dir;
+        camera_ray(&s->camera, o->width, o->height, (float)px + sx, (float)py + sy, lu, lv, dof, &org, &dir);
+        dirs[k] = dir;
+        rh.ray.org_x[k] = org.x, rh.ray.org_y[k] = org.y, rh.ray.org_z[k] = org.z;
+        rh.ray.dir_x[k] = dir.x, rh.ray.dir_y[k] = dir.y, rh.ray.dir_z[k] = dir.z;
+        rh.ray.tnear[k] = 0.0f;
+        rh.ray.tfar[k] = INFINITY;
+        rh.ray.time[k] = 0.0f;
+        rh.ray.mask[k] = 0xffffffffu;
+        rh.ray.id[k] = (unsigned)k;
+        rh.ray.flags[k] = 0;
+        rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+    }
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    rtcIntersect16(valid, rt->bvh, &ctx, &rh);
+    counts->primary_rays += (uint64_t)count;
+
+    surface_hit hits[PACKET];
+    int hit[PACKET];
+    for (int k = 0; k < count; k++) {
+        hit[k] = rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID;
+        if (hit[k])
+            rt_surface(rt, rh.hit.primID[k], rh.hit.u[k], rh.hit.v[k],
+                       v3(rh.ray.org_x[k], rh.ray.org_y[k], rh.ray.org_z[k]), dirs[k], rh.ray.tfar[k], &hits[k]);
+        else
+            sum[0] = v3_add(sum[0], s->background);
+    }
+    int shadows = (s->effects & EFFECT_SHADOWS) != 0;
+    for (int li = 0; li < s->light_count; li++) {
+        vec3 to_light[PACKET], irr[PACKET];
+        int lit[PACKET];
+        struct RTCRay16 sr;
+        int svalid[PACKET] __attribute__((aligned(64)));
+        int nshadow = 0;
+        for (int k = 0; k < PACKET; k++) {
+            svalid[k] = 0;
+            lit[k] = 0;
+            if (k >= count || !hit[k] || !hits[k].shaded)
+                continue;
+            float dist;
+            rt_light_at(s, li, hits[k].position, &to_light[k], &irr[k], &dist);
+            vec3 side = hits[k].front_facing ? hits[k].geometric_normal : v3_scale(hits[k].geometric_normal, -1.0f);
+            if (v3_dot(side, to_light[k]) <= 0.0f || v3_dot(hits[k].normal, to_light[k]) <= 0.0f)
+                continue; /* faces away: no light, and no shadow ray needed */
+            lit[k] = 1;
+            if (!shadows)
+                continue;
+            vec3 org = v3_madd(hits[k].position, side, rt->epsilon);
+            sr.org_x[k] = org.x, sr.org_y[k] = org.y, sr.org_z[k] = org.z;
+            sr.dir_x[k] = to_light[k].x, sr.dir_y[k] = to_light[k].y, sr.dir_z[k] = to_light[k].z;
+            sr.tnear[k] = 0.0f;
+            sr.tfar[k] = isinf(dist) ? INFINITY : dist * (1.0f - 1e-5f);
+            sr.time[k] = 0.0f;
+            sr.mask[k] = 0xffffffffu;
+            sr.id[k] = (unsigned)k;
+            sr.flags[k] = 0;
+            svalid[k] = -1;
+            nshadow++;
+        }
+        if (nshadow) {
+            struct RTCIntersectContext sctx;
+            rtcInitIntersectContext(&sctx);
+            rtcOccluded16(svalid, rt->bvh, &sctx, &sr);
+            counts->shadow_rays += (uint64_t)nshadow;
+            for (int k = 0; k < count; k++)
+                if (svalid[k] && sr.tfar[k] < 0.0f) /* Embree sets tfar = -inf for occluded rays */
+                    lit[k] = 0;
+        }
+        for (int k = 0; k < count; k++)
+            if (lit[k])
+                sum[0] = v3_add(sum[0], rt_shade_light(s, &hits[k], v3_scale(dirs[k], -1.0f), to_light[k], irr[k]));
+    }
+}
+
+static void render_row(void *p, int64_t row, int thread)
+{
+    truth_job *j = p;
+    const truth_options *o = j->o;
+    truth_counts *counts = &j->per_thread[thread];
+    int py = (int)row;
+    for (int px = 0; px < o->width; px++) {
+        rng r = rng_seed(o->seed, (uint64_t)py * (uint64_t)o->width + (uint64_t)px);
+        vec3 sum = v3(0, 0, 0);
+        for (int first = 0; first < o->spp; first += PACKET) {
+            int n = o->spp - first < PACKET ? o->spp - first : PACKET;
+            trace_packet(j->rt, o, px, py, first, n, &r, &sum, counts);
+        }
+        float *dst = &j->out->data[3 * ((size_t)py * (size_t)o->width + (size_t)px)];
+        dst[0] = sum.x / (float)o->spp;
+        dst[1] = sum.y / (float)o->spp;
+        dst[2] = sum.z / (float)o->spp;
+    }
+}
+
+int truth_render(const rt_scene *rt, const truth_options *o, image *out, truth_counts *counts, vx_err *e)
+{
+    if (o->spp < 1)
+        return vx_fail(e, "--spp %d: expected at least 1 sample per pixel", o->spp);
+    if (image_alloc(out, o->width, o->height, 3, e))
+        return -1;
+    int threads = parallel_threads(o->threads);
+    truth_counts *per_thread = calloc((size_t)threads, sizeof(truth_counts));
+    truth_job j = {rt, o, out, per_thread};
+    double t0 = now_seconds();
+    parallel_for(o->height, threads, render_row, &j, o->progress ? "truth" : NULL);
+    memset(counts, 0, sizeof *counts);
+    counts->seconds = now_seconds() - t0;
+    for (int t = 0; t < threads; t++) {
+        counts->primary_rays += per_thread[t].primary_rays;
+        counts->shadow_rays += per_thread[t].shadow_rays;
+    }
+    free(per_thread);
+    return 0;
+}
