@@ -19,11 +19,13 @@ CXX = g++
 INCLUDES = -Itracer -Imodels -Iscenes/generators -I/usr/include/embree3 -I/usr/include/OpenEXR
 CFLAGS = -std=c11 $(OPT) -g -march=x86-64-v2 -Wall -Wextra -Werror $(NOWARN) -D_GNU_SOURCE -pthread -MMD -MP $(INCLUDES) $(SANFLAGS)
 CXXFLAGS = -std=c++17 $(OPT) -g -Wall -Wextra -Werror -pthread -MMD -MP $(INCLUDES) $(SANFLAGS)
-LDFLAGS = -pthread $(SANFLAGS)
-LDLIBS = -lembree3 -lOpenEXRCore -lOpenImageIO -lOpenImageIO_Util -ltinygltf -lcjson -lm
+# -rdynamic: the OpenImageIO plugin calls back into the executable (see tracer/image_oiio.cpp).
+LDFLAGS = -pthread -rdynamic $(SANFLAGS)
+LDLIBS = -lembree3 -lOpenEXRCore -ltinygltf -lcjson -lm -ldl
+PLUGIN = $(BUILD)/libvoxlab_oiio.so
 
 # Every source file of the library; main.c is the CLI only.
-LIB_SRC = $(filter-out tracer/main.c,$(wildcard tracer/*.c tracer/*.cpp models/*.c scenes/generators/*.c))
+LIB_SRC = $(filter-out tracer/main.c tracer/image_oiio.cpp,$(wildcard tracer/*.c tracer/*.cpp models/*.c scenes/generators/*.c))
 LIB_OBJ = $(patsubst %,$(BUILD)/%.o,$(LIB_SRC))
 UNIT_SRC = $(wildcard tests/unit_*.c)
 UNIT_BIN = $(patsubst tests/%.c,$(BUILD)/tests/%,$(UNIT_SRC))
@@ -37,8 +39,12 @@ DEPS = build-essential libembree-dev libopenexr-dev libopenimageio-dev libtinygl
 .PHONY: all deps test test-asan bench demo clean
 all: $(BUILD)/voxlab
 
-$(BUILD)/voxlab: $(BUILD)/tracer/main.c.o $(LIB_OBJ)
+$(BUILD)/voxlab: $(BUILD)/tracer/main.c.o $(LIB_OBJ) | $(PLUGIN)
 	$(CXX) $(LDFLAGS) -o $@ $^ $(LDLIBS)
+
+$(PLUGIN): tracer/image_oiio.cpp tracer/image.h tracer/error.h
+	@mkdir -p $(dir $@)
+	$(CXX) $(CXXFLAGS) -fPIC -shared -o $@ $< -lOpenImageIO -lOpenImageIO_Util
 
 $(BUILD)/%.c.o: %.c
 	@mkdir -p $(dir $@)
@@ -48,7 +54,7 @@ $(BUILD)/%.cpp.o: %.cpp
 	@mkdir -p $(dir $@)
 	$(CXX) $(CXXFLAGS) -c -o $@ $<
 
-$(BUILD)/tests/%: tests/%.c $(LIB_OBJ)
+$(BUILD)/tests/%: tests/%.c $(LIB_OBJ) | $(PLUGIN)
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS) -Itests -c -o $@.o $<
 	$(CXX) $(LDFLAGS) -o $@ $@.o $(LIB_OBJ) $(LDLIBS)

@@ -32,6 +32,9 @@ static inline void set_bits(uint64_t *w, uint64_t m)
 }
 
 static inline int clampi(int v, int lo, int hi) { return v < lo ? lo : (v > hi ? hi : v); }
+/* Plain comparisons: libm's fmin/fmax are not inlined (NaN rules) and the inputs here are finite. */
+static inline double dmin(double a, double b) { return a < b ? a : b; }
+static inline double dmax(double a, double b) { return a > b ? a : b; }
 
 /* Range of integer v with A*u + B*v + C >= 0 for the three edges of projection `ax` at row u,
  * widened by one cell each way against rounding (the exact test decides afterwards). Returns 0 when
@@ -43,15 +46,15 @@ static int row_range(const tribox_cells *s, int ax, double u, int *vlo, int *vhi
         double A = s->edge[ax][i][0], B = s->edge[ax][i][1], C = s->edge[ax][i][2];
         double r = A * u + C;
         if (B > 0.0)
-            lo = fmax(lo, -r / B);
+            lo = dmax(lo, -r / B);
         else if (B < 0.0)
-            hi = fmin(hi, -r / B);
+            hi = dmin(hi, -r / B);
         else if (r < 0.0)
             return 0;
     }
     /* Clamp in double before converting: the bounds may be far outside int range. */
-    lo = fmax(lo, (double)*vlo);
-    hi = fmin(hi, (double)*vhi);
+    lo = dmax(lo, (double)*vlo);
+    hi = dmin(hi, (double)*vhi);
     if (lo > hi + 1.0)
         return 0;
     *vlo = clampi((int)floor(lo) - 1, *vlo, *vhi);
@@ -103,8 +106,8 @@ static void voxelize_triangle(build_job *job, size_t t)
                 wa = wb;
                 wb = tmp;
             }
-            wa = fmax(floor(wa), (double)lo[D]);
-            wb = fmin(ceil(wb), (double)hi[D]);
+            wa = dmax(floor(wa), (double)lo[D]);
+            wb = dmin(ceil(wb), (double)hi[D]);
             if (wa > wb)
                 continue; /* also keeps the int conversions below in range */
             for (int w = (int)wa; w <= (int)wb; w++) {

@@ -108,6 +108,18 @@ VX_INLINE int64_t grid_level_index(const grid_level *L, int x, int y, int z)
     return (int64_t)L->prefix[w] + __builtin_popcountll(bits & ((UINT64_C(1) << b) - 1u));
 }
 
+/* Whether a cell known to be inside the level is non-empty (the index without the prefix load). */
+VX_INLINE int grid_level_occupied(const grid_level *L, int x, int y, int z)
+{
+    uint64_t col = L->cols[(size_t)x * (size_t)L->n + (size_t)y];
+    unsigned j = (unsigned)z >> 6;
+    uint32_t mask = (uint32_t)(col & 0xffffu);
+    if (!((mask >> j) & 1u))
+        return 0;
+    size_t w = (size_t)(col >> 16) + (size_t)__builtin_popcount(mask & ((1u << j) - 1u));
+    return (int)((L->bits[w] >> ((unsigned)z & 63u)) & 1u);
+}
+
 /* Dense index of cell (x, y, z) of `level`, -1 when the cell is empty or outside the grid. */
 VX_INLINE int64_t grid_index(const voxel_grid *g, int level, int x, int y, int z)
 {

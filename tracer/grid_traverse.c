@@ -5,15 +5,17 @@
 
 /* Where the ray crosses plane `k` of axis a. Every boundary distance the iterator uses comes from
  * this one formula (never from accumulating t_delta), so the stepping, the clipping to the grid and
- * the jumps over empty ancestors agree exactly about the order of planes. */
+ * the steps over empty blocks and the descents into children agree exactly about the order of planes. */
 static inline double plane_t(const grid_iter *it, int a, int k) { return ((double)k - it->o[a]) * it->inv[a]; }
 
-static inline double exit_t(const grid_iter *it, int a, int c)
+/* Where the ray leaves block b (2^k cells a side) on axis a. Blocks of the last row may stick out
+ * of the grid: their exit plane then lies past t_end, which ends the walk anyway. */
+static inline double exit_t(const grid_iter *it, int a, int b, int k)
 {
     if (it->dir[a] > 0)
-        return plane_t(it, a, c + 1);
+        return plane_t(it, a, (b + 1) << k);
     if (it->dir[a] < 0)
-        return plane_t(it, a, c);
+        return plane_t(it, a, b << k);
     return INFINITY;
 }
 
@@ -82,8 +84,8 @@ int grid_iter_init(grid_iter *it, const voxel_grid *g, int level, vec3 origin, v
             ta = tb;
             tb = tmp;
         }
-        t0 = fmax(t0, ta);
-        t1 = fmin(t1, tb);
+        t0 = t0 > ta ? t0 : ta;
+        t1 = t1 < tb ? t1 : tb;
     }
     if (!moving || !(t0 < t1))
         return 0;
@@ -91,15 +93,19 @@ int grid_iter_init(grid_iter *it, const voxel_grid *g, int level, vec3 origin, v
     it->t_end = t1;
     for (int a = 0; a < 3; a++) {
         it->c[a] = it->dir[a] ? cell_at(it, a, t0, 0, n - 1) : (int)floor(o[a]);
-        it->t_next[a] = exit_t(it, a, it->c[a]);
+        it->fixed[a] = it->c[a];
+        it->t_next[a] = exit_t(it, a, it->c[a], 0);
     }
     it->active = 1;
     return 1;
 }
 
-/* Into the neighbouring cell across the nearest exit plane (ties: lowest axis first), the ray
- * being at t1 there. */
-static inline void step(grid_iter *it, double t1)
+static inline double min2(double a, double b) { return a < b ? a : b; }
+static inline double max2(double a, double b) { return a > b ? a : b; }
+
+/* One DDA step at the current block size: into the neighbouring block across the nearest exit
+ * plane (ties: lowest axis first). Only that axis changes, as in Amanatides & Woo. */
+static inline void advance(grid_iter *it, double t1, int nk)
 {
     if (t1 >= it->t_end) {
         it->active = 0;
@@ -107,87 +113,83 @@ static inline void step(grid_iter *it, double t1)
     }
     int a = it->t_next[0] <= it->t_next[1] ? (it->t_next[0] <= it->t_next[2] ? 0 : 2)
                                            : (it->t_next[1] <= it->t_next[2] ? 1 : 2);
-    int c = it->c[a] + it->dir[a];
-    if (c < 0 || c >= it->n) {
+    int b = it->c[a] + it->dir[a];
+    if (b < 0 || b >= nk) {
         it->active = 0;
         return;
     }
-    it->c[a] = c;
+    if ((b ^ it->c[a]) >> 1)
+        it->parent_ok = 0; /* crossed into another parent */
+    it->c[a] = b;
     it->t = t1;
-    it->t_next[a] = exit_t(it, a, c);
+    it->t_next[a] = exit_t(it, a, b, it->k);
 }
 
-/* Leaves the empty block of 2^k cells a side (the current cell's ancestor k levels up, clipped to
- * the grid) in one move: the exit plane is found as for a cell, and the other axes' cells at that
- * distance are found by cell_at inside the block's range. No axis moves backwards, so every jump
- * makes progress even when rounding disagrees about the exact crossing. */
-static void jump(grid_iter *it, int k)
+static inline double cell_exit(const grid_iter *it)
 {
-    int lo[3], hi[3], best = -1;
-    double tb = INFINITY;
-    for (int a = 0; a < 3; a++) {
-        lo[a] = (it->c[a] >> k) << k;
-        hi[a] = lo[a] + (1 << k) < it->n ? lo[a] + (1 << k) : it->n; /* exclusive */
-        if (it->dir[a] == 0)
-            continue;
-        double ta = plane_t(it, a, it->dir[a] > 0 ? hi[a] : lo[a]);
-        if (ta < tb) {
-            tb = ta;
-            best = a;
-        }
-    }
-    tb = fmax(tb, it->t);
-    if (best < 0 || tb >= it->t_end) {
-        it->active = 0;
-        return;
-    }
-    int nc = it->dir[best] > 0 ? hi[best] : lo[best] - 1;
-    if (nc < 0 || nc >= it->n) {
-        it->active = 0;
-        return;
-    }
-    for (int a = 0; a < 3; a++) {
-        if (a == best || it->dir[a] == 0)
-            continue;
-        int c = cell_at(it, a, tb, lo[a], hi[a] - 1);
-        it->c[a] = it->dir[a] > 0 ? (c > it->c[a] ? c : it->c[a]) : (c < it->c[a] ? c : it->c[a]);
-    }
-    it->c[best] = nc;
-    it->t = tb;
-    for (int a = 0; a < 3; a++)
-        it->t_next[a] = exit_t(it, a, it->c[a]);
+    return max2(min2(min2(it->t_next[0], it->t_next[1]), min2(it->t_next[2], it->t_end)), it->t);
 }
 
 int grid_iter_next(grid_iter *it, grid_hit *hit)
 {
     const voxel_grid *g = it->g;
+    const grid_level *lv = g->level + it->level; /* lv[k]: blocks of 2^k cells */
+    const int top = g->levels - 1 - it->level;   /* largest k: a single block */
     while (it->active) {
-        const grid_level *L = &g->level[it->level];
-        int64_t idx = grid_level_index(L, it->c[0], it->c[1], it->c[2]);
-        if (idx >= 0) {
-            double t1 = fmin(fmin(it->t_next[0], it->t_next[1]), fmin(it->t_next[2], it->t_end));
-            t1 = fmax(t1, it->t);
-            hit->x = it->c[0];
-            hit->y = it->c[1];
-            hit->z = it->c[2];
-            hit->index = idx;
-            hit->t0 = (float)it->t;
-            hit->t1 = (float)t1;
-            step(it, t1);
-            return 1;
-        }
-        /* Empty: find the largest empty ancestor and leave it. */
-        int k = 0;
-        while (it->level + k + 1 < g->levels &&
-               grid_level_index(&g->level[it->level + k + 1], it->c[0] >> (k + 1), it->c[1] >> (k + 1),
-                                it->c[2] >> (k + 1)) < 0)
-            k++;
+        int k = it->k;
         if (k == 0) {
-            double t1 = fmin(fmin(it->t_next[0], it->t_next[1]), fmin(it->t_next[2], it->t_end));
-            step(it, fmax(t1, it->t));
-        } else {
-            jump(it, k);
+            int64_t idx = grid_level_index(lv, it->c[0], it->c[1], it->c[2]);
+            if (idx >= 0) {
+                double t1 = cell_exit(it);
+                hit->x = it->c[0];
+                hit->y = it->c[1];
+                hit->z = it->c[2];
+                hit->index = idx;
+                hit->t0 = (float)it->t;
+                hit->t1 = (float)t1;
+                /* A non-empty cell has a non-empty parent. */
+                it->parent_ok = 1;
+                advance(it, t1, lv[0].n);
+                return 1;
+            }
+        } else if (grid_level_occupied(lv + k, it->c[0], it->c[1], it->c[2])) {
+            /* Something in this block: go down to the child the ray is in at t, found by comparing
+             * t with the crossing of each axis' mid-plane (just after t, like cell_at). */
+            int h = k - 1, nh = lv[h].n;
+            for (int a = 0; a < 3; a++) {
+                int child;
+                if (it->dir[a] == 0)
+                    child = (it->fixed[a] >> h) & 1;
+                else {
+                    int crossed = plane_t(it, a, (2 * it->c[a] + 1) << h) <= it->t;
+                    child = it->dir[a] > 0 ? crossed : !crossed;
+                }
+                int b = 2 * it->c[a] + child;
+                it->c[a] = b < nh ? b : nh - 1; /* a partial last block has one child */
+                it->t_next[a] = exit_t(it, a, it->c[a], h);
+            }
+            it->k = h;
+            it->parent_ok = 1;
+            continue;
         }
+        /* Empty block: grow it while its parent is empty too, then step over it. */
+        if (!it->parent_ok && k < top) {
+            while (k < top) {
+                if (grid_level_occupied(lv + k + 1, it->c[0] >> 1, it->c[1] >> 1, it->c[2] >> 1)) {
+                    it->parent_ok = 1;
+                    break;
+                }
+                k++;
+                for (int a = 0; a < 3; a++)
+                    it->c[a] >>= 1;
+            }
+            if (k != it->k) {
+                it->k = k;
+                for (int a = 0; a < 3; a++)
+                    it->t_next[a] = exit_t(it, a, it->c[a], k);
+            }
+        }
+        advance(it, cell_exit(it), lv[k].n);
     }
     return 0;
 }

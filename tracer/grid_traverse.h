@@ -1,7 +1,10 @@
 /* Front-to-back traversal of the non-empty cells of one level of a voxel_grid along a ray: a 3D-DDA
- * (Amanatides & Woo 1987) that jumps over empty space using the coarser MIP levels (when the cell is
- * empty, the largest empty ancestor is left in one step, so a ray through an empty region costs
- * about log2 of its length in lookups rather than one per cell).
+ * (Amanatides & Woo 1987) that skips empty space using the coarser MIP levels. The DDA runs over
+ * blocks of 2^k cells (the cells k levels up): an empty block is stepped over like a cell, k goes
+ * up while the parent block is empty too, and a non-empty block makes k go down (into the child the
+ * ray is in) until single cells are reached. A ray through an empty region thus costs about log2 of
+ * its length in steps rather than one per cell; a step is a few multiply-adds and one or two
+ * occupancy lookups.
  *
  * Iterator style: grid_iter_init, then grid_iter_next until it returns 0; stop whenever you like.
  * The iterator is a plain value, so copying it saves the position; to resume from a distance t
@@ -37,11 +40,15 @@ typedef struct {
     const voxel_grid *g;
     int level, n;       /* level traversed, its cells per side */
     int active;         /* 0 once the ray has left the grid or passed t_max */
-    int c[3], dir[3];   /* current cell, step per axis (-1, 0, +1) */
+    int c[3];           /* current block (cell when k = 0), in units of 2^k cells */
+    int dir[3];         /* step per axis (-1, 0, +1) */
+    int fixed[3];       /* the cell on axes where the ray does not move */
     double o[3], inv[3]; /* ray origin in the level's lattice units, 1 / direction (0 where d = 0) */
     double d[3];
-    double t, t_end;    /* entry of the current cell, end of the ray in the grid */
-    double t_next[3];   /* where the ray crosses the current cell's exit plane on each axis */
+    double t, t_end;    /* entry of the current block, end of the ray in the grid */
+    double t_next[3];   /* where the ray crosses the current block's exit plane on each axis */
+    int k;              /* the walk is over blocks of 2^k cells (cells of the level k above) */
+    int parent_ok;      /* the current block's parent is known to be non-empty */
 } grid_iter;
 
 #ifdef __cplusplus

@@ -1,6 +1,11 @@
 // Thin C++ shim over OpenImageIO: reading any format as float, and storing 8-bit PNG samples that
 // image.c has already sRGB-encoded. Everything colour-related stays in our C code so that the
 // numbers are ours and testable; OIIO only does container I/O.
+//
+// Built as a plugin, build/libvoxlab_oiio.so, that image_oiio_plugin.c opens on first use:
+// linking OpenImageIO (and its ~250 shared libraries) into voxlab costs ~1 s at every start, which
+// every truth/bake/render run would pay for nothing. The plugin calls back into the executable
+// (vx_fail, image_alloc, image_free), which exports them (-rdynamic).
 #include <OpenImageIO/imageio.h>
 
 #include <cerrno>
@@ -23,7 +28,7 @@ static std::string one_line(std::string s)
     return s.empty() ? std::string("unknown error") : s;
 }
 
-extern "C" int image_read(const char *path, image *out, vx_err *e)
+extern "C" int vx_oiio_read(const char *path, image *out, vx_err *e)
 {
     std::memset(out, 0, sizeof *out);
     // OIIO words a missing file as "no format reader"; check first for the real reason.
@@ -58,7 +63,7 @@ extern "C" int image_read(const char *path, image *out, vx_err *e)
     return 0;
 }
 
-extern "C" int image_write_png8_oiio(const unsigned char *px, int width, int height, int channels,
+extern "C" int vx_oiio_write_png8(const unsigned char *px, int width, int height, int channels,
                                      const char *path, const char *what, vx_err *e)
 {
     // Created by format name because `path` is a temporary name whose extension is not ".png".

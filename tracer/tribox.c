@@ -2,6 +2,9 @@
 
 #include <math.h>
 
+static inline double dmin(double a, double b) { return a < b ? a : b; }
+static inline double dmax(double a, double b) { return a > b ? a : b; }
+
 static void sub3(double r[3], const double a[3], const double b[3])
 {
     r[0] = a[0] - b[0];
@@ -23,7 +26,7 @@ static double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + 
 static int separated(const double axis[3], const double v[3][3], const double half[3])
 {
     double p0 = dot3(axis, v[0]), p1 = dot3(axis, v[1]), p2 = dot3(axis, v[2]);
-    double mn = fmin(p0, fmin(p1, p2)), mx = fmax(p0, fmax(p1, p2));
+    double mn = dmin(p0, dmin(p1, p2)), mx = dmax(p0, dmax(p1, p2));
     double r = half[0] * fabs(axis[0]) + half[1] * fabs(axis[1]) + half[2] * fabs(axis[2]);
     return mn > r || mx < -r;
 }
@@ -42,7 +45,7 @@ int tribox_overlap_d(const double lo[3], const double hi[3], const double a[3], 
     sub3(v[2], c, centre);
     /* Box normals first: the cheapest and most often decisive (bounding-box rejection). */
     for (int i = 0; i < 3; i++) {
-        double mn = fmin(v[0][i], fmin(v[1][i], v[2][i])), mx = fmax(v[0][i], fmax(v[1][i], v[2][i]));
+        double mn = dmin(v[0][i], dmin(v[1][i], v[2][i])), mx = dmax(v[0][i], dmax(v[1][i], v[2][i]));
         if (mn > half[i] || mx < -half[i])
             return 0;
     }
@@ -109,13 +112,13 @@ int tribox_cells_setup(tribox_cells *s, const double a[3], const double b[3], co
             double A = -e[i][w] * sgn, B = e[i][u] * sgn;
             s->edge[ax][i][0] = A;
             s->edge[ax][i][1] = B;
-            s->edge[ax][i][2] = -(A * v[i][u] + B * v[i][w]) + fmax(0.0, A) + fmax(0.0, B);
+            s->edge[ax][i][2] = -(A * v[i][u] + B * v[i][w]) + dmax(0.0, A) + dmax(0.0, B);
         }
     }
 
     int dom = 0;
     for (int i = 0; i < 3; i++) {
-        double mn = fmin(a[i], fmin(b[i], c[i])), mx = fmax(a[i], fmax(b[i], c[i]));
+        double mn = dmin(a[i], dmin(b[i], c[i])), mx = dmax(a[i], dmax(b[i], c[i]));
         /* Cell k spans [k, k+1]: a minimum exactly on an integer plane also touches the cell
          * below it, hence ceil - 1 rather than floor. The casts are the caller's to keep in
          * range (grid coordinates are within a few cells of [0, 1024]). */

@@ -135,37 +135,59 @@ void heightfield_surface_free(heightfield_surface *s)
     s->kx = s->kz = s->phase = NULL;
 }
 
-/* Running sums over waves: cos of the phase (the height) and sin times kx, kz (the gradient). */
+/* Running sums over waves: cos of the phase (the height) and sin times kx, kz (the gradient).
+ * Wave w goes to lane w % LANES: independent chains the CPU (and vectoriser) can overlap, in a
+ * fixed order, so results stay bit-reproducible. */
+enum { LANES = 4 };
 typedef struct {
-    double cos_sum, kx_sin_sum, kz_sin_sum;
+    double cos_sum[LANES], kx_sin_sum[LANES], kz_sin_sum[LANES];
 } wave_sums;
 
-/* Adds waves [first, first + count), given e^{i kx x} in ex and e^{i (kz z + phase)} in ez as
- * (re, im) pairs. cos and sin of the full phase come from one complex product, so the mesh can
- * tabulate the x factor per column and the z factor per row instead of calling cos per vertex and
- * wave. The mesh and heightfield_eval both go through here, in the same order: bit-identical. */
+/* Adds waves [first, first + count) (first a multiple of LANES), given e^{i kx x} in ex and
+ * e^{i (kz z + phase)} in ez, each as count real parts then count imaginary parts. cos and sin of
+ * the full phase come from one complex product, so the mesh can tabulate the x factor per column
+ * and the z factor per row instead of calling cos per vertex and wave. The mesh and
+ * heightfield_eval both go through here, in the same order: bit-identical. */
 static void add_waves(const heightfield_surface *s, int first, int count, const double *ex, const double *ez,
                       wave_sums *sums)
 {
-    double c = sums->cos_sum, gx = sums->kx_sin_sum, gz = sums->kz_sin_sum;
-    for (int w = 0; w < count; w++) {
-        double xr = ex[2 * w], xi = ex[2 * w + 1], zr = ez[2 * w], zi = ez[2 * w + 1];
-        double cos_phase = xr * zr - xi * zi, sin_phase = xr * zi + xi * zr;
-        c += cos_phase;
-        gx += s->kx[first + w] * sin_phase;
-        gz += s->kz[first + w] * sin_phase;
+    const double *xr = ex, *xi = ex + count, *zr = ez, *zi = ez + count;
+    const double *kx = s->kx + first, *kz = s->kz + first;
+    double c[LANES], gx[LANES], gz[LANES];
+    for (int l = 0; l < LANES; l++) {
+        c[l] = sums->cos_sum[l];
+        gx[l] = sums->kx_sin_sum[l];
+        gz[l] = sums->kz_sin_sum[l];
     }
-    sums->cos_sum = c;
-    sums->kx_sin_sum = gx;
-    sums->kz_sin_sum = gz;
+    int w = 0;
+    for (; w + LANES <= count; w += LANES) {
+        for (int l = 0; l < LANES; l++) {
+            double cos_phase = xr[w + l] * zr[w + l] - xi[w + l] * zi[w + l];
+            double sin_phase = xr[w + l] * zi[w + l] + xi[w + l] * zr[w + l];
+            c[l] += cos_phase;
+            gx[l] += kx[w + l] * sin_phase;
+            gz[l] += kz[w + l] * sin_phase;
+        }
+    }
+    for (int l = 0; w < count; w++, l++) {
+        double cos_phase = xr[w] * zr[w] - xi[w] * zi[w], sin_phase = xr[w] * zi[w] + xi[w] * zr[w];
+        c[l] += cos_phase;
+        gx[l] += kx[w] * sin_phase;
+        gz[l] += kz[w] * sin_phase;
+    }
+    for (int l = 0; l < LANES; l++) {
+        sums->cos_sum[l] = c[l];
+        sums->kx_sin_sum[l] = gx[l];
+        sums->kz_sin_sum[l] = gz[l];
+    }
 }
 
 static void x_factors(const heightfield_surface *s, int first, int count, double x, double *ex)
 {
     for (int w = 0; w < count; w++) {
         double a = s->kx[first + w] * x;
-        ex[2 * w] = cos(a);
-        ex[2 * w + 1] = sin(a);
+        ex[w] = cos(a);
+        ex[count + w] = sin(a);
     }
 }
 
@@ -173,20 +195,22 @@ static void z_factors(const heightfield_surface *s, int first, int count, double
 {
     for (int w = 0; w < count; w++) {
         double a = s->kz[first + w] * z + s->phase[first + w];
-        ez[2 * w] = cos(a);
-        ez[2 * w + 1] = sin(a);
+        ez[w] = cos(a);
+        ez[count + w] = sin(a);
     }
 }
+
+static double lane_total(const double *lanes) { return (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]); }
 
 /* h = A sum cos, dh/dx = -A sum kx sin, dh/dz = -A sum kz sin. */
 static double finish(const heightfield_surface *s, const wave_sums *sums, vec3 *normal)
 {
     if (normal) {
-        double nx = s->amplitude * sums->kx_sin_sum, nz = s->amplitude * sums->kz_sin_sum;
+        double nx = s->amplitude * lane_total(sums->kx_sin_sum), nz = s->amplitude * lane_total(sums->kz_sin_sum);
         double len = sqrt(nx * nx + 1.0 + nz * nz);
         *normal = v3((float)(nx / len), (float)(1.0 / len), (float)(nz / len));
     }
-    return s->amplitude * sums->cos_sum;
+    return s->amplitude * lane_total(sums->cos_sum);
 }
 
 double heightfield_color_weight(const heightfield_surface *s, double h) { return erf(h / (M_SQRT2 * s->sigma_h)); }
@@ -198,9 +222,9 @@ vec3 heightfield_color(const heightfield_surface *s, double h)
 
 double heightfield_eval(const heightfield_surface *s, double x, double z, vec3 *normal, vec3 *color)
 {
-    enum { CHUNK = 64 };
+    enum { CHUNK = 64 }; /* a multiple of LANES */
     double ex[2 * CHUNK], ez[2 * CHUNK];
-    wave_sums sums = {0.0, 0.0, 0.0};
+    wave_sums sums = {{0.0}, {0.0}, {0.0}};
     for (int first = 0; first < s->wave_count; first += CHUNK) {
         int count = s->wave_count - first < CHUNK ? s->wave_count - first : CHUNK;
         x_factors(s, first, count, x, ex);
@@ -236,7 +260,7 @@ static int heightfield_generate(const cJSON *params, const char *where, uint64_t
         z_factors(&s, 0, waves, (double)z, ez);
         for (int i = 0; i <= res; i++) {
             float x = (float)(-half + s.size * i / res);
-            wave_sums sums = {0.0, 0.0, 0.0};
+            wave_sums sums = {{0.0}, {0.0}, {0.0}};
             add_waves(&s, 0, waves, ex + 2 * (size_t)waves * (size_t)i, ez, &sums);
             vec3 normal;
             double h = finish(&s, &sums, &normal);

@@ -35,7 +35,10 @@ static int read_params(const cJSON *params, const char *where, trees_params *p, 
         json_int_in(params, "count", where, 1, MAX_TREES, &p->count, e) ||
         json_int_in(params, "leaves_per_tree", where, 0, 20000, &p->leaves_per_tree, e) ||
         json_number_in(params, "ground_size", where, 1.0, 1000.0, &p->ground_size, e) ||
-        json_number_in(params, "leaf_size", where, 1e-4, 0.1 * p->ground_size, &p->leaf_size, e))
+        /* Relative lower bound: a leaf much smaller than the float spacing of its coordinates
+         * would collapse to zero area. */
+        json_number_in(params, "leaf_size", where, 1e-4 * p->ground_size, 0.1 * p->ground_size, &p->leaf_size,
+                       e))
         return -1;
     return 0;
 }

@@ -1,0 +1,125 @@
+/* The appearance-model interface. A model is one file in models/ plus one line in
+ * models/registry.c; the tracer only ever talks to this interface and never names a model.
+ *
+ * What a model declares:
+ *  - its name, a one-line description and the bytes of its per-voxel record;
+ *  - how it bakes a voxel's record from the shared bake sampler's rays (bake_voxel), and optionally
+ *    a pass over the whole grid afterwards (bake_finish: MIP levels, neighbourhood filters);
+ *  - how it answers a query (voxel, view direction, pixel footprint, lights): its directional
+ *    opacity (also used for shadow rays) and its radiance, plus an A-buffer coverage mask for models
+ *    that composite with masks;
+ *  - which compositing rule the tracer applies: first hit, front-to-back alpha, or coverage masks.
+ *
+ * Per-voxel evaluation (opacity, shade) is portable C: no libc beyond <math.h>, no allocation, no
+ * I/O, fixed-size structs, buffers behind the VX_GLOBAL address-space macro, so that the same source
+ * compiles as OpenCL C for the OpenCL backend. */
+#ifndef VX_MODEL_H
+#define VX_MODEL_H
+
+#include "vec.h"
+
+#ifdef __OPENCL_VERSION__
+#define VX_GLOBAL __global
+#else
+#include <stddef.h>
+#include <stdint.h>
+#define VX_GLOBAL
+#endif
+
+#define VX_MAX_LIGHTS 8
+#define VX_MASK_WORDS 4 /* 128-sample coverage masks (Heitz & Neyret: four 32-bit words) */
+
+enum {
+    VX_COMPOSITE_FIRST_HIT = 0, /* the first voxel with opacity > 0 gives the pixel's colour */
+    VX_COMPOSITE_ALPHA = 1,     /* front to back: C += (1 - A) a c, A += (1 - A) a */
+    VX_COMPOSITE_COVERAGE = 2,  /* A-buffer: L += L_d popcount(M_d & ~A) / 128, A |= M_d */
+};
+
+/* Effect bits a model may test (same values as scene.h's EFFECT_*). */
+enum { VX_EFFECT_SHADOWS = 1, VX_EFFECT_SPECULAR = 2, VX_EFFECT_DOF = 4, VX_EFFECT_TEXTURES = 8 };
+
+/* A query: one voxel seen along one ray (or cone), with the lights that reach it. */
+typedef struct {
+    vec3 to_viewer;      /* unit vector from the voxel toward the eye (minus the ray direction) */
+    vec3 ray_origin;     /* the ray, and the segment [t0, t1] of it inside the voxel */
+    vec3 ray_dir;        /* unit */
+    float t0, t1;
+    vec3 voxel_lo;       /* the voxel's lower corner and edge length (world units) */
+    float voxel_size;
+    float footprint;     /* radius of the pixel's cone at the voxel (world units) */
+    unsigned effects;    /* VX_EFFECT_* declared by the scene */
+    int light_count;
+    vec3 to_light[VX_MAX_LIGHTS];   /* unit, from the voxel centre toward each light */
+    vec3 irradiance[VX_MAX_LIGHTS]; /* irradiance on a facing surface, shadows already applied */
+} vx_query;
+
+/* A model's answer to a query. */
+typedef struct {
+    vec3 radiance;                  /* outgoing radiance toward the viewer (not premultiplied) */
+    float opacity;                  /* in [0, 1] */
+    unsigned int mask[VX_MASK_WORDS]; /* coverage of the footprint (VX_COMPOSITE_COVERAGE only) */
+} vx_answer;
+
+/* One ray of the shared bake sampler (see tracer/bake.h). */
+enum {
+    VX_SAMPLE_MISS = 0,         /* left the voxel and hit nothing after it */
+    VX_SAMPLE_INSIDE_FRONT = 1, /* closest hit inside the voxel, on a triangle's front side */
+    VX_SAMPLE_INSIDE_BACK = 2,  /* closest hit inside the voxel, on a back side */
+    VX_SAMPLE_OUTSIDE = 3,      /* crossed the voxel without a hit, hit something after it */
+};
+
+typedef struct {
+    vec3 origin;      /* outside the scene's bounds */
+    vec3 dir;         /* unit, uniform on the sphere */
+    float t_entry;    /* the ray's interval inside the voxel */
+    float t_exit;
+    float t_hit;      /* closest hit at or after t_entry; INFINITY for a miss */
+    int kind;         /* VX_SAMPLE_* */
+    int own_triangle; /* the hit triangle overlaps the voxel (Brito et al.'s per-voxel list) */
+    vec3 normal;      /* shading normal at the hit, on the side the ray came from (hits only) */
+    vec3 albedo;      /* diffuse colour at the hit (front hits of shaded surfaces; else 0) */
+    float specular;   /* the hit material's specular reflectance and roughness */
+    float roughness;
+} vx_sample;
+
+/* What a model knows about the voxel it bakes. */
+typedef struct {
+    int x, y, z;        /* level-0 cell */
+    long long index;    /* dense index */
+    vec3 lo;            /* lower corner */
+    float size;         /* edge length */
+    unsigned effects;
+} vx_voxel;
+
+struct voxel_grid;
+
+#ifndef __OPENCL_VERSION__
+typedef struct vx_model {
+    const char *name;
+    const char *description;
+    size_t voxel_bytes;  /* size of one per-voxel record */
+    int compositing;     /* VX_COMPOSITE_* */
+    /* 0: one record per non-empty level-0 voxel. 1: records for every MIP level too, level 0 first,
+     * then level 1, ... (each level's records in its dense-index order); bake_voxel fills level 0
+     * and bake_finish the coarser levels. */
+    int uses_levels;
+    /* Fills the record `out` (voxel_bytes, zeroed) from the voxel's n sample rays. Called from
+     * several threads at once, for different voxels. */
+    void (*bake_voxel)(const vx_voxel *v, const vx_sample *samples, int n, void *out);
+    /* Optional (may be NULL): runs once after every voxel is baked, with the whole grid and all
+     * records (see uses_levels). Returns 0, or -1 on failure. */
+    int (*bake_finish)(const struct voxel_grid *g, void *records);
+    /* Directional opacity of the voxel along q->ray_dir (for a shadow ray, the direction toward the
+     * light). */
+    float (*opacity)(VX_GLOBAL const void *record, const vx_query *q);
+    /* Radiance toward q->to_viewer (and the coverage mask for VX_COMPOSITE_COVERAGE); a->opacity
+     * holds the opacity the tracer already computed. */
+    void (*shade)(VX_GLOBAL const void *record, const vx_query *q, vx_answer *a);
+} vx_model;
+
+/* The registry (models/registry.c). */
+const vx_model *model_find(const char *name);
+const vx_model *const *model_all(void); /* NULL-terminated */
+#endif
+
+#endif
