@@ -36,36 +36,12 @@ static inline int clampi(int v, int lo, int hi) { return v < lo ? lo : (v > hi ?
 static inline double dmin(double a, double b) { return a < b ? a : b; }
 static inline double dmax(double a, double b) { return a > b ? a : b; }
 
-/* Range of integer v with A*u + B*v + C >= 0 for the three edges of projection `ax` at row u,
- * widened by one cell each way against rounding (the exact test decides afterwards). Returns 0 when
- * the row certainly misses the projected triangle. */
-static int row_range(const tribox_cells *s, int ax, double u, int *vlo, int *vhi)
-{
-    double lo = -INFINITY, hi = INFINITY;
-    for (int i = 0; i < 3; i++) {
-        double A = s->edge[ax][i][0], B = s->edge[ax][i][1], C = s->edge[ax][i][2];
-        double r = A * u + C;
-        if (B > 0.0)
-            lo = dmax(lo, -r / B);
-        else if (B < 0.0)
-            hi = dmin(hi, -r / B);
-        else if (r < 0.0)
-            return 0;
-    }
-    /* Clamp in double before converting: the bounds may be far outside int range. */
-    lo = dmax(lo, (double)*vlo);
-    hi = dmin(hi, (double)*vhi);
-    if (lo > hi + 1.0)
-        return 0;
-    *vlo = clampi((int)floor(lo) - 1, *vlo, *vhi);
-    *vhi = clampi((int)ceil(hi) + 1, *vlo, *vhi);
-    return 1;
-}
-
 /* Marks every cell the triangle overlaps. Cells are enumerated in columns along the axis D where
  * the normal is largest: over a column the plane's crossing spans at most (|nU|+|nV|)/|nD| <= 2
- * cells, so the work is proportional to the number of cells marked (plus the rows of the projected
- * bounding box), never to the bounding-box volume: a 512x512 ground plate costs 512^2 tests. */
+ * cells, and each row of columns is cut to the projected triangle, so the work is proportional to
+ * the number of cells marked, never to the bounding-box volume: a 512x512 ground plate costs about
+ * 512^2 cell tests. Ranges derived in floating point are widened by a cell against rounding; the
+ * exact SAT (tribox.h: plane + three projected edge tests) decides every cell. */
 static void voxelize_triangle(build_job *job, size_t t)
 {
     const mesh *m = job->m;
@@ -87,20 +63,37 @@ static void voxelize_triangle(build_job *job, size_t t)
             return;
     }
     const int D = s.dominant, U = (D + 1) % 3, V = (D + 2) % 3;
-    const double nU = s.n[U], nV = s.n[V], nD = s.n[D];
+    const double nU = s.n[U], nV = s.n[V], nD = s.n[D], inv_nD = 1.0 / nD;
+    /* Row cut: edge i of the D projection passes cells with A*u + B*v + C >= 0, a bound on v
+     * for each edge with B != 0. */
+    const double(*E)[3] = s.edge[D];
+    double inv_B[3];
+    for (int i = 0; i < 3; i++)
+        inv_B[i] = E[i][1] != 0.0 ? 1.0 / E[i][1] : 0.0;
     size_t cur_word = SIZE_MAX;
     uint64_t cur_mask = 0;
     for (int u = lo[U]; u <= hi[U]; u++) {
-        int v0 = lo[V], v1 = hi[V];
-        if (!row_range(&s, D, (double)u, &v0, &v1))
+        double vlo = (double)lo[V], vhi = (double)hi[V];
+        int skip = 0;
+        for (int i = 0; i < 3; i++) {
+            double r = E[i][0] * (double)u + E[i][2];
+            if (E[i][1] > 0.0)
+                vlo = dmax(vlo, -r * inv_B[i] - 1.0);
+            else if (E[i][1] < 0.0)
+                vhi = dmin(vhi, -r * inv_B[i] + 1.0);
+            else if (r < 0.0)
+                skip = 1;
+        }
+        if (skip || vlo > vhi + 1.0)
             continue;
+        /* vlo, vhi are within [lo[V] - 1, hi[V] + 1] here, so the conversions are safe. */
+        int v0 = clampi((int)floor(vlo), lo[V], hi[V]), v1 = clampi((int)ceil(vhi), lo[V], hi[V]);
         for (int vv = v0; vv <= v1; vv++) {
             if (!tribox_cells_edges(&s, D, (double)u, (double)vv))
                 continue;
-            /* Plane crossing of this column: plane_lo <= nD*w + nU*u + nV*v <= plane_hi. floor/ceil
-             * of the bounds leave a cell of margin for rounding; the exact test trims it. */
+            /* Plane crossing of this column: plane_lo <= nU*u + nV*v + nD*w <= plane_hi. */
             double r = nU * (double)u + nV * (double)vv;
-            double wa = (s.plane_lo - r) / nD, wb = (s.plane_hi - r) / nD;
+            double wa = (s.plane_lo - r) * inv_nD, wb = (s.plane_hi - r) * inv_nD;
             if (wa > wb) {
                 double tmp = wa;
                 wa = wb;
@@ -111,12 +104,14 @@ static void voxelize_triangle(build_job *job, size_t t)
             if (wa > wb)
                 continue; /* also keeps the int conversions below in range */
             for (int w = (int)wa; w <= (int)wb; w++) {
+                double np = r + nD * (double)w;
+                if (np < s.plane_lo || np > s.plane_hi || !tribox_cells_edges(&s, U, (double)vv, (double)w) ||
+                    !tribox_cells_edges(&s, V, (double)w, (double)u))
+                    continue;
                 int p[3];
                 p[D] = w;
                 p[U] = u;
                 p[V] = vv;
-                if (!tribox_cells_test(&s, p[0], p[1], p[2]))
-                    continue;
                 size_t word = ((size_t)p[0] * (size_t)n + (size_t)p[1]) * (size_t)W + (size_t)(p[2] >> 6);
                 uint64_t bit = UINT64_C(1) << (p[2] & 63);
                 /* Runs along z (D = 2) fall in one word: gather them into one OR. */

@@ -9,7 +9,11 @@ static const char usage[] =
     "\n"
     "usage:\n"
     "  voxlab truth   SCENE [--spp N] [--size WxH] [--seed S] [--threads T] -o OUT.exr|png [--stats S.json]\n"
+    "  voxlab bake    SCENE --model M --res N [--rays K] [--seed S] [--threads T] -o OUT.vox [--stats S.json]\n"
+    "  voxlab render  SCENE --model M (--res N [--rays K] | --vox FILE) [--spp N] [--size WxH] [--seed S]\n"
+    "                 [--threads T] [--no-cache] [--no-shadow-skip] -o OUT.exr|png [--stats S.json]\n"
     "  voxlab compare A B [--json] [--heatmap OUT.png]\n"
+    "  voxlab models  (lists the appearance models)\n"
     "\n"
     "See README.md for the scene format and what each command writes.\n";
 
@@ -25,6 +29,9 @@ int main(int argc, char **argv)
     } commands[] = {
         {"truth", cmd_truth},
         {"compare", cmd_compare},
+        {"bake", cmd_bake},
+        {"render", cmd_render},
+        {"models", cmd_models},
     };
     for (size_t i = 0; i < sizeof commands / sizeof *commands; i++)
         if (strcmp(argv[1], commands[i].name) == 0)

@@ -1,0 +1,187 @@
+/* voxlab render SCENE --model M (--res N [--rays K] | --vox FILE) [--spp N] [--size WxH] [--seed S]
+ *               [--threads T] [--no-cache] [--no-shadow-skip] -o OUT [--stats S.json] */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bake.h"
+#include "cli.h"
+#include "commands.h"
+#include "fileio.h"
+#include "parallel.h"
+#include "render.h"
+#include "voxfile.h"
+
+static const char usage[] =
+    "usage: voxlab render SCENE --model M (--res N [--rays K] | --vox FILE) [--spp N] [--size WxH] [--seed S]\n"
+    "                     [--threads T] [--no-cache] [--no-shadow-skip] -o OUT.exr|OUT.png [--stats S.json]\n";
+
+/* Loads a .vox file for scene s: the model it names, the grid rebuilt at its resolution, its records. */
+static int load_baked(const scene *s, const char *path, const char *model_name, const vx_model **m,
+                      voxel_grid *g, void **records, voxfile_header *h, double *grid_seconds, vx_err *e)
+{
+    if (voxfile_read(path, s->identity, h, records, e))
+        return -1;
+    *m = model_find(h->model);
+    if (!*m || (model_name && strcmp(model_name, h->model) != 0)) {
+        free(*records);
+        if (!*m)
+            return vx_fail(e, "%s: baked with model \"%s\", which this voxlab does not have", path, h->model);
+        return vx_fail(e, "%s: baked with model \"%s\", not --model %s", path, h->model, model_name);
+    }
+    double t0 = now_seconds();
+    if (grid_build(g, &s->mesh, h->n, e)) {
+        free(*records);
+        return -1;
+    }
+    *grid_seconds = now_seconds() - t0;
+    if (h->voxel_bytes != (*m)->voxel_bytes || h->record_count != bake_record_count(*m, g) ||
+        h->voxels != grid_count(g, 0)) {
+        free(*records);
+        grid_free(g);
+        return vx_fail(e, "%s: records do not match model %s on this grid (%llu records of %llu bytes, expected %zu of %zu)",
+                       path, h->model, (unsigned long long)h->record_count, (unsigned long long)h->voxel_bytes,
+                       bake_record_count(*m, g), (*m)->voxel_bytes);
+    }
+    return 0;
+}
+
+int cmd_render(int argc, char **argv)
+{
+    const char *scene_path = NULL, *out_path = NULL, *stats_path = NULL, *model_name = NULL, *vox = NULL,
+               *size = NULL;
+    render_options o;
+    render_default_options(&o);
+    bake_options bo = {.rays = 150, .seed = 1, .progress = 1};
+    int res = 0;
+    long long v;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i], *val = NULL;
+        if (strcmp(a, "--no-cache") == 0) {
+            o.cache = 0;
+            continue;
+        }
+        if (strcmp(a, "--no-shadow-skip") == 0) {
+            o.shadow_skip = 0;
+            continue;
+        }
+        if (a[0] == '-' && !(val = cli_value("render", argc, argv, &i)))
+            return 1;
+        if (strcmp(a, "--model") == 0)
+            model_name = val;
+        else if (strcmp(a, "--vox") == 0)
+            vox = val;
+        else if (strcmp(a, "-o") == 0)
+            out_path = val;
+        else if (strcmp(a, "--stats") == 0)
+            stats_path = val;
+        else if (strcmp(a, "--size") == 0)
+            size = val;
+        else if (strcmp(a, "--res") == 0) {
+            if (cli_int("render", a, val, 1, GRID_MAX_N, &v))
+                return 1;
+            res = (int)v;
+        } else if (strcmp(a, "--rays") == 0) {
+            if (cli_int("render", a, val, 1, 1 << 20, &v))
+                return 1;
+            bo.rays = (int)v;
+        } else if (strcmp(a, "--spp") == 0) {
+            if (cli_int("render", a, val, 1, 1 << 16, &v))
+                return 1;
+            o.spp = (int)v;
+        } else if (strcmp(a, "--seed") == 0) {
+            if (cli_int("render", a, val, 0, 1LL << 53, &v))
+                return 1;
+            o.seed = bo.seed = (uint64_t)v;
+        } else if (strcmp(a, "--threads") == 0) {
+            if (cli_int("render", a, val, 1, 1024, &v))
+                return 1;
+            o.threads = bo.threads = (int)v;
+        } else if (a[0] == '-') {
+            fprintf(stderr, "voxlab render: unknown option %s\n%s", a, usage);
+            return 1;
+        } else if (scene_path) {
+            fprintf(stderr, "voxlab render: unexpected argument %s\n%s", a, usage);
+            return 1;
+        } else {
+            scene_path = a;
+        }
+    }
+    if (!scene_path || !out_path || (!res && !vox) || (res && vox) || (!vox && !model_name)) {
+        fprintf(stderr, "voxlab render: needs SCENE, -o, and either --model M --res N or --vox FILE\n%s", usage);
+        return 1;
+    }
+    const vx_model *m = model_name ? model_find(model_name) : NULL;
+    if (model_name && !m) {
+        fprintf(stderr, "voxlab render: --model %s: unknown model (see `voxlab models`)\n", model_name);
+        return 1;
+    }
+    vx_err e;
+    scene s;
+    if (scene_load(scene_path, &s, &e)) {
+        fprintf(stderr, "voxlab render: %s\n", e.msg);
+        return 1;
+    }
+    o.width = s.width;
+    o.height = s.height;
+    int rc = 1, have_grid = 0;
+    voxel_grid g;
+    void *records = NULL;
+    bake_counts bc = {0};
+    voxfile_header h;
+    double grid_seconds = 0;
+    image img = {0};
+    render_counts rcnt;
+    if ((size && scene_parse_size_string(size, &o.width, &o.height, &e)) || fileio_check_writable(out_path, &e) ||
+        (stats_path && fileio_check_writable(stats_path, &e)))
+        goto fail;
+    if (vox) {
+        if (load_baked(&s, vox, model_name, &m, &g, &records, &h, &grid_seconds, &e))
+            goto fail;
+        bc.seconds = h.bake_seconds;
+        bo.rays = h.rays;
+    } else if (bake_scene(&s, m, res, &bo, &g, &records, &bc, &grid_seconds, &e)) {
+        goto fail;
+    }
+    have_grid = 1;
+    if (render_image(&s, &g, m, records, &o, &img, &rcnt, &e) || image_write(&img, out_path, &e))
+        goto fail;
+    if (stats_path) {
+        cJSON *j = stats_scene_fields(&s);
+        cJSON_AddStringToObject(j, "command", "render");
+        stats_add_bake(j, m, &g, &bc, bo.rays, grid_seconds);
+        cJSON_AddNumberToObject(j, "seconds", rcnt.seconds);
+        cJSON_AddNumberToObject(j, "traversal_seconds", rcnt.traversal_seconds);
+        cJSON_AddNumberToObject(j, "model_seconds", rcnt.model_seconds);
+        cJSON_AddNumberToObject(j, "rays", (double)rcnt.rays);
+        cJSON_AddNumberToObject(j, "shadow_rays", (double)rcnt.shadow_rays);
+        cJSON_AddNumberToObject(j, "voxel_visits", (double)rcnt.voxel_visits);
+        cJSON_AddNumberToObject(j, "model_evals", (double)rcnt.model_evals);
+        cJSON_AddNumberToObject(j, "cache_hits", (double)rcnt.cache_hits);
+        cJSON_AddBoolToObject(j, "cache", o.cache);
+        cJSON_AddBoolToObject(j, "shadow_skip", o.shadow_skip);
+        cJSON_AddNumberToObject(j, "spp", o.spp);
+        cJSON_AddNumberToObject(j, "width", o.width);
+        cJSON_AddNumberToObject(j, "height", o.height);
+        cJSON_AddNumberToObject(j, "seed", (double)o.seed);
+        cJSON_AddNumberToObject(j, "threads", parallel_threads(o.threads));
+        cJSON_AddNumberToObject(j, "peak_rss_bytes", peak_rss_bytes());
+        int bad = stats_write(j, stats_path, "render");
+        cJSON_Delete(j);
+        if (bad) {
+            remove(out_path);
+            goto done;
+        }
+    }
+    rc = 0;
+    goto done;
+fail:
+    fprintf(stderr, "voxlab render: %s\n", e.msg);
+done:
+    image_free(&img);
+    free(records);
+    if (have_grid)
+        grid_free(&g);
+    scene_free(&s);
+    return rc;
+}

@@ -1,0 +1,38 @@
+/* The voxel tracer: rays from the camera marched front to back through the grid (3D-DDA with
+ * empty-space skipping), each non-empty voxel handed to the model, the answers composited by the
+ * model's rule. Shadows (when declared) march toward each light through the same voxels with the
+ * model's own opacity. Knows models only through models/model.h. */
+#ifndef VX_RENDER_H
+#define VX_RENDER_H
+
+#include <stdint.h>
+
+#include "grid.h"
+#include "image.h"
+#include "model.h"
+#include "scene.h"
+
+typedef struct {
+    int spp; /* jittered rays per pixel, box filter (default 4) */
+    int width, height;
+    uint64_t seed;
+    int threads;         /* 0 = every core */
+    int progress;        /* progress on stderr when it is a terminal */
+    int cache;           /* cache each voxel's shading and opacity for the direction voxel -> camera */
+    int shadow_skip;     /* shadow rays ignore voxels closer than 1.5 voxel sizes (Brito et al. §4) */
+    float stop_opacity;  /* stop marching at this accumulated opacity (default 1 - 0.001) */
+} render_options;
+
+typedef struct {
+    double seconds;           /* the whole render */
+    double traversal_seconds; /* marching and compositing (seconds - model_seconds) */
+    double model_seconds;     /* inside the model's opacity and shade calls */
+    uint64_t rays, shadow_rays, voxel_visits, model_evals, cache_hits;
+} render_counts;
+
+void render_default_options(render_options *o);
+
+int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const void *records,
+                 const render_options *o, image *out, render_counts *counts, vx_err *e);
+
+#endif
