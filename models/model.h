@@ -35,6 +35,12 @@ enum {
     VX_COMPOSITE_COVERAGE = 2,  /* A-buffer: L += L_d popcount(M_d & ~A) / 128, A |= M_d */
 };
 
+enum {
+    VX_MARCH_VOXELS = 0, /* the tracer visits the level-0 voxels along each ray (3D-DDA) */
+    VX_MARCH_CONE = 1,   /* the tracer steps cone elements (length = diameter) along each ray, the
+                            MIP level following the cone's width, and asks cone_element at each */
+};
+
 /* Effect bits a model may test (same values as scene.h's EFFECT_*). */
 enum { VX_EFFECT_SHADOWS = 1, VX_EFFECT_SPECULAR = 2, VX_EFFECT_DOF = 4, VX_EFFECT_TEXTURES = 8 };
 
@@ -51,6 +57,12 @@ typedef struct {
     int light_count;
     vec3 to_light[VX_MAX_LIGHTS];   /* unit, from the voxel centre toward each light */
     vec3 irradiance[VX_MAX_LIGHTS]; /* irradiance on a facing surface, shadows already applied */
+    /* Cone marching (VX_MARCH_CONE) only: the element's centre, its MIP level (fractional: the
+     * model interpolates between floor and ceil), and the grid and records to look up. */
+    vec3 position;
+    float level;
+    const struct voxel_grid *grid;
+    VX_GLOBAL const void *records;
 } vx_query;
 
 /* A model's answer to a query. */
@@ -103,6 +115,7 @@ typedef struct vx_model {
      * then level 1, ... (each level's records in its dense-index order); bake_voxel fills level 0
      * and bake_finish the coarser levels. */
     int uses_levels;
+    int march; /* VX_MARCH_* */
     /* Fills the record `out` (voxel_bytes, zeroed) from the voxel's n sample rays. Called from
      * several threads at once, for different voxels. */
     void (*bake_voxel)(const vx_voxel *v, const vx_sample *samples, int n, void *out);
@@ -115,6 +128,9 @@ typedef struct vx_model {
     /* Radiance toward q->to_viewer (and the coverage mask for VX_COMPOSITE_COVERAGE); a->opacity
      * holds the opacity the tracer already computed. */
     void (*shade)(VX_GLOBAL const void *record, const vx_query *q, vx_answer *a);
+    /* VX_MARCH_CONE models only (NULL otherwise): the answer of the cone element described by q
+     * (position, level, footprint, to_viewer, lights), looked up in q->grid / q->records. */
+    void (*cone_element)(const vx_query *q, vx_answer *a);
 } vx_model;
 
 /* The registry (models/registry.c). */

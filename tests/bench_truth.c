@@ -23,6 +23,8 @@ static void raw_row(void *p, int64_t row, int thread)
     const scene *s = j->rt->scene;
     int py = (int)row;
     uint64_t hits = 0;
+    int strata_x, strata_y;
+    truth_strata(j->spp, &strata_x, &strata_y);
     for (int px = 0; px < j->width; px++) {
         rng r = rng_seed(1, (uint64_t)py * (uint64_t)j->width + (uint64_t)px);
         for (int first = 0; first < j->spp; first += 16) {
@@ -30,7 +32,8 @@ static void raw_row(void *p, int64_t row, int thread)
             int valid[16] __attribute__((aligned(64)));
             for (int k = 0; k < 16; k++) {
                 float sx, sy;
-                truth_stratified_sample(first + k, j->spp, rng_float(&r), rng_float(&r), &sx, &sy);
+                float r1 = rng_float(&r), r2 = rng_float(&r);
+                truth_strata_sample(first + k, strata_x, strata_y, r1, r2, &sx, &sy);
                 vec3 o, d;
                 camera_ray(&s->camera, j->width, j->height, (float)px + sx, (float)py + sy, 0, 0, 0, &o, &d);
                 valid[k] = first + k < j->spp ? -1 : 0;

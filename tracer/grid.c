@@ -7,6 +7,7 @@
 #include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 
 #include "tribox.h"
 
@@ -14,12 +15,27 @@
  * (ground plates) sit in one place, large enough that the shared counter is not contended. */
 #define BUILD_CHUNK 64
 
+/* Dense occupancy bits of one level, used only while building. Words of 64 cells along z, grouped
+ * in bricks of 4x4 columns (16 words, two cache lines): a triangle of a few cells touches one to
+ * four bricks instead of a cache line per column, and a parent's 4 child columns share a brick.
+ * Columns past n (brick padding) stay zero. */
+typedef struct {
+    uint64_t *w;
+    size_t bytes;
+    int n, W, bt; /* cells a side, words per column, bricks a side */
+} dense_bits;
+
+static inline size_t dense_word(const dense_bits *d, int x, int y, int j)
+{
+    size_t brick = ((size_t)(x >> 2) * (size_t)d->bt + (size_t)(y >> 2)) * (size_t)d->W + (size_t)j;
+    return brick << 4 | (size_t)((x & 3) << 2 | (y & 3));
+}
+
 typedef struct {
     const mesh *m;
     double origin[3], voxel_size;
-    int n, words_per_col;
-    uint64_t *bits; /* dense level 0: word (x*n + y)*words_per_col + z/64 */
-    size_t next;    /* first triangle not yet handed out (atomic) */
+    dense_bits *bits; /* level 0 */
+    size_t next;      /* first triangle not yet handed out (atomic) */
 } build_job;
 
 /* OR m into *w. Both threads write the same array; the relaxed load first skips the locked
@@ -54,7 +70,8 @@ static void voxelize_triangle(build_job *job, size_t t)
     tribox_cells s;
     if (!tribox_cells_setup(&s, v[0], v[1], v[2]))
         return; /* zero area: no surface to voxelise */
-    int n = job->n, W = job->words_per_col;
+    dense_bits *bits = job->bits;
+    int n = bits->n;
     int lo[3], hi[3];
     for (int a = 0; a < 3; a++) {
         lo[a] = clampi(s.lo[a], 0, n - 1);
@@ -112,12 +129,12 @@ static void voxelize_triangle(build_job *job, size_t t)
                 p[D] = w;
                 p[U] = u;
                 p[V] = vv;
-                size_t word = ((size_t)p[0] * (size_t)n + (size_t)p[1]) * (size_t)W + (size_t)(p[2] >> 6);
+                size_t word = dense_word(bits, p[0], p[1], p[2] >> 6);
                 uint64_t bit = UINT64_C(1) << (p[2] & 63);
                 /* Runs along z (D = 2) fall in one word: gather them into one OR. */
                 if (word != cur_word) {
                     if (cur_mask)
-                        set_bits(&job->bits[cur_word], cur_mask);
+                        set_bits(&bits->w[cur_word], cur_mask);
                     cur_word = word;
                     cur_mask = 0;
                 }
@@ -126,7 +143,7 @@ static void voxelize_triangle(build_job *job, size_t t)
         }
     }
     if (cur_mask)
-        set_bits(&job->bits[cur_word], cur_mask);
+        set_bits(&bits->w[cur_word], cur_mask);
 }
 
 static void *build_worker(void *arg)
@@ -156,56 +173,103 @@ static inline uint64_t even_bits(uint64_t x)
     return x;
 }
 
-/* Dense bits of the next coarser level: OR of the 4 child columns, then pairs of z bits. Word j of
- * a coarse column covers child words 2j and 2j+1 (2j is always inside the child column). */
-static void downsample(const uint64_t *src, int n, int W, uint64_t *dst, int n1, int W1)
+/* Zeroed memory. Large blocks are mapped with MAP_POPULATE: first-touch page faults cost ~11 us a
+ * page on the VMs this runs on, so a fresh 16 MiB array (512^3 bits) took ~45 ms to fault in, as
+ * long as voxelising the bunny, against ~3 ms to populate the mapping in one call. Whether a block
+ * is mapped depends only on its size, so big_free needs no flag. */
+#define BIG_BYTES ((size_t)1 << 20)
+
+static void *big_alloc(size_t bytes)
 {
-    for (int X = 0; X < n1; X++)
-        for (int Y = 0; Y < n1; Y++)
-            for (int j = 0; j < W1; j++) {
+#ifdef MAP_POPULATE
+    if (bytes >= BIG_BYTES) {
+        void *p = mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS | MAP_POPULATE, -1, 0);
+        return p == MAP_FAILED ? NULL : p;
+    }
+#endif
+    return calloc(1, bytes ? bytes : 1);
+}
+
+static void big_free(void *p, size_t bytes)
+{
+    if (!p)
+        return;
+#ifdef MAP_POPULATE
+    if (bytes >= BIG_BYTES) {
+        munmap(p, bytes);
+        return;
+    }
+#endif
+    free(p);
+}
+
+/* Sizes of a sparse level's arrays (+1 entry so that an empty level still gets non-NULL arrays). */
+static size_t cols_bytes(const grid_level *L) { return (size_t)L->n * (size_t)L->n * sizeof *L->cols; }
+static size_t bits_bytes(const grid_level *L) { return (L->words + 1) * sizeof *L->bits; }
+static size_t prefix_bytes(const grid_level *L) { return (L->words + 1) * sizeof *L->prefix; }
+static size_t coords_bytes(const grid_level *L) { return (L->count + 1) * sizeof *L->coords; }
+
+static int dense_alloc(dense_bits *d, int n)
+{
+    d->n = n;
+    d->W = (n + 63) / 64;
+    d->bt = (n + 3) / 4;
+    d->bytes = (size_t)d->bt * (size_t)d->bt * (size_t)d->W * 16 * sizeof(uint64_t);
+    d->w = big_alloc(d->bytes);
+    return d->w ? 0 : -1;
+}
+
+static void dense_free(dense_bits *d)
+{
+    big_free(d->w, d->bytes);
+    d->w = NULL;
+}
+
+/* Dense bits of the next coarser level: OR of the 4 child columns, then pairs of z bits. Word j of
+ * a coarse column covers child words 2j and 2j+1 (2j is always inside the child column). Child
+ * columns at n (odd n) are brick padding, hence zero: no range checks on x, y. */
+static void downsample(const dense_bits *src, dense_bits *dst)
+{
+    for (int X = 0; X < dst->n; X++)
+        for (int Y = 0; Y < dst->n; Y++)
+            for (int j = 0; j < dst->W; j++) {
                 uint64_t a = 0, b = 0;
-                for (int dx = 0; dx < 2; dx++)
-                    for (int dy = 0; dy < 2; dy++) {
-                        int x = 2 * X + dx, y = 2 * Y + dy;
-                        if (x >= n || y >= n)
-                            continue;
-                        const uint64_t *col = src + ((size_t)x * (size_t)n + (size_t)y) * (size_t)W;
-                        a |= col[2 * j];
-                        if (2 * j + 1 < W)
-                            b |= col[2 * j + 1];
-                    }
-                dst[((size_t)X * (size_t)n1 + (size_t)Y) * (size_t)W1 + (size_t)j] =
-                    even_bits(a | (a >> 1)) | (even_bits(b | (b >> 1)) << 32);
+                for (int k = 0; k < 4; k++) {
+                    int x = 2 * X + (k >> 1), y = 2 * Y + (k & 1);
+                    a |= src->w[dense_word(src, x, y, 2 * j)];
+                    if (2 * j + 1 < src->W)
+                        b |= src->w[dense_word(src, x, y, 2 * j + 1)];
+                }
+                dst->w[dense_word(dst, X, Y, j)] = even_bits(a | (a >> 1)) | (even_bits(b | (b >> 1)) << 32);
             }
 }
 
 /* Sparse form of a dense level (see grid.h). */
-static int compact_level(grid_level *L, const uint64_t *dense, int n, int W, vx_err *e)
+static int compact_level(grid_level *L, const dense_bits *d, vx_err *e)
 {
-    size_t total = (size_t)n * (size_t)n * (size_t)W, words = 0, count = 0;
+    int n = d->n, W = d->W;
+    size_t total = d->bytes / sizeof(uint64_t), words = 0, count = 0;
     for (size_t i = 0; i < total; i++)
-        if (dense[i]) {
+        if (d->w[i]) {
             words++;
-            count += (size_t)__builtin_popcountll(dense[i]);
+            count += (size_t)__builtin_popcountll(d->w[i]);
         }
     L->n = n;
     L->words_per_col = W;
     L->words = words;
     L->count = count;
-    L->cols = malloc((size_t)n * (size_t)n * sizeof *L->cols);
-    /* +1 so that an empty level still gets non-NULL arrays. */
-    L->bits = malloc((words + 1) * sizeof *L->bits);
-    L->prefix = malloc((words + 1) * sizeof *L->prefix);
-    L->coords = malloc((count + 1) * sizeof *L->coords);
+    L->cols = big_alloc(cols_bytes(L));
+    L->bits = big_alloc(bits_bytes(L));
+    L->prefix = big_alloc(prefix_bytes(L));
+    L->coords = big_alloc(coords_bytes(L));
     if (!L->cols || !L->bits || !L->prefix || !L->coords)
         return vx_fail(e, "grid_build: out of memory for a %d^3 level (%zu voxels)", n, count);
     size_t wi = 0, c = 0;
     for (int x = 0; x < n; x++)
         for (int y = 0; y < n; y++) {
-            const uint64_t *col = dense + ((size_t)x * (size_t)n + (size_t)y) * (size_t)W;
             uint64_t first = wi, mask = 0;
             for (int j = 0; j < W; j++) {
-                uint64_t w = col[j];
+                uint64_t w = d->w[dense_word(d, x, y, j)];
                 if (!w)
                     continue;
                 mask |= UINT64_C(1) << j;
@@ -279,13 +343,12 @@ int grid_build_threads(voxel_grid *g, const mesh *m, int n, int threads, vx_err 
     for (int s = n; s > 1; s = (s + 1) / 2)
         g->levels++;
 
-    int W = (n + 63) / 64;
-    uint64_t *dense = calloc((size_t)n * (size_t)n * (size_t)W, sizeof *dense);
-    if (!dense) {
+    dense_bits dense;
+    if (dense_alloc(&dense, n)) {
         memset(g, 0, sizeof *g);
         return vx_fail(e, "grid_build: out of memory for the %d^3 occupancy bits", n);
     }
-    build_job job = {.m = m, .voxel_size = g->voxel_size_d, .n = n, .words_per_col = W, .bits = dense};
+    build_job job = {.m = m, .voxel_size = g->voxel_size_d, .bits = &dense};
     memcpy(job.origin, g->origin_d, sizeof job.origin);
     if (threads < 1)
         threads = 1;
@@ -303,29 +366,25 @@ int grid_build_threads(voxel_grid *g, const mesh *m, int n, int threads, vx_err 
         pthread_join(tid[i], NULL);
 
     /* Level by level: compact the dense bits, derive the next level's, drop the finer ones. */
-    int ln = n, lw = W;
     for (int l = 0; l < g->levels; l++) {
-        if (compact_level(&g->level[l], dense, ln, lw, e)) {
-            free(dense);
+        if (compact_level(&g->level[l], &dense, e)) {
+            dense_free(&dense);
             grid_free(g);
             return -1;
         }
         if (l + 1 == g->levels)
             break;
-        int n1 = (ln + 1) / 2, w1 = (n1 + 63) / 64;
-        uint64_t *coarse = malloc((size_t)n1 * (size_t)n1 * (size_t)w1 * sizeof *coarse);
-        if (!coarse) {
-            free(dense);
+        dense_bits coarse;
+        if (dense_alloc(&coarse, (dense.n + 1) / 2)) {
+            dense_free(&dense);
             grid_free(g);
             return vx_fail(e, "grid_build: out of memory for MIP level %d", l + 1);
         }
-        downsample(dense, ln, lw, coarse, n1, w1);
-        free(dense);
+        downsample(&dense, &coarse);
+        dense_free(&dense);
         dense = coarse;
-        ln = n1;
-        lw = w1;
     }
-    free(dense);
+    dense_free(&dense);
     return 0;
 }
 
@@ -334,10 +393,11 @@ int grid_build(voxel_grid *g, const mesh *m, int n, vx_err *e) { return grid_bui
 void grid_free(voxel_grid *g)
 {
     for (int l = 0; l < GRID_MAX_LEVELS; l++) {
-        free(g->level[l].cols);
-        free(g->level[l].bits);
-        free(g->level[l].prefix);
-        free(g->level[l].coords);
+        grid_level *L = &g->level[l];
+        big_free(L->cols, cols_bytes(L));
+        big_free(L->bits, bits_bytes(L));
+        big_free(L->prefix, prefix_bytes(L));
+        big_free(L->coords, coords_bytes(L));
     }
     memset(g, 0, sizeof *g);
 }
@@ -347,8 +407,7 @@ size_t grid_bytes(const voxel_grid *g)
     size_t bytes = sizeof *g;
     for (int l = 0; l < g->levels; l++) {
         const grid_level *L = &g->level[l];
-        bytes += (size_t)L->n * (size_t)L->n * sizeof *L->cols + (L->words + 1) * (sizeof *L->bits + sizeof *L->prefix) +
-                 (L->count + 1) * sizeof *L->coords;
+        bytes += cols_bytes(L) + bits_bytes(L) + prefix_bytes(L) + coords_bytes(L);
     }
     return bytes;
 }

@@ -8,42 +8,9 @@
 #include "camera.h"
 #include "grid_traverse.h"
 #include "parallel.h"
+#include "render_internal.h"
 #include "rng.h"
 #include "truth.h"
-
-#if defined(__x86_64__) || defined(__i386__)
-#include <x86intrin.h>
-static inline uint64_t cycles(void) { return __rdtsc(); }
-#else
-static inline uint64_t cycles(void) { return (uint64_t)(now_seconds() * 1e9); }
-#endif
-
-/* A voxel's cached answer for the direction voxel -> camera. state: 0 empty, 1 being computed,
- * 2 ready. The value depends only on the voxel, so whichever thread computes it writes the same
- * numbers: the image stays independent of the thread count. */
-typedef struct {
-    vec3 radiance;
-    float opacity;
-    unsigned int mask[VX_MASK_WORDS];
-    atomic_int state;
-} cache_entry;
-
-typedef struct {
-    uint64_t rays, shadow_rays, voxel_visits, model_evals, cache_hits, model_cycles, total_cycles;
-    char pad[64];
-} thread_counts;
-
-typedef struct {
-    const scene *s;
-    const voxel_grid *g;
-    const vx_model *m;
-    const unsigned char *records;
-    const render_options *o;
-    image *out;
-    cache_entry *cache;
-    thread_counts *tc;
-    float spread; /* footprint radius per unit distance */
-} render_job;
 
 void render_default_options(render_options *o)
 {
@@ -56,14 +23,14 @@ void render_default_options(render_options *o)
     o->stop_opacity = 1.0f - 0.001f;
 }
 
-static const void *record_of(const render_job *j, int64_t index)
+const void *record_of(const render_job *j, int64_t index)
 {
     return j->records + (size_t)index * j->m->voxel_bytes;
 }
 
 /* Transmittance from p toward light li through the voxels (the model's own opacity), skipping the
  * voxel `self` and, when asked, every voxel closer than 1.5 voxel sizes. */
-static float shadow_transmittance(const render_job *j, vx_query *q, int64_t self, vec3 p, vec3 to_light,
+float shadow_transmittance(const render_job *j, vx_query *q, int64_t self, vec3 p, vec3 to_light,
                                   float distance, thread_counts *tc)
 {
     const voxel_grid *g = j->g;
@@ -96,7 +63,7 @@ static float shadow_transmittance(const render_job *j, vx_query *q, int64_t self
 }
 
 /* Fills q's lights for a voxel centred at c (shadows applied when declared). */
-static void gather_lights(const render_job *j, vx_query *q, int64_t self, vec3 c, thread_counts *tc)
+void gather_lights(const render_job *j, vx_query *q, int64_t self, vec3 c, thread_counts *tc)
 {
     const scene *s = j->s;
     q->light_count = s->light_count < VX_MAX_LIGHTS ? s->light_count : VX_MAX_LIGHTS;
@@ -251,7 +218,7 @@ static void render_row(void *p, int64_t row, int thread)
             }
             vec3 org, dir;
             camera_ray(&s->camera, o->width, o->height, (float)px + sx, (float)py + sy, lu, lv, dof, &org, &dir);
-            sum = v3_add(sum, trace_ray(j, org, dir, tc));
+            sum = v3_add(sum, j->m->march == VX_MARCH_CONE ? cone_trace_ray(j, org, dir, tc) : trace_ray(j, org, dir, tc));
         }
         float *dst = &j->out->data[3 * ((size_t)py * (size_t)o->width + (size_t)px)];
         dst[0] = sum.x / (float)o->spp;
@@ -266,6 +233,8 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
 {
     if (o->spp < 1)
         return vx_fail(e, "--spp %d: expected at least 1 ray per pixel", o->spp);
+    if (m->march == VX_MARCH_CONE && !m->cone_element)
+        return vx_fail(e, "model %s: declares cone marching without a cone_element function", m->name);
     if (image_alloc(out, o->width, o->height, 3, e))
         return -1;
     int threads = parallel_threads(o->threads);

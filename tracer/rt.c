@@ -1,6 +1,7 @@
 #include "rt.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "shading.h"
@@ -45,6 +46,22 @@ int rt_build(rt_scene *rt, const scene *s, vx_err *e)
         rt_free(rt);
         return vx_fail(e, "Embree: building the BVH failed");
     }
+    rt->vertices = malloc(sizeof(rt_vertex) * (m->vertex_count ? m->vertex_count : 1));
+    rt->face_normals = malloc(sizeof(vec3) * (m->triangle_count ? m->triangle_count : 1));
+    if (!rt->vertices || !rt->face_normals) {
+        rt_free(rt);
+        return vx_fail(e, "out of memory for %zu vertices' shading attributes", m->vertex_count);
+    }
+    for (size_t i = 0; i < m->vertex_count; i++) {
+        memcpy(rt->vertices[i].normal, &m->normals[3 * i], sizeof(float) * 3);
+        memcpy(rt->vertices[i].color, &m->colors[3 * i], sizeof(float) * 3);
+        memcpy(rt->vertices[i].uv, &m->uvs[2 * i], sizeof(float) * 2);
+    }
+    for (size_t t = 0; t < m->triangle_count; t++) {
+        const uint32_t *tri = &m->indices[3 * t];
+        vec3 a = mesh_position(m, tri[0]), b = mesh_position(m, tri[1]), c = mesh_position(m, tri[2]);
+        rt->face_normals[t] = v3_normalize(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+    }
     vec3 ext = v3_sub(s->bounds_hi, s->bounds_lo);
     float size = fmaxf(ext.x, fmaxf(ext.y, ext.z));
     float far = fmaxf(fmaxf(fabsf(s->bounds_lo.x), fabsf(s->bounds_hi.x)),
@@ -61,15 +78,12 @@ void rt_free(rt_scene *rt)
         rtcReleaseScene(rt->bvh);
     if (rt->device)
         rtcReleaseDevice(rt->device);
+    free(rt->vertices);
+    free(rt->face_normals);
     rt->bvh = NULL;
     rt->device = NULL;
-}
-
-static vec3 vertex_attr(const float *a, const uint32_t *tri, float u, float v)
-{
-    float w = 1.0f - u - v;
-    const float *p0 = &a[3 * tri[0]], *p1 = &a[3 * tri[1]], *p2 = &a[3 * tri[2]];
-    return v3(w * p0[0] + u * p1[0] + v * p2[0], w * p0[1] + u * p1[1] + v * p2[1], w * p0[2] + u * p1[2] + v * p2[2]);
+    rt->vertices = NULL;
+    rt->face_normals = NULL;
 }
 
 void rt_surface(const rt_scene *rt, unsigned prim, float u, float v, vec3 origin, vec3 dir, float t,
@@ -78,15 +92,19 @@ void rt_surface(const rt_scene *rt, unsigned prim, float u, float v, vec3 origin
     const scene *s = rt->scene;
     const mesh *m = &s->mesh;
     const uint32_t *tri = &m->indices[3 * (size_t)prim];
-    vec3 a = mesh_position(m, tri[0]), b = mesh_position(m, tri[1]), c = mesh_position(m, tri[2]);
-    vec3 ng = v3_normalize(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+    const rt_vertex *v0 = &rt->vertices[tri[0]], *v1 = &rt->vertices[tri[1]], *v2 = &rt->vertices[tri[2]];
+    float w = 1.0f - u - v;
+    vec3 ng = rt->face_normals[prim];
     const material *mat = &s->materials[m->materials[prim]];
     out->position = v3_madd(origin, dir, t);
     out->geometric_normal = ng;
     out->front_facing = v3_dot(ng, dir) < 0.0f;
     out->material = mat;
     out->shaded = out->front_facing || mat->double_sided;
-    vec3 n = v3_normalize_or(vertex_attr(m->normals, tri, u, v), ng);
+    vec3 n = v3_normalize_or(v3(w * v0->normal[0] + u * v1->normal[0] + v * v2->normal[0],
+                                w * v0->normal[1] + u * v1->normal[1] + v * v2->normal[1],
+                                w * v0->normal[2] + u * v1->normal[2] + v * v2->normal[2]),
+                             ng);
     /* Keep the shading normal on the geometric side: interpolated normals can tip over at
      * silhouettes, which would shade a visible point as if facing away. */
     if (v3_dot(n, ng) < 0.0f)
@@ -94,11 +112,12 @@ void rt_surface(const rt_scene *rt, unsigned prim, float u, float v, vec3 origin
     if (!out->front_facing) /* seen from behind (double-sided): both normals face the viewer */
         n = v3_scale(n, -1.0f);
     out->normal = n;
-    vec3 albedo = v3_mul(mat->color, vertex_attr(m->colors, tri, u, v));
+    vec3 vc = v3(w * v0->color[0] + u * v1->color[0] + v * v2->color[0],
+                 w * v0->color[1] + u * v1->color[1] + v * v2->color[1],
+                 w * v0->color[2] + u * v1->color[2] + v * v2->color[2]);
+    vec3 albedo = v3_mul(mat->color, vc);
     if ((s->effects & EFFECT_TEXTURES) && mat->texture >= 0) {
-        float w = 1.0f - u - v;
-        const float *t0 = &m->uvs[2 * tri[0]], *t1 = &m->uvs[2 * tri[1]], *t2 = &m->uvs[2 * tri[2]];
-        float tu = w * t0[0] + u * t1[0] + v * t2[0], tv = w * t0[1] + u * t1[1] + v * t2[1];
+        float tu = w * v0->uv[0] + u * v1->uv[0] + v * v2->uv[0], tv = w * v0->uv[1] + u * v1->uv[1] + v * v2->uv[1];
         albedo = v3_mul(albedo, texture_lookup(&s->textures[mat->texture], tu, tv));
     }
     out->albedo = out->shaded ? albedo : v3(0, 0, 0);

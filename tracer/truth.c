@@ -17,12 +17,23 @@ typedef struct {
     truth_counts *per_thread;
 } truth_job;
 
+void truth_strata(int n, int *sx, int *sy)
+{
+    *sx = (int)floor(sqrt((double)n));
+    if (*sx < 1)
+        *sx = 1;
+    *sy = n / *sx;
+}
+
 void truth_stratified_sample(int i, int n, float r1, float r2, float *x, float *y)
 {
-    int sx = (int)floor(sqrt((double)n));
-    if (sx < 1)
-        sx = 1;
-    int sy = n / sx;
+    int sx, sy;
+    truth_strata(n, &sx, &sy);
+    truth_strata_sample(i, sx, sy, r1, r2, x, y);
+}
+
+void truth_strata_sample(int i, int sx, int sy, float r1, float r2, float *x, float *y)
+{
     if (i < sx * sy) {
         *x = ((float)(i % sx) + r1) / (float)sx;
         *y = ((float)(i / sx) + r2) / (float)sy;
@@ -36,6 +47,8 @@ void truth_stratified_sample(int i, int n, float r1, float r2, float *x, float *
 static void trace_packet(const rt_scene *rt, const truth_options *o, int px, int py, int first, int count, rng *r,
                          vec3 *sum, truth_counts *counts)
 {
+    int strata_x, strata_y;
+    truth_strata(o->spp, &strata_x, &strata_y);
     const scene *s = rt->scene;
     int dof = (s->effects & EFFECT_DOF) != 0;
     struct RTCRayHit16 rh;
@@ -46,7 +59,7 @@ static void trace_packet(const rt_scene *rt, const truth_options *o, int px, int
         float sx = 0, sy = 0, lu = 0, lv = 0;
         if (k < count) {
             float r1 = rng_float(r), r2 = rng_float(r);
-            truth_stratified_sample(first + k, o->spp, r1, r2, &sx, &sy);
+            truth_strata_sample(first + k, strata_x, strata_y, r1, r2, &sx, &sy);
             if (dof) {
                 lu = rng_float(r);
                 lv = rng_float(r);
