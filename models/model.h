@@ -88,9 +88,9 @@ typedef struct {
     float t_hit;      /* closest hit at or after t_entry; INFINITY for a miss */
     int kind;         /* VX_SAMPLE_* */
     int own_triangle; /* the hit triangle overlaps the voxel (Brito et al.'s per-voxel list) */
-    vec3 normal;      /* shading normal at the hit, on the side the ray came from (hits only) */
+    vec3 normal;      /* shading normal at the hit, on the side the ray came from (INSIDE hits only) */
     vec3 albedo;      /* diffuse colour at the hit (front hits of shaded surfaces; else 0) */
-    float specular;   /* the hit material's specular reflectance and roughness */
+    float specular;   /* the hit material's specular reflectance and roughness (INSIDE hits only) */
     float roughness;
 } vx_sample;
 

@@ -4,3 +4,5 @@ set -eu
 cd "$(dirname "$0")/.."
 BUILD=${BUILD:-build}
 "$BUILD"/tests/bench_truth scenes/bunny.json 64
+# Bake sampler vs raw Embree on the same rays, bake times at 128^3/256^3, shading cache on/off (~25 s).
+"$BUILD"/tests/bench_bake scenes/bunny.json

@@ -882,6 +882,23 @@ static void test_bunny(void)
         snprintf(name, sizeof name, "grid bunny n=%d: 1 and 2 threads identical", ns[i]);
         CHECK(name, same_grid(&g, &g1));
         grid_free(&g1);
+        if (ns[i] == 128) {
+            /* Realistic geometry for the traversal: rays through the bunny against brute force. */
+            slab_hit *buf = malloc(200000 * sizeof *buf);
+            rng rr = rng_seed(5, 128);
+            vec3 c = grid_cell_center(&g, 0, 64, 64, 64);
+            float ext = g.voxel_size * g.n;
+            int bad = 0;
+            for (int k = 0; k < 300 && !bad; k++) {
+                vec3 a = v3((float)rng_double(&rr) - 0.5f, (float)rng_double(&rr) - 0.5f, (float)rng_double(&rr) - 0.5f);
+                vec3 b = v3((float)rng_double(&rr) - 0.5f, (float)rng_double(&rr) - 0.5f, (float)rng_double(&rr) - 0.5f);
+                vec3 org = v3_madd(c, a, ext * (k % 2 ? 0.6f : 2.0f));
+                vec3 dir = v3_sub(v3_madd(c, b, ext * 0.5f), org);
+                bad = !check_ray(&g, k % 3, org, dir, 0, INFINITY, buf, 200000);
+            }
+            CHECK("grid bunny n=128: DDA (levels 0-2) matches brute force on 300 rays", !bad);
+            free(buf);
+        }
         if (ns[i] == 512) {
             CHECK("grid bunny n=512: memory under 200 MB", bytes < 200u * 1000u * 1000u);
             CHECK("grid bunny n=512: MIP levels consistent", mip_consistent(&g));

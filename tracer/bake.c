@@ -12,38 +12,13 @@
 #define PACKET 16
 #define VOXELS_PER_ITEM 32
 
-/* Slab test of the infinite line p + s d against the box: 1 and the interval when it crosses. */
-static int line_box(vec3 p, vec3 d, vec3 lo, vec3 hi, float *s0, float *s1)
-{
-    float a = -INFINITY, b = INFINITY;
-    for (int k = 0; k < 3; k++) {
-        float pk = v3_get(p, k), dk = v3_get(d, k), l = v3_get(lo, k), h = v3_get(hi, k);
-        if (fabsf(dk) < 1e-12f) {
-            if (pk < l || pk > h)
-                return 0;
-            continue;
-        }
-        float u = (l - pk) / dk, v = (h - pk) / dk;
-        if (u > v) {
-            float t = u;
-            u = v;
-            v = t;
-        }
-        a = fmaxf(a, u);
-        b = fminf(b, v);
-    }
-    *s0 = a;
-    *s1 = b;
-    return a < b;
-}
-
 void bake_generate_rays(const rt_scene *rt, const voxel_grid *g, size_t index, uint64_t seed, int n, vx_sample *out)
 {
     int x, y, z;
     grid_coords(g, 0, index, &x, &y, &z);
     vec3 lo, hi;
     grid_cell_box(g, 0, x, y, z, &lo, &hi);
-    vec3 c = v3_scale(v3_add(lo, hi), 0.5f);
+    float blo[3] = {lo.x, lo.y, lo.z}, bhi[3] = {hi.x, hi.y, hi.z};
     const scene *s = rt->scene;
     vec3 sc = v3_scale(v3_add(s->bounds_lo, s->bounds_hi), 0.5f);
     float radius = 0.5f * v3_length(v3_sub(s->bounds_hi, s->bounds_lo)) + 2.0f * g->voxel_size;
@@ -52,34 +27,42 @@ void bake_generate_rays(const rt_scene *rt, const voxel_grid *g, size_t index, u
         /* Direction uniform on the sphere. */
         float cz = 1.0f - 2.0f * rng_float(&r), phi = 2.0f * VX_PI * rng_float(&r);
         float sz = sqrtf(fmaxf(0.0f, 1.0f - cz * cz));
-        vec3 d = v3(sz * cosf(phi), sz * sinf(phi), cz);
-        vec3 t, b;
-        v3_basis(d, &t, &b);
-        /* The voxel's projection along d lies in the rectangle spanned by its corners' (t, b)
-         * coordinates; sampling the rectangle and rejecting lines that miss the voxel gives points
-         * uniform over the projection (the acceptance rate is at least 1/2). */
-        float h = 0.5f * g->voxel_size;
-        float ext_t = h * (fabsf(t.x) + fabsf(t.y) + fabsf(t.z)), ext_b = h * (fabsf(b.x) + fabsf(b.y) + fabsf(b.z));
-        vec3 p;
-        float s0 = 0, s1 = 0;
-        int tries = 0;
-        do {
-            float u = (2.0f * rng_float(&r) - 1.0f) * ext_t, v = (2.0f * rng_float(&r) - 1.0f) * ext_b;
-            p = v3_add(c, v3_add(v3_scale(t, u), v3_scale(b, v)));
-        } while (!line_box(p, d, lo, hi, &s0, &s1) && ++tries < 64);
-        if (tries == 64) { /* practically impossible; fall back to the line through the centre */
-            p = c;
-            line_box(p, d, lo, hi, &s0, &s1);
-        }
+        float d[3] = {sz * cosf(phi), sz * sinf(phi), cz};
+        /* Lines uniform over the voxel's projection along d, without rejection: every such line
+         * enters the cube through exactly one face, and face k's share of the projected area is
+         * |d_k| / (|d_x| + |d_y| + |d_z|); within that face the entry point is uniform. */
+        float w0 = fabsf(d[0]), w1 = fabsf(d[1]), w2 = fabsf(d[2]);
+        float pick = rng_float(&r) * (w0 + w1 + w2);
+        int face = pick < w0 ? 0 : (pick < w0 + w1 ? 1 : 2);
+        float p[3];
+        float u1 = rng_float(&r), u2 = rng_float(&r);
+        int a1 = (face + 1) % 3, a2 = (face + 2) % 3;
+        p[face] = d[face] > 0.0f ? blo[face] : bhi[face];
+        p[a1] = blo[a1] + u1 * (bhi[a1] - blo[a1]);
+        p[a2] = blo[a2] + u2 * (bhi[a2] - blo[a2]);
+        /* Exit: the nearest far-side plane. */
+        float s_exit = INFINITY;
+        for (int k = 0; k < 3; k++)
+            if (d[k] != 0.0f) {
+                float sk = ((d[k] > 0.0f ? bhi[k] : blo[k]) - p[k]) / d[k];
+                s_exit = sk < s_exit ? sk : s_exit;
+            }
+        if (!(s_exit >= 0.0f))
+            s_exit = 0.0f;
+        vec3 dir = v3(d[0], d[1], d[2]), entry = v3(p[0], p[1], p[2]);
         /* Back the origin up to outside the scene's bounding sphere. */
-        float back = v3_dot(v3_sub(p, sc), d) + radius;
+        float back = v3_dot(v3_sub(entry, sc), dir) + radius;
         vx_sample *o = &out[i];
-        memset(o, 0, sizeof *o);
-        o->origin = v3_madd(p, d, -back);
-        o->dir = d;
-        o->t_entry = back + s0;
-        o->t_exit = back + s1;
+        o->origin = v3_madd(entry, dir, -back);
+        o->dir = dir;
+        o->t_entry = back;
+        o->t_exit = back + s_exit;
         o->t_hit = INFINITY;
+        /* The rest is filled by bake_trace. */
+        o->kind = VX_SAMPLE_MISS;
+        o->own_triangle = 0;
+        o->normal = o->albedo = v3(0, 0, 0);
+        o->specular = o->roughness = 0.0f;
     }
 }
 
@@ -92,6 +75,13 @@ void bake_trace(const rt_scene *rt, const voxel_grid *g, size_t index, vx_sample
     /* Triangles lying on the voxel's faces are hit exactly at t_entry or t_exit: widen a little. */
     float slack = 1e-4f * g->voxel_size + rt->epsilon * 0.1f;
     const mesh *m = &rt->scene->mesh;
+    /* Rays of one voxel that pass it often hit the same few triangles behind it: remember the
+     * last answers of the (comparatively costly) triangle/voxel overlap test. */
+    enum { OWN_CACHE = 8 };
+    unsigned own_prim[OWN_CACHE];
+    int own_result[OWN_CACHE], own_next = 0;
+    for (int c = 0; c < OWN_CACHE; c++)
+        own_prim[c] = RTC_INVALID_GEOMETRY_ID;
     for (int first = 0; first < n; first += PACKET) {
         int count = n - first < PACKET ? n - first : PACKET;
         struct RTCRayHit16 rh;
@@ -120,24 +110,36 @@ void bake_trace(const rt_scene *rt, const voxel_grid *g, size_t index, vx_sample
             }
             unsigned prim = rh.hit.primID[k];
             sp->t_hit = rh.ray.tfar[k];
+            if (sp->t_hit > sp->t_exit + slack) {
+                /* Past the voxel: models only ask whether the triangle is one of the voxel's own
+                 * (Brito et al.'s per-voxel list). Bounding boxes settle most cases before the SAT. */
+                sp->kind = VX_SAMPLE_OUTSIDE;
+                int cached = -1;
+                for (int c = 0; c < OWN_CACHE; c++)
+                    if (own_prim[c] == prim)
+                        cached = own_result[c];
+                if (cached < 0) {
+                    const uint32_t *tri = &m->indices[3 * (size_t)prim];
+                    vec3 a = mesh_position(m, tri[0]), b = mesh_position(m, tri[1]), c = mesh_position(m, tri[2]);
+                    vec3 tlo = v3_min(a, v3_min(b, c)), thi = v3_max(a, v3_max(b, c));
+                    cached = tlo.x <= hi.x && thi.x >= lo.x && tlo.y <= hi.y && thi.y >= lo.y && tlo.z <= hi.z &&
+                             thi.z >= lo.z && tribox_overlap(lo, hi, a, b, c);
+                    own_prim[own_next] = prim;
+                    own_result[own_next] = cached;
+                    own_next = (own_next + 1) % OWN_CACHE;
+                }
+                sp->own_triangle = cached;
+                continue;
+            }
             surface_hit h;
             rt_surface(rt, prim, rh.hit.u[k], rh.hit.v[k], sp->origin, sp->dir, sp->t_hit, &h);
             sp->normal = h.normal;
             sp->specular = h.material->specular;
             sp->roughness = h.material->roughness;
-            if (sp->t_hit <= sp->t_exit + slack) {
-                sp->kind = h.front_facing ? VX_SAMPLE_INSIDE_FRONT : VX_SAMPLE_INSIDE_BACK;
-                sp->own_triangle = 1;
-                /* A double-sided surface seen from behind shades like a front face. */
-                if (!h.front_facing && h.material->double_sided)
-                    sp->kind = VX_SAMPLE_INSIDE_FRONT;
-                sp->albedo = sp->kind == VX_SAMPLE_INSIDE_FRONT ? h.albedo : v3(0, 0, 0);
-            } else {
-                sp->kind = VX_SAMPLE_OUTSIDE;
-                const uint32_t *tri = &m->indices[3 * (size_t)prim];
-                sp->own_triangle = tribox_overlap(lo, hi, mesh_position(m, tri[0]), mesh_position(m, tri[1]),
-                                                  mesh_position(m, tri[2]));
-            }
+            sp->own_triangle = 1;
+            /* A double-sided surface seen from behind shades like a front face. */
+            sp->kind = h.front_facing || h.material->double_sided ? VX_SAMPLE_INSIDE_FRONT : VX_SAMPLE_INSIDE_BACK;
+            sp->albedo = sp->kind == VX_SAMPLE_INSIDE_FRONT ? h.albedo : v3(0, 0, 0);
         }
     }
 }

@@ -226,63 +226,84 @@ static void dense_free(dense_bits *d)
 }
 
 /* Dense bits of the next coarser level: OR of the 4 child columns, then pairs of z bits. Word j of
- * a coarse column covers child words 2j and 2j+1 (2j is always inside the child column). Child
- * columns at n (odd n) are brick padding, hence zero: no range checks on x, y. */
+ * a coarse column covers child words 2j and 2j+1 (2j is always inside the child column). Walks
+ * the coarse bricks: the children of one are 2x2 fine bricks, read as 128-byte runs. Children past
+ * n are brick padding (zero), so the coarse padding stays zero too. */
 static void downsample(const dense_bits *src, dense_bits *dst)
 {
-    for (int X = 0; X < dst->n; X++)
-        for (int Y = 0; Y < dst->n; Y++)
+    for (int BX = 0; BX < dst->bt; BX++)
+        for (int BY = 0; BY < dst->bt; BY++)
             for (int j = 0; j < dst->W; j++) {
-                uint64_t a = 0, b = 0;
-                for (int k = 0; k < 4; k++) {
-                    int x = 2 * X + (k >> 1), y = 2 * Y + (k & 1);
-                    a |= src->w[dense_word(src, x, y, 2 * j)];
-                    if (2 * j + 1 < src->W)
-                        b |= src->w[dense_word(src, x, y, 2 * j + 1)];
+                uint64_t a[16] = {0}, b[16] = {0};
+                for (int s = 0; s < 4; s++) {
+                    int sbx = 2 * BX + (s >> 1), sby = 2 * BY + (s & 1);
+                    if (sbx >= src->bt || sby >= src->bt)
+                        continue;
+                    const uint64_t *wa = src->w + ((((size_t)sbx * (size_t)src->bt + (size_t)sby) * (size_t)src->W +
+                                                    (size_t)(2 * j)) << 4);
+                    int has_b = 2 * j + 1 < src->W;
+                    for (int i = 0; i < 16; i++) {
+                        /* Fine column (i/4, i%4) of brick s -> coarse column of this brick. */
+                        int o = ((s >> 1) * 2 + (i >> 3)) * 4 + (s & 1) * 2 + ((i & 3) >> 1);
+                        a[o] |= wa[i];
+                        if (has_b)
+                            b[o] |= wa[16 + i];
+                    }
                 }
-                dst->w[dense_word(dst, X, Y, j)] = even_bits(a | (a >> 1)) | (even_bits(b | (b >> 1)) << 32);
+                uint64_t *out = dst->w + ((((size_t)BX * (size_t)dst->bt + (size_t)BY) * (size_t)dst->W + (size_t)j) << 4);
+                for (int o = 0; o < 16; o++)
+                    out[o] = even_bits(a[o] | (a[o] >> 1)) | (even_bits(b[o] | (b[o] >> 1)) << 32);
             }
 }
 
-/* Sparse form of a dense level (see grid.h). */
+/* Sparse form of a dense level (see grid.h). A first pass over the dense bricks (contiguous) finds
+ * each column's mask of non-zero words and the totals; the second pass visits the columns in index
+ * order but reads only their non-zero words. */
 static int compact_level(grid_level *L, const dense_bits *d, vx_err *e)
 {
     int n = d->n, W = d->W;
-    size_t total = d->bytes / sizeof(uint64_t), words = 0, count = 0;
-    for (size_t i = 0; i < total; i++)
-        if (d->w[i]) {
-            words++;
-            count += (size_t)__builtin_popcountll(d->w[i]);
-        }
     L->n = n;
     L->words_per_col = W;
+    L->cols = big_alloc(cols_bytes(L));
+    if (!L->cols)
+        return vx_fail(e, "grid_build: out of memory for a %d^3 level", n);
+    size_t words = 0, count = 0, bricks = (size_t)d->bt * (size_t)d->bt * (size_t)W;
+    for (size_t brick = 0; brick < bricks; brick++) {
+        const uint64_t *w = d->w + (brick << 4);
+        int j = (int)(brick % (size_t)W);
+        size_t bxy = brick / (size_t)W;
+        int x0 = (int)(bxy / (size_t)d->bt) * 4, y0 = (int)(bxy % (size_t)d->bt) * 4;
+        for (int i = 0; i < 16; i++) {
+            if (!w[i])
+                continue; /* brick padding past n is always zero, so x, y < n below */
+            L->cols[(size_t)(x0 + (i >> 2)) * (size_t)n + (size_t)(y0 + (i & 3))] |= UINT64_C(1) << j;
+            words++;
+            count += (size_t)__builtin_popcountll(w[i]);
+        }
+    }
     L->words = words;
     L->count = count;
-    L->cols = big_alloc(cols_bytes(L));
     L->bits = big_alloc(bits_bytes(L));
     L->prefix = big_alloc(prefix_bytes(L));
     L->coords = big_alloc(coords_bytes(L));
-    if (!L->cols || !L->bits || !L->prefix || !L->coords)
+    if (!L->bits || !L->prefix || !L->coords)
         return vx_fail(e, "grid_build: out of memory for a %d^3 level (%zu voxels)", n, count);
     size_t wi = 0, c = 0;
     for (int x = 0; x < n; x++)
         for (int y = 0; y < n; y++) {
-            uint64_t first = wi, mask = 0;
-            for (int j = 0; j < W; j++) {
+            uint64_t *col = &L->cols[(size_t)x * (size_t)n + (size_t)y];
+            uint64_t first = wi, mask = *col;
+            for (uint64_t m = mask; m; m &= m - 1) {
+                int j = __builtin_ctzll(m);
                 uint64_t w = d->w[dense_word(d, x, y, j)];
-                if (!w)
-                    continue;
-                mask |= UINT64_C(1) << j;
                 L->bits[wi] = w;
                 L->prefix[wi] = (uint32_t)c;
                 wi++;
-                uint32_t xy = (uint32_t)x << 20 | (uint32_t)y << 10;
-                while (w) {
-                    L->coords[c++] = xy | (uint32_t)(j * 64 + __builtin_ctzll(w));
-                    w &= w - 1;
-                }
+                uint32_t xyz = (uint32_t)x << 20 | (uint32_t)y << 10 | (uint32_t)(j * 64);
+                for (; w; w &= w - 1)
+                    L->coords[c++] = xyz + (uint32_t)__builtin_ctzll(w);
             }
-            L->cols[(size_t)x * (size_t)n + (size_t)y] = first << 16 | mask;
+            *col = first << 16 | mask;
         }
     return 0;
 }

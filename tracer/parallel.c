@@ -76,13 +76,15 @@ void parallel_for(int64_t count, int threads, parallel_fn fn, void *ctx, const c
         threads = 1;
     pthread_t *tids = malloc(sizeof(pthread_t) * (size_t)threads);
     worker_arg *args = malloc(sizeof(worker_arg) * (size_t)threads);
+    int started = 1;
     for (int t = 0; t < threads; t++) {
         args[t] = (worker_arg){&j, t};
-        if (t > 0)
-            pthread_create(&tids[t], NULL, worker, &args[t]);
+        /* A thread that cannot be created is simply not there: thread 0 drains the queue anyway. */
+        if (t > 0 && pthread_create(&tids[started], NULL, worker, &args[t]) == 0)
+            started++;
     }
     worker(&args[0]);
-    for (int t = 1; t < threads; t++)
+    for (int t = 1; t < started; t++)
         pthread_join(tids[t], NULL);
     if (j.label) {
         show_progress(&j, count);
