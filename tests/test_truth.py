@@ -118,4 +118,46 @@ report("seed_changes_noise", not np.array_equal(a1, a3), "seed had no effect")
 report("size_option", a1.shape == (20, 24, 3), f"shape {a1.shape}")
 
 
+# 8. Depth of field: a straight edge at depth D seen through a thin lens of radius A focused at F is
+# blurred by a disk of radius R = A |D - F| / F on the edge's plane; a pixel's value is the covered
+# fraction of that disk, averaged over the pixel's width (box filter).
+write_ply(os.path.join(TMP, "halfx.ply"), [(-50, 0, -50), (-50, 0, 50), (0, 0, 50), (0, 0, -50)], [(0, 1, 2, 3)])
+# fov_deg is vertical: a 32x1 image spans 32 times tan(fov/2) horizontally.
+W, fov, D = 32, 0.3, 4.0
+half_width = D * math.tan(math.radians(fov / 2)) * W
+
+
+def covered_fraction(s, R):
+    """Fraction of a disk of radius R whose centre lies at signed distance s inside a half-plane."""
+    if R == 0:
+        return 1.0 if s > 0 else 0.0
+    s = max(-R, min(R, s))
+    return 0.5 + (s * math.sqrt(R * R - s * s) + R * R * math.asin(s / R)) / (math.pi * R * R)
+
+
+def dof_profile(aperture, focus):
+    cam = {"position": [0, D, 0], "look_at": [0, 0, 0], "up": [0, 0, -1], "fov_deg": fov,
+           "aperture": aperture, "focus_distance": focus}
+    img, _ = render(write_scene(f"dof_{aperture}_{focus}", [{"ply": "halfx.ply", "material": "white"}], [white_sun],
+                                cam, size=(W, 1), effects=["dof"], materials={"white": {"color": [1, 1, 1]}}),
+                    f"dof_{aperture}_{focus}", "--spp", "1024")
+    R = aperture * abs(D - focus) / focus
+    want = []
+    for i in range(W):
+        xs = [(2 * (i + (k + 0.5) / 200) / W - 1) * half_width for k in range(200)]
+        want.append(sum(covered_fraction(-x, R) for x in xs) / len(xs))
+    return img[0, :, 0], np.array(want)
+
+
+got, want = dof_profile(0.2, 2.0)
+# 1024 samples of a 4-D (pixel x lens) integrand: about 0.016 standard error where the disk is half
+# covered, so 0.05 is 3 standard errors for the worst of 32 pixels; the mean error must be far smaller.
+err = np.abs(got - want)
+report("dof_blur_matches_circle_of_confusion", err.max() < 0.05 and err.mean() < 0.01,
+       f"max error {err.max()}, mean {err.mean()}: got {np.round(got, 3)}, want {np.round(want, 3)}")
+report("dof_blur_is_wide", ((got > 0.05) & (got < 0.95)).sum() >= 10, f"profile {np.round(got, 3)}")
+got, want = dof_profile(0.2, D)
+report("dof_in_focus_stays_sharp", ((got > 0.01) & (got < 0.99)).sum() <= 1 and np.abs(got - want).max() < 0.02,
+       f"profile {np.round(got, 3)}")
+
 finish()

@@ -43,6 +43,16 @@ void truth_strata_sample(int i, int sx, int sy, float r1, float r2, float *x, fl
     }
 }
 
+static int gcd(int a, int b)
+{
+    while (b) {
+        int t = a % b;
+        a = b;
+        b = t;
+    }
+    return a;
+}
+
 /* Traces up to 16 samples of one pixel and adds their radiance to sum. */
 static void trace_packet(const rt_scene *rt, const truth_options *o, int px, int py, int first, int count, rng *r,
                          vec3 *sum, truth_counts *counts)
@@ -51,6 +61,15 @@ static void trace_packet(const rt_scene *rt, const truth_options *o, int px, int
     truth_strata(o->spp, &strata_x, &strata_y);
     const scene *s = rt->scene;
     int dof = (s->effects & EFFECT_DOF) != 0;
+    /* The lens is stratified too, with its strata visited in a different order than the pixel's
+     * (an affine permutation i -> (a i + b) mod m with a coprime to m and b per pixel), so pixel
+     * and lens positions stay decorrelated. */
+    int m = strata_x * strata_y, lens_a = m / 2 + 1, lens_b = 0;
+    if (dof) {
+        while (gcd(lens_a, m) != 1)
+            lens_a++;
+        lens_b = (int)(rng_mix64((uint64_t)py * 0x9e3779b97f4a7c15ULL + (uint64_t)px) % (uint64_t)m);
+    }
     struct RTCRayHit16 rh;
     int valid[PACKET] __attribute__((aligned(64)));
     vec3 dirs[PACKET];
@@ -61,8 +80,10 @@ static void trace_packet(const rt_scene *rt, const truth_options *o, int px, int
             float r1 = rng_float(r), r2 = rng_float(r);
             truth_strata_sample(first + k, strata_x, strata_y, r1, r2, &sx, &sy);
             if (dof) {
-                lu = rng_float(r);
-                lv = rng_float(r);
+                float r3 = rng_float(r), r4 = rng_float(r);
+                int i = first + k;
+                truth_strata_sample(i < m ? (int)(((int64_t)lens_a * i + lens_b) % m) : i, strata_x, strata_y, r3,
+                                    r4, &lu, &lv);
             }
         }
         vec3 org, dir;
