@@ -21,7 +21,7 @@ CFLAGS = -std=c11 $(OPT) -g -march=x86-64-v2 -Wall -Wextra -Werror $(NOWARN) -D_
 CXXFLAGS = -std=c++17 $(OPT) -g -Wall -Wextra -Werror -pthread -MMD -MP $(INCLUDES) $(SANFLAGS)
 # -rdynamic: the OpenImageIO plugin calls back into the executable (see tracer/image_oiio.cpp).
 LDFLAGS = -pthread -rdynamic $(SANFLAGS)
-LDLIBS = -lembree3 -lOpenEXRCore -ltinygltf -lcjson -lm -ldl
+LDLIBS = -lembree3 -lOpenEXRCore -ltinygltf -lcjson -lOpenCL -lm -ldl
 PLUGIN = $(BUILD)/libvoxlab_oiio.so
 
 # Every source file of the library; main.c is the CLI only.
@@ -34,7 +34,8 @@ BENCH_BIN = $(patsubst tests/%.c,$(BUILD)/tests/%,$(BENCH_SRC))
 
 # Debian packages voxlab needs to build and test (see README).
 DEPS = build-essential libembree-dev libopenexr-dev libopenimageio-dev libtinygltf-dev libcjson-dev \
-       python3-numpy python3-skimage python3-matplotlib python3-openimageio
+       ocl-icd-opencl-dev opencl-headers pocl-opencl-icd \
+       python3-numpy python3-skimage python3-matplotlib python3-openimageio python3-mpmath
 
 .PHONY: all deps test test-asan bench demo clean
 all: $(BUILD)/voxlab
@@ -88,5 +89,8 @@ demo: deps
 
 clean:
 	rm -rf build build-asan
+
+# Experiment targets (table1, pareto, figures, dashboard, regress) live beside their scripts.
+include experiments/experiments.mk
 
 -include $(shell find $(BUILD) -name '*.d' 2>/dev/null)

@@ -1,14 +1,7 @@
 /* `alpha`: the "averages" baseline (GigaVoxels-style). One mean colour, one mean normal and one
  * opacity per voxel, the fraction of the voxel's sample rays that hit inside it; front-to-back
  * alpha blending. */
-#include "average_shading.h"
-
-typedef struct {
-    float color[3];
-    float normal[3]; /* mean of the front-facing hit normals (length <= 1) */
-    float opacity;
-    float specular, roughness;
-} alpha_record;
+#include "alpha_eval.h" /* the record and its evaluation (portable C, shared with OpenCL) */
 
 static void alpha_bake(const vx_voxel *v, const vx_sample *samples, int n, void *out)
 {
@@ -40,25 +33,15 @@ static void alpha_bake(const vx_voxel *v, const vx_sample *samples, int n, void 
     r->roughness = rough * inv;
 }
 
-static float alpha_opacity(VX_GLOBAL const void *record, const vx_query *q)
-{
-    (void)q;
-    return ((VX_GLOBAL const alpha_record *)record)->opacity;
-}
-
-static void alpha_shade(VX_GLOBAL const void *record, const vx_query *q, vx_answer *a)
-{
-    VX_GLOBAL const alpha_record *r = record;
-    a->radiance = average_shading(v3(r->color[0], r->color[1], r->color[2]),
-                                  v3(r->normal[0], r->normal[1], r->normal[2]), r->specular, r->roughness, q);
-}
-
 const vx_model model_alpha = {
     .name = "alpha",
     .description = "averages: one colour, normal and opacity (hit fraction) per voxel; front-to-back alpha",
     .voxel_bytes = sizeof(alpha_record),
     .compositing = VX_COMPOSITE_ALPHA,
     .bake_voxel = alpha_bake,
-    .opacity = alpha_opacity,
-    .shade = alpha_shade,
+    .opacity = alpha_eval_opacity,
+    .shade = alpha_eval_shade,
+    .cl_source = "alpha_eval.h",
+    .cl_opacity = "alpha_eval_opacity",
+    .cl_shade = "alpha_eval_shade",
 };

@@ -1,14 +1,7 @@
 /* `binary`: 0/1 opacity (the Carmack-style baseline). A voxel is opaque when any of its sample rays
  * hit inside it on a front face; its colour and normal are the means over those hits; nearest
  * lookup, first-hit compositing. */
-#include "average_shading.h"
-
-typedef struct {
-    float color[3];
-    float normal[3]; /* mean of the front-facing hit normals (length <= 1) */
-    float specular, roughness;
-    unsigned int opaque;
-} binary_record;
+#include "binary_eval.h" /* the record and its evaluation (portable C, shared with OpenCL) */
 
 static void binary_bake(const vx_voxel *v, const vx_sample *samples, int n, void *out)
 {
@@ -37,25 +30,15 @@ static void binary_bake(const vx_voxel *v, const vx_sample *samples, int n, void
     r->roughness = rough * inv;
 }
 
-static float binary_opacity(VX_GLOBAL const void *record, const vx_query *q)
-{
-    (void)q;
-    return ((VX_GLOBAL const binary_record *)record)->opaque ? 1.0f : 0.0f;
-}
-
-static void binary_shade(VX_GLOBAL const void *record, const vx_query *q, vx_answer *a)
-{
-    VX_GLOBAL const binary_record *r = record;
-    a->radiance = average_shading(v3(r->color[0], r->color[1], r->color[2]),
-                                  v3(r->normal[0], r->normal[1], r->normal[2]), r->specular, r->roughness, q);
-}
-
 const vx_model model_binary = {
     .name = "binary",
     .description = "0/1 opacity: opaque where any sample hit a front face; mean colour and normal; first hit",
     .voxel_bytes = sizeof(binary_record),
     .compositing = VX_COMPOSITE_FIRST_HIT,
     .bake_voxel = binary_bake,
-    .opacity = binary_opacity,
-    .shade = binary_shade,
+    .opacity = binary_eval_opacity,
+    .shade = binary_eval_shade,
+    .cl_source = "binary_eval.h",
+    .cl_opacity = "binary_eval_opacity",
+    .cl_shade = "binary_eval_shade",
 };

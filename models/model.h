@@ -131,6 +131,15 @@ typedef struct vx_model {
     /* VX_MARCH_CONE models only (NULL otherwise): the answer of the cone element described by q
      * (position, level, footprint, to_viewer, lights), looked up in q->grid / q->records. */
     void (*cone_element)(const vx_query *q, vx_answer *a);
+    /* The OpenCL backend (tracer/opencl_backend.c) compiles the model's per-voxel evaluation from
+     * the same source as the C build: cl_source names a header under models/ (e.g.
+     * "binary_eval.h") that compiles as OpenCL C, and cl_opacity / cl_shade name its functions there
+     * with the signatures of opacity and shade above (the C model points opacity and shade at those
+     * same functions, or at thin wrappers of them). NULL cl_source: the model cannot run on OpenCL,
+     * and `render --backend opencl` says so. The tracer reads these fields and never names a model. */
+    const char *cl_source;
+    const char *cl_opacity;
+    const char *cl_shade;
 } vx_model;
 
 /* The registry (models/registry.c). */

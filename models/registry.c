@@ -5,10 +5,14 @@
 
 extern const vx_model model_binary;
 extern const vx_model model_alpha;
+extern const vx_model model_heitz_neyret;
+extern const vx_model model_vmesh;
 
 static const vx_model *const models[] = {
     &model_binary,
     &model_alpha,
+    &model_heitz_neyret,
+    &model_vmesh,
     NULL,
 };
 

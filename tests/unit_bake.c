@@ -8,14 +8,17 @@
  * mean chord length is the voxel size times E[1 / (|w_x|+|w_y|+|w_z|)] (the mean of V / projected
  * area), computed here by quadrature. Seeds and voxel indices select independent streams.
  *
+ * Uniform directions with lines uniform over the projection is the sampler's documented measure; it
+ * is not the area-weighted one of isotropic uniform random lines (whose mean chord would be Cauchy's
+ * 4V/S = 2/3 of the size), and the chord check is tight enough to tell the two apart.
+ *
  * Classification: the fractions of INSIDE_FRONT / INSIDE_BACK / OUTSIDE / MISS samples for a voxel
  * of a quad (axis-aligned and tilted) and of a closed box are compared with a Monte Carlo reference
  * written here: its own random numbers, its own way of drawing the same line measure (a visible
  * face picked with probability proportional to its projected area, a uniform point on it) and its
- * own line/plane and line/box intersections. For a plane crossing the whole voxel both the
- * sampler's measure (uniform directions) and the area-weighted one (isotropic uniform random lines,
- * Crofton) give 1/3 for an axis-aligned plane; for the tilted plane they differ, which shows which
- * measure the sampler really draws from. Front and back follow the triangles' winding; a triangle
+ * own line/plane and line/box intersections. A plane through the whole voxel is crossed inside it
+ * by exactly 1/3 of the lines (E|w_z| / |w|_1 = 1/3 by symmetry; Crofton's 2a^2 / 6a^2 for the
+ * area-weighted measure too). Front and back follow the triangles' winding; a triangle
  * lying exactly on the face between two voxels (grid.h: both are non-empty) is INSIDE for both. */
 #include <math.h>
 #include <stdint.h>
@@ -119,11 +122,11 @@ static void cell_box(const voxel_grid *g, int x, int y, int z, double lo[3], dou
 }
 
 /* Slab test in double. */
-static int slab(const double p[3], const double d[3], const double lo[3], const double hi[3], double *t0,
-                double *t1, int *entry_axis)
+static int slab2(const double p[3], const double d[3], const double lo[3], const double hi[3], double *t0,
+                 double *t1, int *entry_axis, int *exit_axis)
 {
     double a = -INFINITY, b = INFINITY;
-    int ax = -1;
+    int ax = -1, bx = -1;
     for (int k = 0; k < 3; k++) {
         if (d[k] == 0.0) {
             if (p[k] < lo[k] || p[k] > hi[k])
@@ -140,13 +143,24 @@ static int slab(const double p[3], const double d[3], const double lo[3], const 
             a = u;
             ax = k;
         }
-        b = fmin(b, v);
+        if (v < b) {
+            b = v;
+            bx = k;
+        }
     }
     *t0 = a;
     *t1 = b;
     if (entry_axis)
         *entry_axis = ax;
+    if (exit_axis)
+        *exit_axis = bx;
     return a <= b;
+}
+
+static int slab(const double p[3], const double d[3], const double lo[3], const double hi[3], double *t0,
+                double *t1, int *entry_axis)
+{
+    return slab2(p, d, lo, hi, t0, t1, entry_axis, NULL);
 }
 
 /* ---------- generation ---------- */
@@ -238,17 +252,32 @@ static void test_generation(void)
         for (int k = 0; k < 3; k++)
             r2 += (o[k] - sc[k]) * (o[k] - sc[k]);
         outside &= sqrt(r2) > R;
-        ordered &= s[i].t_entry < s[i].t_exit;
+        /* float t near 3 resolves ~2.4e-7: a line through an edge may get t_entry == t_exit. */
+        ordered &= s[i].t_entry <= s[i].t_exit;
         double t0, t1;
-        int ax;
-        if (!slab(o, d, lo, hi, &t0, &t1, &ax) || t1 - t0 <= 0) {
-            interval = 0;
+        int ax, bx;
+        if (!slab2(o, d, lo, hi, &t0, &t1, &ax, &bx) || t1 - t0 <= 0) {
+            /* The origin was rounded to float far from the voxel, so a line through an edge or a
+             * corner may miss it by ~1e-7: that must still be a near miss, and such a line has no
+             * entry face to count. */
+            double glo[3], ghi[3], g0, g1;
+            for (int k = 0; k < 3; k++)
+                glo[k] = lo[k] - 1e-5 * size, ghi[k] = hi[k] + 1e-5 * size;
+            if (!slab(o, d, glo, ghi, &g0, &g1, NULL)) {
+                interval = 0;
+                printf("# sample %d: the line misses the voxel\n", i);
+            }
             continue;
         }
-        double tol = 1e-5 * fmax(1.0, fabs(t1));
-        double err = fmax(fabs(t0 - s[i].t_entry), fabs(t1 - s[i].t_exit));
-        worst_interval = fmax(worst_interval, err);
-        interval &= err <= tol;
+        ordered &= t1 - t0 < 1e-6 * t1 || s[i].t_entry < s[i].t_exit;
+        /* The origin and t are floats: positions are good to ~1e-7 of |origin| + t, and a crossing
+         * of the plane of axis k moves by that over |d_k| (grazing lines cross slowly). */
+        double omax = fmax(fabs(o[0]), fmax(fabs(o[1]), fabs(o[2])));
+        double pos_err = 1e-6 * (omax + fabs(t1));
+        double err0 = fabs(t0 - s[i].t_entry) / (pos_err / fmax(fabs(d[ax]), 1e-6));
+        double err1 = fabs(t1 - s[i].t_exit) / (pos_err / fmax(fabs(d[bx]), 1e-6));
+        worst_interval = fmax(worst_interval, fmax(err0, err1));
+        interval &= err0 <= 1 && err1 <= 1;
         double tm = 0.5 * ((double)s[i].t_entry + s[i].t_exit);
         for (int k = 0; k < 3; k++) {
             double p = o[k] + tm * d[k];
@@ -272,9 +301,9 @@ static void test_generation(void)
         nface++;
     }
     CHECK("generation: origins outside the scene's bounding sphere", outside);
-    CHECK("generation: t_entry < t_exit", ordered);
+    CHECK("generation: t_entry < t_exit (<= where the chord is below float resolution)", ordered);
     if (!interval)
-        printf("# worst |t - slab| = %g\n", worst_interval);
+        printf("# worst |t - slab| = %g x tolerance\n", worst_interval);
     CHECK("generation: [t_entry, t_exit] = the line's slab interval through the voxel", interval);
     CHECK("generation: the midpoint of [t_entry, t_exit] lies in the voxel", crosses);
     /* Each pair of faces takes E[|w_k| / (|w_x|+|w_y|+|w_z|)] = 1/3 of the lines. */
@@ -305,7 +334,7 @@ static void test_generation(void)
     /* Isotropic uniform random lines (directions weighted by projected area) would give Cauchy's
      * 4V/S = 2/3 instead: the tolerance above must exclude that, or the check cannot tell. */
     CHECK("generation: the chord check separates uniform directions from area-weighted ones (Cauchy 2/3)",
-          5 * chord_sd / sqrt(nface) < 0.5 * fabs(want_chord - 2.0 / 3.0));
+          5 * chord_sd / sqrt(nface) < fabs(want_chord - 2.0 / 3.0));
 
     /* Streams: the same (seed, voxel) repeats exactly; another seed or voxel differs. */
     enum { KS = 256 };
@@ -525,8 +554,8 @@ static void test_axis_quad(int reversed, int double_sided)
     world_free(w);
 }
 
-/* A tilted plane: the sampler's measure (uniform directions) and the area-weighted one give
- * different INSIDE fractions, so this also says which one the sampler draws. */
+/* A tilted plane through a voxel (no symmetry to lean on: only the Monte Carlo reference knows the
+ * fractions). */
 static void test_tilted_quad(void)
 {
     world *w = world_new();
@@ -564,8 +593,8 @@ static void test_tilted_quad(void)
     compare_classes("tilted quad", w, cx, cy, cz, &rg, 60000, 1000000);
     double lo[3], size, uni[4], iur[4];
     cell_box(&w->g, cx, cy, cz, lo, &size);
-    ref_frequencies(&rg, lo, size, 0, 1000000, 99, uni);
-    ref_frequencies(&rg, lo, size, 1, 1000000, 98, iur);
+    ref_frequencies(&rg, lo, size, 0, 300000, 99, uni);
+    ref_frequencies(&rg, lo, size, 1, 300000, 98, iur);
     /* For information: this plane barely separates the two line measures (the chord check does). */
     printf("# tilted quad INSIDE fraction: uniform directions %.4f, area-weighted directions %.4f\n",
            uni[C_FRONT] + uni[C_BACK], iur[C_FRONT] + iur[C_BACK]);

@@ -404,16 +404,24 @@ static void set_lights(vx_query *q, int k, vec3 E, char *desc, size_t desc_size)
 typedef struct {
     int bad;
     char why[768];
+    const char *geometry; /* the voxel geometry being run, for the message */
+    int geometry_bad;     /* the current geometry has failed */
+    char geometries[256]; /* every geometry that failed */
 } verdict;
 
 static void fail(verdict *v, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 static void fail(verdict *v, const char *fmt, ...)
 {
+    if (!v->geometry_bad++) {
+        size_t len = strlen(v->geometries);
+        snprintf(v->geometries + len, sizeof v->geometries - len, "%s%s", len ? ", " : "", v->geometry);
+    }
     if (v->bad++)
         return; /* the first failure explains; the rest only count */
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(v->why, sizeof v->why, fmt, ap);
+    int n = snprintf(v->why, sizeof v->why, "[%s voxel] ", v->geometry);
+    vsnprintf(v->why + n, sizeof v->why - (size_t)n, fmt, ap);
     va_end(ap);
 }
 
@@ -572,11 +580,10 @@ static void *bake_grid(const vx_model *m, const vx_sample *samples, int n, voxel
 
 enum { GUARD = 64 };
 
-static void run_case(const vx_model *m, const bake_case *c, const geometry *geo, uint64_t seed)
+static void run_geometry(const vx_model *m, const bake_case *c, const geometry *geo, uint64_t seed, verdict *vp)
 {
-    char name[256];
-    snprintf(name, sizeof name, "%s / %s / %s", m->name, c->name, geo->name);
-    verdict v = {0, ""};
+    vp->geometry = geo->name;
+    vp->geometry_bad = 0;
     vx_sample *samples = calloc((size_t)c->n + 1, sizeof *samples);
     make_samples(c, geo, seed, samples);
     /* Zero samples: the array holds one NaN-filled sample, so a model that reads samples[0] anyway
@@ -596,44 +603,55 @@ static void run_case(const vx_model *m, const bake_case *c, const geometry *geo,
     m->bake_voxel(&vv, samples, c->n, rec2);
     for (int i = 0; i < GUARD; i++)
         if (rec[m->voxel_bytes + (size_t)i] != 0xa5) {
-            fail(&v, "bake_voxel wrote past voxel_bytes (%zu) at byte +%d", m->voxel_bytes, i);
+            fail(vp, "bake_voxel wrote past voxel_bytes (%zu) at byte +%d", m->voxel_bytes, i);
             break;
         }
     if (memcmp(rec, rec2, m->voxel_bytes) != 0)
-        fail(&v, "baking the same samples twice gave different records");
+        fail(vp, "baking the same samples twice gave different records");
     unsigned char *copy = malloc(m->voxel_bytes);
     memcpy(copy, rec, m->voxel_bytes);
 
-    if (m->march != VX_MARCH_CONE)
-        query_all(m, c, &sum, rec, geo, NULL, NULL, &v);
+    /* Every model answers per voxel: cone-marching ones too, for the shadow rays that march the
+     * level-0 voxels with m->opacity (shade is optional for them). */
+    query_all(m, c, &sum, rec, geo, NULL, NULL, vp);
     if (memcmp(copy, rec, m->voxel_bytes) != 0)
-        fail(&v, "opacity/shade modified the record");
+        fail(vp, "opacity/shade modified the record");
     /* Models with a grid pass or cone marching: the same samples in every voxel of a small grid,
      * answers looked up after bake_finish (only once per case: the grid has its own geometry). */
     if ((m->bake_finish || m->march == VX_MARCH_CONE) && geo == &geometries[0]) {
         voxel_grid g;
         void *records = bake_grid(m, samples, c->n, &g);
         if (!records)
-            fail(&v, "bake_finish failed on a 4^3 grid");
+            fail(vp, "bake_finish failed on a 4^3 grid");
         else {
             const void *rec0 = records; /* level 0, voxel 0 */
             if (m->march == VX_MARCH_CONE)
-                query_all(m, c, &sum, NULL, NULL, &g, records, &v);
+                query_all(m, c, &sum, NULL, NULL, &g, records, vp);
             else
-                query_all(m, c, &sum, rec0, geo, NULL, NULL, &v);
+                query_all(m, c, &sum, rec0, geo, NULL, NULL, vp);
             free(records);
             grid_free(&g);
         }
     }
-    if (v.bad)
-        printf("not ok %s: %s (%d failures)\n", name, v.why, v.bad);
-    else
-        printf("ok %s\n", name);
-    unit_failures += v.bad > 0;
     free(copy);
     free(rec);
     free(rec2);
     free(samples);
+}
+
+/* One case through one model, at every voxel geometry: one protocol line. */
+static void run_case(const vx_model *m, const bake_case *c, uint64_t seed)
+{
+    verdict v;
+    memset(&v, 0, sizeof v);
+    for (size_t gi = 0; gi < sizeof geometries / sizeof geometries[0]; gi++)
+        run_geometry(m, c, &geometries[gi], seed, &v);
+    if (v.bad)
+        printf("not ok %s / %s: %s (%d failed answers; failing voxels: %s)\n", m->name, c->name, v.why, v.bad,
+               v.geometries);
+    else
+        printf("ok %s / %s\n", m->name, c->name);
+    unit_failures += v.bad > 0;
 }
 
 /* ---------- the registry ---------- */
@@ -691,7 +709,6 @@ int main(void)
     check_bound_helpers();
     for (const vx_model *const *p = model_all(); *p; p++)
         for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++)
-            for (size_t gi = 0; gi < sizeof geometries / sizeof geometries[0]; gi++)
-                run_case(*p, &cases[c], &geometries[gi], 1000 + c);
+            run_case(*p, &cases[c], 1000 + c);
     return unit_exit();
 }

@@ -33,32 +33,9 @@
 #include <stdint.h>
 
 #include "error.h"
+#include "grid_core.h" /* the types and the cell lookups, portable C shared with OpenCL */
 #include "mesh.h"
 #include "vec.h"
-
-#define GRID_MAX_N 1024
-#define GRID_MAX_LEVELS 11 /* 1024, 512, ..., 1 */
-
-typedef struct {
-    int n;             /* cells per side: ceil(grid n / 2^level) */
-    int words_per_col; /* ceil(n / 64) */
-    uint64_t *cols;    /* n*n, index x*n + y: (first stored word << 16) | mask of non-zero words */
-    uint64_t *bits;    /* stored (non-zero) words, bit z%64 of word z/64 of its column */
-    uint32_t *prefix;  /* per stored word: non-empty cells in all earlier stored words */
-    uint32_t *coords;  /* per non-empty cell, by dense index: x << 20 | y << 10 | z */
-    size_t words;      /* stored words */
-    size_t count;      /* non-empty cells */
-} grid_level;
-
-typedef struct voxel_grid {
-    int n;              /* cells per side at level 0 */
-    vec3 origin;        /* float copy of origin_d (for display; the exact mapping is origin_d) */
-    float voxel_size;   /* float copy of voxel_size_d */
-    double origin_d[3]; /* the mapping used by the build and the traversal */
-    double voxel_size_d;
-    int levels;         /* level 0 (n) to levels-1 (1 cell) */
-    grid_level level[GRID_MAX_LEVELS];
-} voxel_grid;
 
 #ifdef __cplusplus
 extern "C" {
@@ -84,40 +61,14 @@ VX_INLINE void grid_to_lattice(const voxel_grid *g, vec3 p, double out[3])
     out[2] = ((double)p.z - g->origin_d[2]) / g->voxel_size_d;
 }
 
-/* World-space corners and centre of a cell of `level`. */
+/* World-space corners and centre of a cell of `level` (grid_cell_corners in grid_core.h is the
+ * portable twin of grid_cell_box, for OpenCL). */
 void grid_cell_box(const voxel_grid *g, int level, int x, int y, int z, vec3 *lo, vec3 *hi);
 vec3 grid_cell_center(const voxel_grid *g, int level, int x, int y, int z);
 
 VX_INLINE size_t grid_count(const voxel_grid *g, int level)
 {
     return level >= 0 && level < g->levels ? g->level[level].count : 0;
-}
-
-/* Dense index of a cell known to be inside the level (no range checks), -1 when empty. */
-VX_INLINE int64_t grid_level_index(const grid_level *L, int x, int y, int z)
-{
-    uint64_t col = L->cols[(size_t)x * (size_t)L->n + (size_t)y];
-    unsigned j = (unsigned)z >> 6, b = (unsigned)z & 63u;
-    uint32_t mask = (uint32_t)(col & 0xffffu);
-    if (!((mask >> j) & 1u))
-        return -1;
-    size_t w = (size_t)(col >> 16) + (size_t)__builtin_popcount(mask & ((1u << j) - 1u));
-    uint64_t bits = L->bits[w];
-    if (!((bits >> b) & 1u))
-        return -1;
-    return (int64_t)L->prefix[w] + __builtin_popcountll(bits & ((UINT64_C(1) << b) - 1u));
-}
-
-/* Whether a cell known to be inside the level is non-empty (the index without the prefix load). */
-VX_INLINE int grid_level_occupied(const grid_level *L, int x, int y, int z)
-{
-    uint64_t col = L->cols[(size_t)x * (size_t)L->n + (size_t)y];
-    unsigned j = (unsigned)z >> 6;
-    uint32_t mask = (uint32_t)(col & 0xffffu);
-    if (!((mask >> j) & 1u))
-        return 0;
-    size_t w = (size_t)(col >> 16) + (size_t)__builtin_popcount(mask & ((1u << j) - 1u));
-    return (int)((L->bits[w] >> ((unsigned)z & 63u)) & 1u);
 }
 
 /* Dense index of cell (x, y, z) of `level`, -1 when the cell is empty or outside the grid. */

@@ -29,27 +29,7 @@
 #include <stdint.h>
 
 #include "grid.h"
-
-typedef struct {
-    int x, y, z;    /* cell coordinates at the iterator's level */
-    int64_t index;  /* dense index at that level (see grid_index) */
-    float t0, t1;   /* where the ray enters and leaves the cell */
-} grid_hit;
-
-typedef struct {
-    const voxel_grid *g;
-    int level, n;       /* level traversed, its cells per side */
-    int active;         /* 0 once the ray has left the grid or passed t_max */
-    int c[3];           /* current block (cell when k = 0), in units of 2^k cells */
-    int dir[3];         /* step per axis (-1, 0, +1) */
-    int fixed[3];       /* the cell on axes where the ray does not move */
-    double o[3], inv[3]; /* ray origin in the level's lattice units, 1 / direction (0 where d = 0) */
-    double d[3];
-    double t, t_end;    /* entry of the current block, end of the ray in the grid */
-    double t_next[3];   /* where the ray crosses the current block's exit plane on each axis */
-    int k;              /* the walk is over blocks of 2^k cells (cells of the level k above) */
-    int parent_ok;      /* the current block's parent is known to be non-empty */
-} grid_iter;
+#include "grid_traverse_core.h" /* grid_hit, grid_iter and the DDA itself (portable, shared with OpenCL) */
 
 #ifdef __cplusplus
 extern "C" {

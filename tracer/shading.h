@@ -43,7 +43,10 @@ VX_INLINE float shading_beckmann_d(float cos_h, float alpha)
 VX_INLINE float shading_specular_brdf(vec3 n, vec3 v, vec3 l, float f0, float alpha)
 {
     float nl = v3_dot(n, l), nv = v3_dot(n, v);
-    if (nl <= 0.0f || nv <= 0.0f)
+    /* Below the cosine clamp of shading_smith_lambda the masking term no longer cancels the
+     * 1 / (n.l n.v) factor; the energy there is negligible. A zero roughness or reflectance (a voxel
+     * with no front-facing hit) has no lobe rather than 0/0. */
+    if (nl <= 1e-6f || nv <= 1e-6f || !(f0 > 0.0f) || !(alpha > 0.0f))
         return 0.0f;
     vec3 h = v3_normalize(v3_add(v, l));
     float sigma = alpha * 0.70710678f;

@@ -1,0 +1,1 @@
+# Experiment targets: see experiments/README.md. Included by the top-level Makefile.

@@ -1,0 +1,518 @@
+/* `heitz-neyret`: Heitz & Neyret 2012, "Representing appearance and pre-filtering subpixel data in
+ * sparse voxel octrees". Per cell of every MIP level: the mean surface plane (height h along the
+ * mean normal) with its height variance sigma_h^2, the mean normal with the slope variance
+ * sigma_n^2, and per colour channel the mean a and the projection a_s of the colour on
+ * s(h) = 2 g(h) - 1 (record layout in hn_record.h). Rendered by cone marching: the tracer steps
+ * cone elements and calls cone_element, which interpolates the records quadrilinearly, builds the
+ * element's 128-sample coverage mask and its view- and light-dependent radiance (hn_eval.h);
+ * the tracer composites the masks A-buffer style.
+ *
+ * This file is the host side: the start-up mask table, the bake (level 0 from the shared sampler's
+ * hits, coarser levels from their children) and the glue from the model interface to the portable
+ * evaluation in hn_eval.h. */
+#include <math.h>
+#include <pthread.h>
+#include <string.h>
+
+#include "bake.h"
+#include "grid.h"
+#include "hn_host.h"
+#include "rng.h"
+
+/* ---- Coverage-mask table ------------------------------------------------------------------- */
+
+static float mask_samples[2 * HN_MASK_SAMPLES];
+static unsigned int mask_table[HN_TABLE_WORDS];
+static pthread_once_t tables_once = PTHREAD_ONCE_INIT;
+
+static void random_in_disk(rng *r, double *x, double *y)
+{
+    double rad = sqrt(rng_double(r)), phi = 2.0 * M_PI * rng_double(r);
+    *x = rad * cos(phi);
+    *y = rad * sin(phi);
+}
+
+/* Poisson-disk samples by Mitchell's best-candidate algorithm (a fixed seed: the masks are the
+ * same on every run), then the table: bit s of entry (t, v) is set when sample s satisfies
+ * x cos t + y sin t <= v, t = 2 pi i / 256 and v the centre of bin j of [-1, 1]. */
+static void build_tables(void)
+{
+    rng r = rng_seed(0x484e3132ULL /* "HN12" */, 0);
+    double px[HN_MASK_SAMPLES], py[HN_MASK_SAMPLES];
+    random_in_disk(&r, &px[0], &py[0]);
+    for (int k = 1; k < HN_MASK_SAMPLES; k++) {
+        double best = -1.0, bx = 0.0, by = 0.0;
+        for (int c = 0; c < 16 * k; c++) {
+            double x, y, d = INFINITY;
+            random_in_disk(&r, &x, &y);
+            for (int i = 0; i < k; i++)
+                d = fmin(d, (x - px[i]) * (x - px[i]) + (y - py[i]) * (y - py[i]));
+            if (d > best) {
+                best = d;
+                bx = x;
+                by = y;
+            }
+        }
+        px[k] = bx;
+        py[k] = by;
+    }
+    for (int s = 0; s < HN_MASK_SAMPLES; s++) {
+        mask_samples[2 * s] = (float)px[s];
+        mask_samples[2 * s + 1] = (float)py[s];
+    }
+    for (int ti = 0; ti < HN_TABLE_T; ti++) {
+        double t = 2.0 * M_PI * ti / HN_TABLE_T, ct = cos(t), st = sin(t);
+        for (int vi = 0; vi < HN_TABLE_V; vi++) {
+            double v = -1.0 + (vi + 0.5) * 2.0 / HN_TABLE_V;
+            unsigned int *m = &mask_table[((size_t)ti * HN_TABLE_V + (size_t)vi) * VX_MASK_WORDS];
+            for (int s = 0; s < HN_MASK_SAMPLES; s++)
+                if (px[s] * ct + py[s] * st <= v)
+                    m[s / 32] |= 1u << (s % 32);
+        }
+    }
+}
+
+const float *hn_mask_samples(void)
+{
+    pthread_once(&tables_once, build_tables);
+    return mask_samples;
+}
+
+const unsigned int *hn_mask_table(void)
+{
+    pthread_once(&tables_once, build_tables);
+    return mask_table;
+}
+
+/* ---- Slope variance from normals ------------------------------------------------------------ */
+
+/* sqrt(pi) erfcx(y), double. */
+static double sqrtpi_erfcx(double y)
+{
+    if (y < 3.0)
+        return sqrt(M_PI) * exp(y * y) * erfc(y);
+    double t = 0.0;
+    for (int k = 40; k >= 1; k--)
+        t = (0.5 * k) / (y + t);
+    return 1.0 / (y + t);
+}
+
+/* For slopes p, q ~ N(0, sigma2): over the projected area u = p^2 + q^2 ~ Exp(mean 2 sigma2), and
+ * the area weighs by sqrt(1 + u), so E_area[(n.N)^2] = E[(1+u)^-1/2] / E[(1+u)^1/2] = 2 b k / (2 b + k)
+ * with b = 1 / (2 sigma2) and k = E[(1+u)^-1/2] = sqrt(b) sqrt(pi) erfcx(sqrt(b)). */
+double hn_m_of_sigma2(double sigma2)
+{
+    if (!(sigma2 > 0.0))
+        return 1.0;
+    double b = 1.0 / (2.0 * sigma2), k = sqrt(b) * sqrtpi_erfcx(sqrt(b));
+    return 2.0 * b * k / (2.0 * b + k);
+}
+
+double hn_sigma2_of_m(double m)
+{
+    if (!(m < 1.0 - 1e-9))
+        return 0.0;
+    double lo = -30.0, hi = 12.0; /* log sigma2; m decreases with sigma2 */
+    if (m <= hn_m_of_sigma2(exp(hi)))
+        return exp(hi);
+    for (int i = 0; i < 80; i++) {
+        double mid = 0.5 * (lo + hi);
+        if (hn_m_of_sigma2(exp(mid)) > m)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return exp(0.5 * (lo + hi));
+}
+
+/* ---- Bake: moments of the surface in a cell --------------------------------------------------- */
+
+/* Area-weighted sums over the surface of a cell, positions relative to the cell's centre. Raw sums
+ * (not central moments) so that children add up after a shift of origin. */
+typedef struct {
+    double w, x[3], xx[3][3], n[3], nn[3][3];
+    double wf, xf[3], a[3], ax[3][3], f0, var_brdf; /* over the shaded (front) surface */
+} moments;
+
+static void moments_shift(moments *m, const double off[3])
+{
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 3; k++)
+            m->xx[i][k] += m->x[i] * off[k] + off[i] * m->x[k] + m->w * off[i] * off[k];
+    for (int i = 0; i < 3; i++)
+        m->x[i] += m->w * off[i];
+    for (int c = 0; c < 3; c++)
+        for (int k = 0; k < 3; k++)
+            m->ax[c][k] += m->a[c] * off[k];
+    for (int i = 0; i < 3; i++)
+        m->xf[i] += m->wf * off[i];
+}
+
+static void moments_add(moments *dst, const moments *s)
+{
+    double *d = (double *)dst;
+    const double *p = (const double *)s;
+    for (size_t i = 0; i < sizeof(moments) / sizeof(double); i++)
+        d[i] += p[i];
+}
+
+/* Unit eigenvector of the largest eigenvalue of a symmetric 3x3 matrix (power iteration from its
+ * largest column: enough for the sheet axis of normals' second moments). */
+static void principal_axis(const double m[3][3], double out[3])
+{
+    int best = 0;
+    for (int i = 1; i < 3; i++)
+        if (m[i][i] > m[best][best])
+            best = i;
+    double v[3] = {m[0][best], m[1][best], m[2][best]};
+    for (int it = 0; it < 64; it++) {
+        double w[3] = {0, 0, 0}, len = 0.0;
+        for (int i = 0; i < 3; i++)
+            for (int k = 0; k < 3; k++)
+                w[i] += m[i][k] * v[k];
+        for (int i = 0; i < 3; i++)
+            len += w[i] * w[i];
+        len = sqrt(len);
+        if (!(len > 1e-300))
+            break;
+        for (int i = 0; i < 3; i++)
+            v[i] = w[i] / len;
+    }
+    double len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (!(len > 1e-300)) {
+        out[0] = 0, out[1] = 0, out[2] = 1;
+        return;
+    }
+    for (int i = 0; i < 3; i++)
+        out[i] = v[i] / len;
+}
+
+/* Below this mean-normal length the cell's normals disagree too much for a side: a sheet seen
+ * from both sides (double-sided leaves) or a closed blob smaller than the cell. */
+#define HN_ONE_SIDED_MIN 0.3
+
+/* The record's fields from a cell's moments (cell edge `size`). */
+static void derive(const moments *m, float size, hn_data *d)
+{
+    memset(d, 0, sizeof *d);
+    if (!(m->w > 0.0))
+        return; /* area 0: the cell is ignored when interpolating */
+    double mean[3], nbar[3], N[3], C[3][3], NN[3][3];
+    for (int i = 0; i < 3; i++) {
+        mean[i] = m->x[i] / m->w;
+        nbar[i] = m->n[i] / m->w;
+    }
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 3; k++) {
+            C[i][k] = m->xx[i][k] / m->w - mean[i] * mean[k];
+            NN[i][k] = m->nn[i][k] / m->w;
+        }
+    double len = sqrt(nbar[0] * nbar[0] + nbar[1] * nbar[1] + nbar[2] * nbar[2]);
+    if (len >= HN_ONE_SIDED_MIN) {
+        for (int i = 0; i < 3; i++)
+            N[i] = nbar[i] / len;
+        d->n = v3((float)nbar[0], (float)nbar[1], (float)nbar[2]);
+    } else {
+        principal_axis(NN, N);
+        if (N[0] * nbar[0] + N[1] * nbar[1] + N[2] * nbar[2] < 0.0)
+            for (int i = 0; i < 3; i++)
+                N[i] = -N[i];
+        d->n = v3((float)N[0], (float)N[1], (float)N[2]);
+        d->two_sided = 1;
+    }
+    double h = 0.0, var_h = 0.0, mq = 0.0;
+    for (int i = 0; i < 3; i++) {
+        h += N[i] * mean[i];
+        for (int k = 0; k < 3; k++) {
+            var_h += N[i] * C[i][k] * N[k];
+            mq += N[i] * NN[i][k] * N[k];
+        }
+    }
+    var_h = fmax(var_h, 0.0);
+    d->h = (float)h;
+    d->var_h = (float)var_h;
+    d->var_n = (float)hn_sigma2_of_m(mq);
+    d->area = (float)m->w;
+    if (!(m->wf > 0.0))
+        return; /* only back faces: colour unknown (black if no neighbour knows better) */
+    d->has_color = 1;
+    double sigma_h = sqrt(var_h), a[3];
+    for (int c = 0; c < 3; c++)
+        a[c] = fmin(fmax(m->a[c] / m->wf, 0.0), 1.0);
+    d->a = v3((float)a[0], (float)a[1], (float)a[2]);
+    /* a_s from Cov(a, h): for Gaussian heights and a = a + a_s s(h), Stein's lemma gives
+     * E[h s(h)] = sigma_h / sqrt(pi), so a_s = sqrt(pi) Cov(a, h) / sigma_h exactly; unlike the
+     * projection on s itself, the covariance combines exactly from children to parents. With
+     * sigma_h = 0 (g a step: no depth to correlate with) a_s is 0. */
+    double as[3] = {0, 0, 0};
+    if (sigma_h > 1e-5 * size) {
+        for (int c = 0; c < 3; c++) {
+            double cov = 0.0;
+            for (int k = 0; k < 3; k++)
+                cov += N[k] * (m->ax[c][k] / m->wf - a[c] * m->xf[k] / m->wf);
+            double bound = fmin(a[c], 1.0 - a[c]);
+            as[c] = fmin(fmax(sqrt(M_PI) * cov / sigma_h, -bound), bound);
+        }
+    }
+    d->as = v3((float)as[0], (float)as[1], (float)as[2]);
+    d->f0 = (float)(m->f0 / m->wf);
+    d->var_brdf = (float)(m->var_brdf / m->wf);
+}
+
+/* Level 0 from the shared sampler's rays. Each hit inside the voxel is weighted by the area of the
+ * voxel's projection along its direction, (|dx| + |dy| + |dz|) size^2: the sampler spreads a
+ * direction's rays uniformly over that projection, so a surface element dA is hit with probability
+ * |n.d| dA / A_proj(d), and the weight makes the hits area-uniform (the mean of |n.d| over the
+ * sphere is 1/2 for every orientation); the summed weights estimate the area, 2 sum / K. Both
+ * sides' hits give positions (back hits are the same surface seen from inside; their normal, which
+ * faces the ray, is turned outward); only front hits give colour and material. */
+static void hn_bake(const vx_voxel *v, const vx_sample *samples, int n, void *out)
+{
+    moments m;
+    memset(&m, 0, sizeof m);
+    double c[3] = {v->lo.x + 0.5 * v->size, v->lo.y + 0.5 * v->size, v->lo.z + 0.5 * v->size};
+    double unit = n > 0 ? 2.0 * (double)v->size * v->size / n : 0.0;
+    for (int i = 0; i < n; i++) {
+        const vx_sample *s = &samples[i];
+        int front = s->kind == VX_SAMPLE_INSIDE_FRONT;
+        if (!front && s->kind != VX_SAMPLE_INSIDE_BACK)
+            continue;
+        if (!isfinite(s->t_hit))
+            continue;
+        double w = unit * (fabs(s->dir.x) + fabs(s->dir.y) + fabs(s->dir.z));
+        double x[3] = {s->origin.x + (double)s->dir.x * s->t_hit - c[0], s->origin.y + (double)s->dir.y * s->t_hit - c[1],
+                       s->origin.z + (double)s->dir.z * s->t_hit - c[2]};
+        double sign = front ? 1.0 : -1.0;
+        double nv[3] = {sign * s->normal.x, sign * s->normal.y, sign * s->normal.z};
+        m.w += w;
+        for (int k = 0; k < 3; k++) {
+            m.x[k] += w * x[k];
+            m.n[k] += w * nv[k];
+            for (int l = 0; l < 3; l++) {
+                m.xx[k][l] += w * x[k] * x[l];
+                m.nn[k][l] += w * nv[k] * nv[l];
+            }
+        }
+        if (front) {
+            double a[3] = {s->albedo.x, s->albedo.y, s->albedo.z};
+            m.wf += w;
+            for (int k = 0; k < 3; k++) {
+                m.xf[k] += w * x[k];
+                m.a[k] += w * a[k];
+                for (int l = 0; l < 3; l++)
+                    m.ax[k][l] += w * a[k] * x[l];
+            }
+            m.f0 += w * s->specular;
+            m.var_brdf += w * 0.5 * (double)s->roughness * s->roughness;
+        }
+    }
+    hn_data d;
+    derive(&m, v->size, &d);
+    hn_encode(&d, v->size, (hn_record *)out);
+}
+
+/* A child's record as moments about its own centre: the plane patch through c + h N with height
+ * variance sigma_h^2 along N and the spread of a patch across a cube (size^2 / 12) along it; normals
+ * with the stored mean and the second moment a Gaussian of slope variance sigma_n^2 has about N;
+ * the colour's covariance with position along N only, sigma_h a_s / sqrt(pi) (the inverse of
+ * derive's a_s). The usual statistics of the paper: means and variances combine with weights. */
+static void moments_of_record(const hn_data *d, float size, moments *m)
+{
+    memset(m, 0, sizeof *m);
+    double w = d->area;
+    if (!(w > 0.0))
+        return;
+    double len = sqrt((double)v3_dot(d->n, d->n));
+    double N[3] = {0, 0, 1};
+    if (len > 1e-12) {
+        N[0] = d->n.x / len;
+        N[1] = d->n.y / len;
+        N[2] = d->n.z / len;
+    }
+    double mean[3] = {d->h * N[0], d->h * N[1], d->h * N[2]};
+    double tang = (double)size * size / 12.0, mq = hn_m_of_sigma2(d->var_n);
+    double nbar[3] = {0, 0, 0};
+    if (!d->two_sided)
+        for (int i = 0; i < 3; i++)
+            nbar[i] = (double)v3_get(d->n, i);
+    double sigma_h = sqrt(fmax(d->var_h, 0.0f));
+    double a[3] = {d->a.x, d->a.y, d->a.z}, as[3] = {d->as.x, d->as.y, d->as.z};
+    m->w = w;
+    m->wf = d->has_color ? w : 0.0;
+    for (int i = 0; i < 3; i++) {
+        m->x[i] = w * mean[i];
+        m->xf[i] = m->wf * mean[i];
+        m->n[i] = w * nbar[i];
+        m->a[i] = m->wf * a[i];
+        for (int k = 0; k < 3; k++) {
+            double delta = i == k ? 1.0 : 0.0, nn = N[i] * N[k];
+            m->xx[i][k] = w * (d->var_h * nn + tang * (delta - nn) + mean[i] * mean[k]);
+            m->nn[i][k] = w * (mq * nn + 0.5 * (1.0 - mq) * (delta - nn));
+        }
+    }
+    for (int c = 0; c < 3; c++)
+        for (int k = 0; k < 3; k++)
+            m->ax[c][k] = m->wf * (a[c] * mean[k] + sigma_h * as[c] / sqrt(M_PI) * N[k]);
+    m->f0 = m->wf * d->f0;
+    m->var_brdf = m->wf * d->var_brdf;
+}
+
+/* Coarser levels, each cell from its (up to 8) children. */
+static int hn_bake_finish(const voxel_grid *g, void *records)
+{
+    hn_record *rec = records;
+    for (int l = 1; l < g->levels; l++) {
+        size_t off = bake_level_offset(g, l), child_off = bake_level_offset(g, l - 1);
+        float size = (float)ldexp(g->voxel_size_d, l), child = (float)ldexp(g->voxel_size_d, l - 1);
+        size_t count = grid_count(g, l);
+        for (size_t i = 0; i < count; i++) {
+            int x, y, z;
+            grid_coords(g, l, i, &x, &y, &z);
+            moments sum;
+            memset(&sum, 0, sizeof sum);
+            for (int k = 0; k < 8; k++) {
+                int dx = k >> 2, dy = (k >> 1) & 1, dz = k & 1;
+                int64_t ci = grid_index(g, l - 1, 2 * x + dx, 2 * y + dy, 2 * z + dz);
+                if (ci < 0)
+                    continue;
+                hn_data d;
+                hn_decode(&rec[child_off + (size_t)ci], child, &d);
+                moments m;
+                moments_of_record(&d, child, &m);
+                double shift[3] = {(dx - 0.5) * child, (dy - 0.5) * child, (dz - 0.5) * child};
+                moments_shift(&m, shift);
+                moments_add(&sum, &m);
+            }
+            hn_data d;
+            derive(&sum, size, &d);
+            hn_encode(&d, size, &rec[off + i]);
+        }
+    }
+    return 0;
+}
+
+/* ---- Evaluation glue ---------------------------------------------------------------------------- */
+
+void hn_fill_stencil(const voxel_grid *g, vec3 p, float level, hn_stencil *st)
+{
+    st->count = 0;
+    st->level_frac = 0.0f;
+    if (!g || g->levels < 1)
+        return;
+    float lv = fminf(fmaxf(level, 0.0f), (float)(g->levels - 1)); /* NaN -> 0 */
+    int L0 = (int)floorf(lv);
+    int L1 = L0 + 1 < g->levels ? L0 + 1 : L0;
+    st->level_frac = L1 > L0 ? lv - (float)L0 : 0.0f;
+    double lat[3];
+    grid_to_lattice(g, p, lat);
+    for (int slot = 0; slot < (L1 > L0 ? 2 : 1); slot++) {
+        int L = slot ? L1 : L0;
+        double scale = ldexp(1.0, -L), size = ldexp(g->voxel_size_d, L);
+        size_t off = bake_level_offset(g, L);
+        int i0[3];
+        double f[3];
+        for (int a = 0; a < 3; a++) {
+            double u = lat[a] * scale - 0.5;
+            if (!(fabs(u) < 1e9))
+                return; /* far outside (or NaN): nothing there */
+            i0[a] = (int)floor(u);
+            f[a] = u - i0[a];
+        }
+        for (int k = 0; k < 8; k++) {
+            int d[3] = {k >> 2, (k >> 1) & 1, k & 1};
+            int64_t idx = grid_index(g, L, i0[0] + d[0], i0[1] + d[1], i0[2] + d[2]);
+            if (idx < 0)
+                continue;
+            int s = st->count++;
+            st->slot[s] = slot;
+            st->weight[s] = (float)((d[0] ? f[0] : 1 - f[0]) * (d[1] ? f[1] : 1 - f[1]) * (d[2] ? f[2] : 1 - f[2]));
+            st->centre[s] = v3((float)(g->origin_d[0] + (i0[0] + d[0] + 0.5) * size),
+                               (float)(g->origin_d[1] + (i0[1] + d[1] + 0.5) * size),
+                               (float)(g->origin_d[2] + (i0[2] + d[2] + 0.5) * size));
+            st->size[s] = (float)size;
+            st->index[s] = (long)(off + (size_t)idx);
+        }
+    }
+}
+
+static void answer_clear(vx_answer *a)
+{
+    a->radiance = v3(0.0f, 0.0f, 0.0f);
+    a->opacity = 0.0f;
+    hn_mask_set(a->mask, 0u);
+}
+
+static void hn_cone_element(const vx_query *q, vx_answer *a)
+{
+    answer_clear(a);
+    if (!q->grid || !q->records)
+        return;
+    hn_stencil st;
+    hn_fill_stencil(q->grid, q->position, q->level, &st);
+    hn_sample s;
+    if (!hn_interpolate((VX_GLOBAL const hn_record *)q->records, &st, q->position, &s))
+        return;
+    hn_answer(hn_mask_table(), &s, q, fmaxf(q->footprint, 0.0f), a);
+}
+
+/* Voxel-marching entry points (opacity for shadow rays and the hard-case tests, shade): the
+ * level-0 record alone, as an element of the voxel's size centred on the ray's midpoint in it. */
+static int single_record(VX_GLOBAL const void *record, const vx_query *q, hn_sample *s, vec3 *p)
+{
+    float size = q->voxel_size;
+    if (!record || !(size > 0.0f) || !(size < 1e30f))
+        return 0;
+    hn_stencil st;
+    st.count = 1;
+    st.level_frac = 0.0f;
+    st.slot[0] = 0;
+    st.weight[0] = 1.0f;
+    st.centre[0] = v3_add(q->voxel_lo, v3(0.5f * size, 0.5f * size, 0.5f * size));
+    st.size[0] = size;
+    st.index[0] = 0;
+    float tm = 0.5f * (q->t0 + q->t1);
+    *p = isfinite(tm) ? v3_madd(q->ray_origin, q->ray_dir, tm) : st.centre[0];
+    if (!isfinite(p->x) || !isfinite(p->y) || !isfinite(p->z))
+        *p = st.centre[0];
+    return hn_interpolate((VX_GLOBAL const hn_record *)record, &st, *p, s);
+}
+
+static float hn_opacity(VX_GLOBAL const void *record, const vx_query *q)
+{
+    hn_sample s;
+    vec3 p;
+    if (!single_record(record, q, &s, &p))
+        return 0.0f;
+    vx_query lq = *q;
+    lq.light_count = 0;
+    vx_answer a;
+    hn_answer(hn_mask_table(), &s, &lq, 0.5f * q->voxel_size, &a);
+    return a.opacity;
+}
+
+static void hn_shade(VX_GLOBAL const void *record, const vx_query *q, vx_answer *a)
+{
+    float opacity = a->opacity;
+    answer_clear(a);
+    hn_sample s;
+    vec3 p;
+    if (!single_record(record, q, &s, &p))
+        return;
+    hn_answer(hn_mask_table(), &s, q, 0.5f * q->voxel_size, a);
+    a->opacity = opacity;
+}
+
+const vx_model model_heitz_neyret = {
+    .name = "heitz-neyret",
+    .description = "Heitz & Neyret 2012: mean plane, height and slope variances, colour vs depth per cell of every "
+                   "MIP level; cone marching with 128-sample coverage masks",
+    .voxel_bytes = sizeof(hn_record),
+    .compositing = VX_COMPOSITE_COVERAGE,
+    .uses_levels = 1,
+    .march = VX_MARCH_CONE,
+    .bake_voxel = hn_bake,
+    .bake_finish = hn_bake_finish,
+    .opacity = hn_opacity,
+    .shade = hn_shade,
+    .cone_element = hn_cone_element,
+};

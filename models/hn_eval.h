@@ -1,0 +1,224 @@
+/* Heitz–Neyret evaluation of one cone element: quadrilinear interpolation of the records (space and
+ * level), the element's coverage mask, and its light- and view-dependent radiance. Portable C
+ * (OpenCL C too): the cells to read come in a stencil that the host side (heitz_neyret.c) fills
+ * from the grid, so this code never walks the sparse grid's tables itself.
+ *
+ * Interpolation blends the cells' planes rather than their stored numbers: each cell's plane
+ * (normal n_i, height h_i above its centre c_i) gives a signed distance n_i.(p - c_i) - h_i at the
+ * element's centre p, and those distances are blended with the trilinear weights. For a field that
+ * is one plane this equals trilinear interpolation of a distance field, and it needs no value for
+ * the empty cells of the sparse grid (their weight is left out and the rest renormalised), which a
+ * plain distance-field interpolation would. */
+#ifndef VX_HN_EVAL_H
+#define VX_HN_EVAL_H
+
+#include "hn_masks.h"
+#include "hn_record.h"
+
+#define HN_STENCIL_MAX 16 /* 8 cells on each of two levels */
+
+typedef struct {
+    int count;
+    float level_frac;                 /* weight of slot 1 (the coarser level) */
+    int slot[HN_STENCIL_MAX];         /* 0: finer level, 1: coarser level */
+    float weight[HN_STENCIL_MAX];     /* trilinear weight within its level */
+    vec3 centre[HN_STENCIL_MAX];      /* cell centre (world) */
+    float size[HN_STENCIL_MAX];       /* cell edge (world) */
+    long index[HN_STENCIL_MAX];       /* record index */
+} hn_stencil;
+
+/* The interpolated surface description at one point. */
+typedef struct {
+    vec3 n;        /* blended mean normal (not unit) */
+    float D;       /* signed distance of the point above the mean plane (world) */
+    float var_h, var_n, var_brdf, f0;
+    float two_sided; /* weight of two-sided cells, 0..1 */
+    vec3 a, as;
+} hn_sample;
+
+VX_INLINE void hn_sample_zero(hn_sample *s)
+{
+    s->n = v3(0.0f, 0.0f, 0.0f);
+    s->D = s->var_h = s->var_n = s->var_brdf = s->f0 = s->two_sided = 0.0f;
+    s->a = s->as = v3(0.0f, 0.0f, 0.0f);
+}
+
+/* Per level: geometry (normal, distance, variances) and attributes (colours, material) summed with
+ * their own weights. */
+typedef struct {
+    hn_sample g;   /* n, D, var_h, var_n, two_sided use the geometry weights */
+    hn_sample at;  /* a, as, f0, var_brdf use the attribute weights */
+    float wg, wa;
+} hn_level_sum;
+
+/* Blends the stencil's records at point p. Returns 0 when no cell has surface (nothing there).
+ * Weights: geometry by w min(1, 2 area / size^2), so that a cell whose surface only clips a corner
+ * (few samples: a noisy plane) counts less than one the surface crosses; attributes by w area (the
+ * surface-weighted mean, as the MIP levels are), and only from cells whose colour is known. */
+VX_INLINE int hn_interpolate(VX_GLOBAL const hn_record *records, const hn_stencil *st, vec3 p, hn_sample *out)
+{
+    hn_level_sum lv[2];
+    for (int k = 0; k < 2; k++) {
+        hn_sample_zero(&lv[k].g);
+        hn_sample_zero(&lv[k].at);
+        lv[k].wg = lv[k].wa = 0.0f;
+    }
+    for (int i = 0; i < st->count; i++) {
+        float w = st->weight[i];
+        if (!(w > 0.0f))
+            continue;
+        hn_data d;
+        hn_decode(records + st->index[i], st->size[i], &d);
+        if (!(d.area > 0.0f))
+            continue; /* marked by the grid but never hit: no surface to describe */
+        int k = st->slot[i] ? 1 : 0;
+        vec3 n = d.n;
+        float h = d.h;
+        /* A two-sided sheet has an axis, not a side: turn it toward what is already blended so
+         * that opposite axes do not cancel. */
+        if (d.two_sided && v3_dot(n, lv[k].g.n) < 0.0f) {
+            n = v3_scale(n, -1.0f);
+            h = -h;
+        }
+        vec3 nu = v3_normalize_or(n, v3(0.0f, 0.0f, 1.0f));
+        float s2 = st->size[i] * st->size[i];
+        float wg = w * fminf(1.0f, 2.0f * d.area / s2);
+        hn_sample *g = &lv[k].g;
+        g->n = v3_madd(g->n, n, wg);
+        g->D += wg * (v3_dot(nu, v3_sub(p, st->centre[i])) - h);
+        g->var_h += wg * d.var_h;
+        g->var_n += wg * d.var_n;
+        g->two_sided += wg * (d.two_sided ? 1.0f : 0.0f);
+        lv[k].wg += wg;
+        if (d.has_color) {
+            float wa = w * d.area / s2;
+            hn_sample *at = &lv[k].at;
+            at->a = v3_madd(at->a, d.a, wa);
+            at->as = v3_madd(at->as, d.as, wa);
+            at->f0 += wa * d.f0;
+            at->var_brdf += wa * d.var_brdf;
+            lv[k].wa += wa;
+        }
+    }
+    float f = fminf(fmaxf(st->level_frac, 0.0f), 1.0f);
+    float w0 = lv[0].wg > 0.0f ? 1.0f - f : 0.0f, w1 = lv[1].wg > 0.0f ? f : 0.0f;
+    if (!(w0 + w1 > 0.0f)) { /* one level empty: the other alone */
+        w0 = lv[0].wg > 0.0f ? 1.0f : 0.0f;
+        w1 = lv[1].wg > 0.0f ? 1.0f : 0.0f;
+    }
+    if (!(w0 + w1 > 0.0f))
+        return 0;
+    hn_sample_zero(out);
+    float total = w0 + w1;
+    /* Two-sided axes of the two levels must agree too. */
+    if (w1 > 0.0f && lv[1].g.two_sided > 0.5f * lv[1].wg && v3_dot(lv[1].g.n, lv[0].g.n) < 0.0f) {
+        lv[1].g.n = v3_scale(lv[1].g.n, -1.0f);
+        lv[1].g.D = -lv[1].g.D;
+    }
+    float a0 = lv[0].wa > 0.0f ? 1.0f - f : 0.0f, a1 = lv[1].wa > 0.0f ? f : 0.0f;
+    if (!(a0 + a1 > 0.0f)) {
+        a0 = lv[0].wa > 0.0f ? 1.0f : 0.0f;
+        a1 = lv[1].wa > 0.0f ? 1.0f : 0.0f;
+    }
+    for (int k = 0; k < 2; k++) {
+        float wk = (k ? w1 : w0) / total;
+        if (wk > 0.0f) {
+            float s = wk / lv[k].wg;
+            out->n = v3_madd(out->n, lv[k].g.n, s);
+            out->D += s * lv[k].g.D;
+            out->var_h += s * lv[k].g.var_h;
+            out->var_n += s * lv[k].g.var_n;
+            out->two_sided += s * lv[k].g.two_sided;
+        }
+        float ak = (k ? a1 : a0) / fmaxf(a0 + a1, 1e-30f);
+        if (ak > 0.0f) {
+            float s = ak / lv[k].wa;
+            out->a = v3_madd(out->a, lv[k].at.a, s);
+            out->as = v3_madd(out->as, lv[k].at.as, s);
+            out->f0 += s * lv[k].at.f0;
+            out->var_brdf += s * lv[k].at.var_brdf;
+        }
+    }
+    return 1;
+}
+
+/* Outgoing radiance toward q->to_viewer of the blended surface with unit mean normal N (facing the
+ * viewer already for a two-sided sheet), for q's lights.
+ *  - colour: a(v,l) = a + a_s (Lv + Ll)/(Lv + Ll + 2) (eq. 17), Ll only when the scene declares
+ *    shadows (without them the ground truth lights the valleys too);
+ *  - diffuse: Lambert over the visible facets, E[n.l] = k(sigma) (l.N + (l.t_v) tilt(v)) with the
+ *    visible facets tilted toward the viewer (hn_visible_tilt) and darkened by the mean facet
+ *    cosine (hn_lambert_cos_mean); with shadows the lit share of the visible area,
+ *    (1 + Lv)/(1 + Lv + Ll) (Smith's height-correlated masking-shadowing);
+ *  - specular: Beckmann lobe about N with slope variance sigma_n^2 + sigma_BRDF^2, so pre-filtered
+ *    bumps become roughness (the paper's convolution of NDF and BRDF). */
+VX_INLINE vec3 hn_radiance(const hn_sample *s, vec3 N, const vx_query *q)
+{
+    vec3 v = q->to_viewer;
+    float cv = v3_dot(N, v);
+    float sigma = sqrtf(fmaxf(s->var_n, 0.0f));
+    float mu_v = hn_cot_from_cos(cv);
+    float lambda_v = hn_lambda_mu(mu_v, sigma);
+    float tilt = hn_visible_tilt(mu_v, sigma);
+    vec3 tv = v3_normalize_or(v3_madd(v, N, -cv), v3(0.0f, 0.0f, 0.0f));
+    float kcos = hn_lambert_cos_mean(sigma);
+    int shadows = (q->effects & VX_EFFECT_SHADOWS) != 0u;
+    int specular = (q->effects & VX_EFFECT_SPECULAR) != 0u;
+    float alpha = sqrtf(2.0f * (fmaxf(s->var_n, 0.0f) + fmaxf(s->var_brdf, 0.0f)));
+    alpha = fminf(fmaxf(alpha, 1e-3f), 1e3f);
+    vec3 sum = v3(0.0f, 0.0f, 0.0f);
+    int nl = q->light_count < VX_MAX_LIGHTS ? q->light_count : VX_MAX_LIGHTS;
+    for (int i = 0; i < nl; i++) {
+        vec3 l = q->to_light[i];
+        float cl = v3_dot(N, l);
+        float lambda_l = shadows ? hn_lambda(cl, sigma) : 0.0f;
+        vec3 c = v3(hn_attribute(s->a.x, s->as.x, lambda_v, lambda_l), hn_attribute(s->a.y, s->as.y, lambda_v, lambda_l),
+                    hn_attribute(s->a.z, s->as.z, lambda_v, lambda_l));
+        c = v3_min(v3_max(c, v3(0.0f, 0.0f, 0.0f)), v3(1.0f, 1.0f, 1.0f));
+        float diff = kcos / VX_PI * fmaxf(0.0f, cl + v3_dot(l, tv) * tilt);
+        if (shadows)
+            diff *= (1.0f + lambda_v) / (1.0f + lambda_v + lambda_l);
+        vec3 f = v3_scale(c, diff);
+        if (specular && cl > 0.0f) {
+            float sp = shading_specular_brdf(N, v, l, s->f0, alpha) * cl;
+            f = v3_add(f, v3(sp, sp, sp));
+        }
+        sum = v3_add(sum, v3_mul(f, q->irradiance[i]));
+    }
+    /* Non-finite inputs (a NaN light) must not leak into the image. */
+    if (!(sum.x == sum.x) || !(sum.y == sum.y) || !(sum.z == sum.z))
+        sum = v3(0.0f, 0.0f, 0.0f);
+    return sum;
+}
+
+/* The answer of an element of radius r centred at p: coverage mask over the footprint (in the frame
+ * of q->ray_dir) and radiance (only when q has lights: the tracer asks first for the mask, and for
+ * the radiance only when the element adds coverage). opacity = covered fraction. */
+VX_INLINE void hn_answer(VX_GLOBAL const unsigned int *table, const hn_sample *s, const vx_query *q, float r,
+                         vx_answer *a)
+{
+    vec3 dir = v3_normalize_or(q->ray_dir, v3(0.0f, 0.0f, 1.0f));
+    int two = s->two_sided > 0.5f;
+    vec3 N = v3_normalize_or(s->n, v3_scale(dir, -1.0f));
+    float D = s->D;
+    if (two && v3_dot(N, dir) > 0.0f) { /* a sheet faces whoever looks at it */
+        N = v3_scale(N, -1.0f);
+        D = -D;
+    }
+    float sigma_h = sqrtf(fmaxf(s->var_h, 0.0f));
+    vec3 T, B;
+    v3_basis(dir, &T, &B);
+    float nx = v3_dot(N, T), ny = v3_dot(N, B), nz = v3_dot(N, dir);
+    if (two) {
+        hn_slab_mask(table, nx, ny, nz, D, r, sigma_h, a->mask);
+    } else {
+        /* The silhouette plane rises with the view: only the peaks remain visible at grazing
+         * angles (mean visible depth, report §4.4). */
+        float lambda_v = hn_lambda(v3_dot(N, q->to_viewer), sqrtf(fmaxf(s->var_n, 0.0f)));
+        hn_plane_mask(table, nx, ny, nz, D - hn_visible_depth_offset(sigma_h, lambda_v), r, a->mask);
+    }
+    a->opacity = (float)hn_mask_count(a->mask) / (float)HN_MASK_SAMPLES;
+    a->radiance = q->light_count > 0 ? hn_radiance(s, N, q) : v3(0.0f, 0.0f, 0.0f);
+}
+
+#endif

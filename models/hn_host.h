@@ -1,0 +1,25 @@
+/* Host-side pieces of the Heitz–Neyret model that tests and benchmarks reach into (not portable C:
+ * the bake side and the start-up tables). */
+#ifndef VX_HN_HOST_H
+#define VX_HN_HOST_H
+
+#include "hn_eval.h"
+
+struct voxel_grid;
+
+/* The 128 Poisson-disk sample positions of the coverage masks (x, y pairs in the unit disk) and the
+ * 256 x 256 mask table built from them (HN_TABLE_WORDS words). Both are generated once, on first
+ * use, from a fixed seed: the same numbers on every run and every thread. */
+const float *hn_mask_samples(void);
+const unsigned int *hn_mask_table(void);
+
+/* E[(n.N)^2] over the area of a Gaussian-slope surface with per-axis slope variance sigma2, and
+ * its inverse (how the bake turns normals' second moments into a slope variance). */
+double hn_m_of_sigma2(double sigma2);
+double hn_sigma2_of_m(double m);
+
+/* Fills the stencil of the cone element at p (world) and fractional level `level` of grid g:
+ * the 8 cells around p on floor(level) and on the next level, with their trilinear weights. */
+void hn_fill_stencil(const struct voxel_grid *g, vec3 p, float level, hn_stencil *st);
+
+#endif

@@ -1,0 +1,31 @@
+/* `vmesh`: virtual mesh + opacity subgrid (Brito, Poulin, Teichrieb 2023). Per voxel: an SGGX-fitted
+ * octahedron whose eight faces hold a colour and 1-3 normals or three extremal normals of a
+ * distribution, and a 3x3x3 subgrid of opacities projected as disks for a directional opacity;
+ * front-to-back alpha compositing. Record: vmesh_record.h; bake: vmesh_bake.c and the files it
+ * calls; per-voxel evaluation (portable C): vmesh_opacity.h, vmesh_shade.h. */
+#include "vmesh_bake.h"
+#include "vmesh_opacity.h"
+#include "vmesh_shade.h"
+
+static float vmesh_opacity(VX_GLOBAL const void *record, const vx_query *q)
+{
+    return vmesh_opacity_along((VX_GLOBAL const vmesh_record *)record, q->ray_dir);
+}
+
+static void vmesh_shade(VX_GLOBAL const void *record, const vx_query *q, vx_answer *a)
+{
+    a->radiance = vmesh_shade_record((VX_GLOBAL const vmesh_record *)record, q);
+}
+
+const vx_model model_vmesh = {
+    .name = "vmesh",
+    .description = "virtual mesh + 3x3x3 opacity subgrid (Brito et al. 2023): SGGX octahedron faces with "
+                   "colours and normals, directional opacity from projected sub-cells; front-to-back alpha",
+    .voxel_bytes = sizeof(vmesh_record),
+    .compositing = VX_COMPOSITE_ALPHA,
+    .uses_levels = 0,
+    .march = VX_MARCH_VOXELS,
+    .bake_voxel = vmesh_bake_voxel,
+    .opacity = vmesh_opacity,
+    .shade = vmesh_shade,
+};

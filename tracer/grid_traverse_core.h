@@ -1,0 +1,227 @@
+/* The hierarchical 3D-DDA over a voxel_grid (behaviour and conventions documented in
+ * grid_traverse.h), as portable C: no libc beyond <math.h>, no allocation. grid_traverse.c wraps
+ * it for the C tracer and the OpenCL backend compiles this same file as OpenCL C
+ * (tracer/cl/render.cl), so both backends visit exactly the same cells with the same [t0, t1]:
+ * all the decisions are made in double by the same expressions (OpenCL C needs cl_khr_fp64 and
+ * FP_CONTRACT OFF, which tracer/cl/prelude.h sets, so that no multiply-add is fused differently). */
+#ifndef VX_GRID_TRAVERSE_CORE_H
+#define VX_GRID_TRAVERSE_CORE_H
+
+#include "grid_core.h"
+
+typedef struct {
+    int x, y, z;    /* cell coordinates at the iterator's level */
+    int64_t index;  /* dense index at that level (see grid_index) */
+    float t0, t1;   /* where the ray enters and leaves the cell */
+} grid_hit;
+
+typedef struct {
+    const voxel_grid *g;
+    int level, n;       /* level traversed, its cells per side */
+    int active;         /* 0 once the ray has left the grid or passed t_max */
+    int c[3];           /* current block (cell when k = 0), in units of 2^k cells */
+    int dir[3];         /* step per axis (-1, 0, +1) */
+    int fixed[3];       /* the cell on axes where the ray does not move */
+    double o[3], inv[3]; /* ray origin in the level's lattice units, 1 / direction (0 where d = 0) */
+    double d[3];
+    double t, t_end;    /* entry of the current block, end of the ray in the grid */
+    double t_next[3];   /* where the ray crosses the current block's exit plane on each axis */
+    int k;              /* the walk is over blocks of 2^k cells (cells of the level k above) */
+    int parent_ok;      /* the current block's parent is known to be non-empty */
+} grid_iter;
+
+/* Where the ray crosses plane `k` of axis a. Every boundary distance the iterator uses comes from
+ * this one formula (never from accumulating t_delta), so the stepping, the clipping to the grid and
+ * the steps over empty blocks and the descents into children agree exactly about the order of planes. */
+VX_INLINE double gt_plane_t(const grid_iter *it, int a, int k) { return ((double)k - it->o[a]) * it->inv[a]; }
+
+/* Where the ray leaves block b (2^k cells a side) on axis a. Blocks of the last row may stick out
+ * of the grid: their exit plane then lies past t_end, which ends the walk anyway. */
+VX_INLINE double gt_exit_t(const grid_iter *it, int a, int b, int k)
+{
+    if (it->dir[a] > 0)
+        return gt_plane_t(it, a, (b + 1) << k);
+    if (it->dir[a] < 0)
+        return gt_plane_t(it, a, b << k);
+    return INFINITY;
+}
+
+/* The cell of axis a, within [lo, hi], that the ray occupies just after t. The floor of the
+ * position is only a guess: it is corrected against gt_plane_t so that the answer is consistent
+ * with the distances the stepping uses, whatever rounding did to o + t*d. */
+VX_INLINE int gt_cell_at(const grid_iter *it, int a, double t, int lo, int hi)
+{
+    int s = it->dir[a];
+    double p = it->o[a] + t * it->d[a];
+    double guess = s < 0 ? ceil(p) - 1.0 : floor(p);
+    int c = guess < lo ? lo : (guess > hi ? hi : (int)guess); /* NaN-free: t and o are finite here */
+    if (s > 0) {
+        while (c < hi && gt_plane_t(it, a, c + 1) <= t)
+            c++;
+        while (c > lo && gt_plane_t(it, a, c) > t)
+            c--;
+    } else if (s < 0) {
+        while (c > lo && gt_plane_t(it, a, c) <= t)
+            c--;
+        while (c < hi && gt_plane_t(it, a, c + 1) > t)
+            c++;
+    }
+    return c;
+}
+
+/* grid_iter_init (see grid_traverse.h). */
+VX_INLINE int gt_iter_init(grid_iter *it, const voxel_grid *g, int level, vec3 origin, vec3 dir, float t_min,
+                           float t_max)
+{
+    grid_iter zero = {0};
+    *it = zero;
+    it->g = g;
+    it->level = level;
+    if (!g || level < 0 || level >= g->levels)
+        return 0;
+    int n = g->level[level].n;
+    it->n = n;
+    /* Lattice units of this level: same t as in world space because origin and direction are
+     * mapped by the same affine scale. */
+    double scale = ldexp(g->voxel_size_d, level);
+    double o[3] = {((double)origin.x - g->origin_d[0]) / scale, ((double)origin.y - g->origin_d[1]) / scale,
+                   ((double)origin.z - g->origin_d[2]) / scale};
+    double d[3] = {dir.x / scale, dir.y / scale, dir.z / scale};
+    double t0 = t_min, t1 = t_max;
+    if (!(t0 <= t1))
+        return 0; /* also NaN */
+    int moving = 0;
+    for (int a = 0; a < 3; a++) {
+        if (!isfinite(o[a]) || !isfinite(d[a]))
+            return 0;
+        it->o[a] = o[a];
+        it->d[a] = d[a];
+        if (d[a] == 0.0) {
+            /* Parallel to this axis' planes: inside the half-open slab [0, n) or missing. */
+            if (!(o[a] >= 0.0 && o[a] < n))
+                return 0;
+            it->dir[a] = 0;
+            it->inv[a] = 0.0;
+            continue;
+        }
+        moving = 1;
+        it->dir[a] = d[a] > 0.0 ? 1 : -1;
+        it->inv[a] = 1.0 / d[a];
+        double ta = gt_plane_t(it, a, 0), tb = gt_plane_t(it, a, n);
+        if (ta > tb) {
+            double tmp = ta;
+            ta = tb;
+            tb = tmp;
+        }
+        t0 = t0 > ta ? t0 : ta;
+        t1 = t1 < tb ? t1 : tb;
+    }
+    if (!moving || !(t0 < t1))
+        return 0;
+    it->t = t0;
+    it->t_end = t1;
+    for (int a = 0; a < 3; a++) {
+        it->c[a] = it->dir[a] ? gt_cell_at(it, a, t0, 0, n - 1) : (int)floor(o[a]);
+        it->fixed[a] = it->c[a];
+        it->t_next[a] = gt_exit_t(it, a, it->c[a], 0);
+    }
+    it->active = 1;
+    return 1;
+}
+
+VX_INLINE double gt_min2(double a, double b) { return a < b ? a : b; }
+VX_INLINE double gt_max2(double a, double b) { return a > b ? a : b; }
+
+/* One DDA step at the current block size: into the neighbouring block across the nearest exit
+ * plane (ties: lowest axis first). Only that axis changes, as in Amanatides & Woo. */
+VX_INLINE void gt_advance(grid_iter *it, double t1, int nk)
+{
+    if (t1 >= it->t_end) {
+        it->active = 0;
+        return;
+    }
+    int a = it->t_next[0] <= it->t_next[1] ? (it->t_next[0] <= it->t_next[2] ? 0 : 2)
+                                           : (it->t_next[1] <= it->t_next[2] ? 1 : 2);
+    int b = it->c[a] + it->dir[a];
+    if (b < 0 || b >= nk) {
+        it->active = 0;
+        return;
+    }
+    if ((b ^ it->c[a]) >> 1)
+        it->parent_ok = 0; /* crossed into another parent */
+    it->c[a] = b;
+    it->t = t1;
+    it->t_next[a] = gt_exit_t(it, a, b, it->k);
+}
+
+VX_INLINE double gt_cell_exit(const grid_iter *it)
+{
+    return gt_max2(gt_min2(gt_min2(it->t_next[0], it->t_next[1]), gt_min2(it->t_next[2], it->t_end)), it->t);
+}
+
+/* grid_iter_next (see grid_traverse.h). */
+VX_INLINE int gt_iter_next(grid_iter *it, grid_hit *hit)
+{
+    const voxel_grid *g = it->g;
+    const grid_level *lv = g->level + it->level; /* lv[k]: blocks of 2^k cells */
+    const int top = g->levels - 1 - it->level;   /* largest k: a single block */
+    while (it->active) {
+        int k = it->k;
+        if (k == 0) {
+            int64_t idx = grid_level_index(lv, it->c[0], it->c[1], it->c[2]);
+            if (idx >= 0) {
+                double t1 = gt_cell_exit(it);
+                hit->x = it->c[0];
+                hit->y = it->c[1];
+                hit->z = it->c[2];
+                hit->index = idx;
+                hit->t0 = (float)it->t;
+                hit->t1 = (float)t1;
+                /* A non-empty cell has a non-empty parent. */
+                it->parent_ok = 1;
+                gt_advance(it, t1, lv[0].n);
+                return 1;
+            }
+        } else if (grid_level_occupied(lv + k, it->c[0], it->c[1], it->c[2])) {
+            /* Something in this block: go down to the child the ray is in at t, found by comparing
+             * t with the crossing of each axis' mid-plane (just after t, like cell_at). */
+            int h = k - 1, nh = lv[h].n;
+            for (int a = 0; a < 3; a++) {
+                int child;
+                if (it->dir[a] == 0)
+                    child = (it->fixed[a] >> h) & 1;
+                else {
+                    int crossed = gt_plane_t(it, a, (2 * it->c[a] + 1) << h) <= it->t;
+                    child = it->dir[a] > 0 ? crossed : !crossed;
+                }
+                int b = 2 * it->c[a] + child;
+                it->c[a] = b < nh ? b : nh - 1; /* a partial last block has one child */
+                it->t_next[a] = gt_exit_t(it, a, it->c[a], h);
+            }
+            it->k = h;
+            it->parent_ok = 1;
+            continue;
+        }
+        /* Empty block: grow it while its parent is empty too, then step over it. */
+        if (!it->parent_ok && k < top) {
+            while (k < top) {
+                if (grid_level_occupied(lv + k + 1, it->c[0] >> 1, it->c[1] >> 1, it->c[2] >> 1)) {
+                    it->parent_ok = 1;
+                    break;
+                }
+                k++;
+                for (int a = 0; a < 3; a++)
+                    it->c[a] >>= 1;
+            }
+            if (k != it->k) {
+                it->k = k;
+                for (int a = 0; a < 3; a++)
+                    it->t_next[a] = gt_exit_t(it, a, it->c[a], k);
+            }
+        }
+        gt_advance(it, gt_cell_exit(it), lv[k].n);
+    }
+    return 0;
+}
+
+#endif

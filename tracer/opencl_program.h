@@ -1,0 +1,28 @@
+/* The OpenCL program text for one model: tracer/cl/prelude.h, the model's cl_source header and
+ * tracer/cl/render.cl, with every quoted #include replaced by the file's text (searched beside the
+ * including file, then in tracer/ and models/, as the C build's -I does) and #line markers so that a
+ * build log names the real file and line. Assembling one self-contained text, rather than letting
+ * the OpenCL compiler follow #include with -I, matters for the kernel cache: PoCL keys its cache on
+ * the program text and options, so an edited header must change the text or a stale binary would be
+ * reused. The sources are read at run time from the voxlab source tree (see opencl_source_dir). */
+#ifndef VX_OPENCL_PROGRAM_H
+#define VX_OPENCL_PROGRAM_H
+
+#include <stddef.h>
+
+#include "error.h"
+#include "model.h"
+
+/* The source tree holding tracer/cl/render.cl: $VOXLAB_SOURCE_DIR when set, else the parent of the
+ * executable's directory (build/voxlab) or its grandparent (build/tests/...). *build_dir gets the
+ * build directory the executable lives in (where the kernel cache goes by default), or
+ * SRC/build for $VOXLAB_SOURCE_DIR. */
+int opencl_source_dir(char *src, size_t src_size, char *build_dir, size_t build_size, vx_err *e);
+
+/* The program text for model m (malloc'd, NUL-terminated). params_bytes is sizeof(vx_cl_params) on
+ * the host (the program refuses to build when its own differs). Test hook: when the environment
+ * sets VOXLAB_OPENCL_BREAK_KERNEL to a non-empty value, a syntax error is appended, so that the
+ * build-failure path can be tested (tests/test_opencl.py). */
+char *opencl_program_text(const char *src_dir, const vx_model *m, size_t params_bytes, vx_err *e);
+
+#endif
