@@ -80,12 +80,14 @@ bench: deps
 	@$(MAKE) --no-print-directory $(BUILD)/voxlab $(BENCH_BIN)
 	@BUILD=$(BUILD) tests/bench.sh
 
+# The main job on the built-in `spheres` scene: ground truth, every registered model baked and
+# rendered at 64^3, each compared with the truth; a table and a side-by-side strip in results/demo/.
 demo: deps
 	@$(MAKE) --no-print-directory $(BUILD)/voxlab
-	@mkdir -p results/demo
-	$(BUILD)/voxlab truth scenes/spheres.json --spp 256 -o results/demo/spheres_truth.exr --stats results/demo/spheres_truth.json
-	$(BUILD)/voxlab truth scenes/spheres.json --spp 256 -o results/demo/spheres_truth.png
-	@echo "demo: wrote results/demo/spheres_truth.exr (linear) and .png (sRGB)"
+	/usr/bin/python3 experiments/compare_models.py --scene spheres --res 64 --truth-spp 256 \
+	    --voxlab $(BUILD)/voxlab --out results/demo
+	@cat results/demo/table.md
+	@echo "demo: images, table.md and strip_64.png are in results/demo/"
 
 clean:
 	rm -rf build build-asan

@@ -44,106 +44,18 @@ import io
 import json
 import os
 import platform
-import subprocess
 import sys
 import threading
 import time
 
-import numpy as np
-
-REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-SEED = 1
-
-
-class VoxlabError(Exception):
-    pass
+# The pieces every experiment script shares live in voxlab_runner.py (this directory is sys.path[0]
+# when the script runs).
+from voxlab_runner import (REPO, SEED, VoxlabError, exr_to_png, git_commit, list_models, make_strip,
+                           resolve_scene, run_voxlab, write_text)
 
 
 def log(msg):
     print(f"compare_models: {msg}", file=sys.stderr, flush=True)
-
-
-def atomic_write(path, write):
-    """Calls write(tmp) for a temporary name next to path (same file system), then renames."""
-    tmp = f"{path}.tmp.{os.getpid()}.{threading.get_ident()}"
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
-
-
-def write_text(path, text):
-    def w(tmp):
-        with open(tmp, "w", newline="") as f:
-            f.write(text)
-
-    atomic_write(path, w)
-
-
-def save_png(img, path):
-    atomic_write(path, lambda tmp: img.save(tmp, format="PNG"))
-
-
-def run_voxlab(voxlab, args):
-    """Runs voxlab; returns stdout, or raises VoxlabError with the command and its stderr."""
-    cmd = [voxlab, *map(str, args)]
-    p = subprocess.run(cmd, capture_output=True, text=True)
-    if p.returncode != 0:
-        raise VoxlabError(f"`{' '.join(cmd)}` exited with status {p.returncode}:\n{p.stderr.rstrip()}")
-    return p.stdout
-
-
-def list_models(voxlab):
-    return [line.split()[0] for line in run_voxlab(voxlab, ["models"]).splitlines() if line.strip()]
-
-
-def read_exr(path):
-    import OpenImageIO as oiio
-
-    inp = oiio.ImageInput.open(path)
-    if inp is None:
-        raise VoxlabError(f"cannot read {path}: {oiio.geterror()}")
-    px = np.asarray(inp.read_image(oiio.FLOAT), dtype=np.float64)
-    inp.close()
-    return px
-
-
-def srgb8(linear):
-    """Linear RGB -> 8-bit sRGB, the same curve and rounding as voxlab's PNG writer
-    (image_linear_to_srgb8), so previews match `voxlab ... -o x.png`."""
-    x = np.nan_to_num(linear[..., :3], nan=0.0)
-    x = np.clip(x, 0.0, 1.0)
-    s = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
-    return np.floor(s * 255.0 + 0.5).astype(np.uint8)
-
-
-def exr_to_png(exr, png):
-    from PIL import Image
-
-    save_png(Image.fromarray(srgb8(read_exr(exr)), "RGB"), png)
-
-
-def git_commit():
-    try:
-        head = subprocess.run(["git", "-C", REPO, "rev-parse", "HEAD"], capture_output=True, text=True, check=True)
-        dirty = subprocess.run(["git", "-C", REPO, "status", "--porcelain", "--untracked-files=no"],
-                               capture_output=True, text=True, check=True)
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown (not a git checkout)"
-    return head.stdout.strip() + (" (with uncommitted changes)" if dirty.stdout.strip() else "")
-
-
-def resolve_scene(arg):
-    """A scene name (scenes/<name>.json) or a path to a scene file."""
-    if os.path.exists(arg):
-        return os.path.abspath(arg)
-    path = os.path.join(REPO, "scenes", arg + ".json")
-    if os.path.exists(path):
-        return path
-    raise VoxlabError(f"--scene {arg}: no such file, and no scenes/{arg}.json")
 
 
 class Progress:
@@ -155,45 +67,6 @@ class Progress:
         with self.lock:
             self.done += 1
             log(f"[{self.done}/{self.total}, {time.monotonic() - self.start:.1f} s] {what}")
-
-
-def label_font(size):
-    from PIL import ImageFont
-
-    try:  # matplotlib ships DejaVu Sans, so this works wherever the script's dependencies are installed
-        from matplotlib import font_manager
-
-        return ImageFont.truetype(font_manager.findfont("DejaVu Sans"), size)
-    except Exception:
-        return ImageFont.load_default()
-
-
-def make_strip(tiles, size, path):
-    """tiles: [(title, subtitle, PIL image size x size)]; one column each, labels in a band above.
-    Each label shrinks until it fits its column and is clipped to it, so narrow strips (32 px
-    columns) stay legible instead of running labels into each other."""
-    from PIL import Image, ImageDraw
-
-    font_px = max(8, min(13, size // 6))
-    band = 2 * font_px + 6
-    strip = Image.new("RGB", (size * len(tiles), band + size), (255, 255, 255))
-    fonts = {}
-    for i, (title, subtitle, img) in enumerate(tiles):
-        label = Image.new("RGB", (size, band), (255, 255, 255))
-        draw = ImageDraw.Draw(label)
-        for row, (text, colour) in enumerate([(title, (0, 0, 0)), (subtitle, (70, 70, 70))]):
-            px = font_px
-            while True:
-                font = fonts.setdefault(px, label_font(px))
-                if px <= 6 or draw.textlength(text, font=font) <= size - 3:
-                    break
-                px -= 1
-            draw.text((2, 2 + row * (font_px + 2)), text, fill=colour, font=font)
-        if i:
-            draw.line([(0, 0), (0, band - 1)], fill=(190, 190, 190))  # separators only in the label band
-        strip.paste(label, (i * size, 0))
-        strip.paste(img.convert("RGB").resize((size, size)), (i * size, band))
-    save_png(strip, path)
 
 
 def fmt_bytes_mb(b):

@@ -33,7 +33,9 @@ static void random_in_disk(rng *r, double *x, double *y)
 }
 
 /* Poisson-disk samples by Mitchell's best-candidate algorithm (a fixed seed: the masks are the
- * same on every run), then the table: bit s of entry (t, v) is set when sample s satisfies
+ * same on every run), relaxed by a few Lloyd iterations over a fine lattice of the disk: best
+ * candidate alone crowds the rim (no neighbours beyond it), which biases the covered fractions;
+ * the relaxed set is as even inside as at the rim. Then the table: bit s of entry (t, v) is set when sample s satisfies
  * x cos t + y sin t <= v, t = 2 pi i / 256 and v the centre of bin j of [-1, 1]. */
 static void build_tables(void)
 {
@@ -55,6 +57,33 @@ static void build_tables(void)
         }
         px[k] = bx;
         py[k] = by;
+    }
+    enum { LLOYD = 16, GRID = 96 };
+    for (int it = 0; it < LLOYD; it++) {
+        double sx[HN_MASK_SAMPLES] = {0}, sy[HN_MASK_SAMPLES] = {0}, sn[HN_MASK_SAMPLES] = {0};
+        for (int gy = 0; gy < GRID; gy++)
+            for (int gx = 0; gx < GRID; gx++) {
+                double x = -1.0 + (gx + 0.5) * 2.0 / GRID, y = -1.0 + (gy + 0.5) * 2.0 / GRID;
+                if (x * x + y * y > 1.0)
+                    continue;
+                int best = 0;
+                double bd = INFINITY;
+                for (int s = 0; s < HN_MASK_SAMPLES; s++) {
+                    double d = (x - px[s]) * (x - px[s]) + (y - py[s]) * (y - py[s]);
+                    if (d < bd) {
+                        bd = d;
+                        best = s;
+                    }
+                }
+                sx[best] += x;
+                sy[best] += y;
+                sn[best] += 1.0;
+            }
+        for (int s = 0; s < HN_MASK_SAMPLES; s++)
+            if (sn[s] > 0.0) {
+                px[s] = sx[s] / sn[s];
+                py[s] = sy[s] / sn[s];
+            }
     }
     for (int s = 0; s < HN_MASK_SAMPLES; s++) {
         mask_samples[2 * s] = (float)px[s];
@@ -131,6 +160,7 @@ double hn_sigma2_of_m(double m)
  * (not central moments) so that children add up after a shift of origin. */
 typedef struct {
     double w, x[3], xx[3][3], n[3], nn[3][3];
+    double tang[3][3]; /* the children's in-plane spread, kept apart from xx (see derive) */
     double wf, xf[3], a[3], ax[3][3], f0, var_brdf; /* over the shaded (front) surface */
 } moments;
 
@@ -187,6 +217,47 @@ static void principal_axis(const double m[3][3], double out[3])
         out[i] = v[i] / len;
 }
 
+/* Eigen-decomposition of a symmetric 3x3 matrix (cyclic Jacobi): eigenvalues in w, eigenvectors
+ * in the columns of v. */
+static void eigen_sym3(const double a_in[3][3], double w[3], double v[3][3])
+{
+    double a[3][3];
+    memcpy(a, a_in, sizeof a);
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 3; k++)
+            v[i][k] = i == k;
+    for (int sweep = 0; sweep < 32; sweep++) {
+        double off = fabs(a[0][1]) + fabs(a[0][2]) + fabs(a[1][2]);
+        if (!(off > 1e-300))
+            break;
+        for (int p = 0; p < 2; p++)
+            for (int q = p + 1; q < 3; q++) {
+                if (!(fabs(a[p][q]) > 1e-300))
+                    continue;
+                double theta = 0.5 * (a[q][q] - a[p][p]) / a[p][q];
+                double t = (theta >= 0 ? 1.0 : -1.0) / (fabs(theta) + sqrt(theta * theta + 1.0));
+                double c = 1.0 / sqrt(t * t + 1.0), s = t * c;
+                for (int k = 0; k < 3; k++) { /* A <- A J */
+                    double akp = a[k][p], akq = a[k][q];
+                    a[k][p] = c * akp - s * akq;
+                    a[k][q] = s * akp + c * akq;
+                }
+                for (int k = 0; k < 3; k++) { /* A <- J^T A */
+                    double apk = a[p][k], aqk = a[q][k];
+                    a[p][k] = c * apk - s * aqk;
+                    a[q][k] = s * apk + c * aqk;
+                }
+                for (int k = 0; k < 3; k++) {
+                    double vkp = v[k][p], vkq = v[k][q];
+                    v[k][p] = c * vkp - s * vkq;
+                    v[k][q] = s * vkp + c * vkq;
+                }
+            }
+    }
+    for (int i = 0; i < 3; i++)
+        w[i] = a[i][i];
+}
+
 /* Below this mean-normal length the cell's normals disagree too much for a side: a sheet seen
  * from both sides (double-sided leaves) or a closed blob smaller than the cell. */
 #define HN_ONE_SIDED_MIN 0.3
@@ -204,31 +275,56 @@ static void derive(const moments *m, float size, hn_data *d)
     }
     for (int i = 0; i < 3; i++)
         for (int k = 0; k < 3; k++) {
-            C[i][k] = m->xx[i][k] / m->w - mean[i] * mean[k];
+            C[i][k] = (m->xx[i][k] + m->tang[i][k]) / m->w - mean[i] * mean[k];
             NN[i][k] = m->nn[i][k] / m->w;
         }
     double len = sqrt(nbar[0] * nbar[0] + nbar[1] * nbar[1] + nbar[2] * nbar[2]);
     if (len >= HN_ONE_SIDED_MIN) {
         for (int i = 0; i < 3; i++)
             N[i] = nbar[i] / len;
-        d->n = v3((float)nbar[0], (float)nbar[1], (float)nbar[2]);
     } else {
         principal_axis(NN, N);
         if (N[0] * nbar[0] + N[1] * nbar[1] + N[2] * nbar[2] < 0.0)
             for (int i = 0; i < 3; i++)
                 N[i] = -N[i];
-        d->n = v3((float)N[0], (float)N[1], (float)N[2]);
         d->two_sided = 1;
     }
-    double h = 0.0, var_h = 0.0, mq = 0.0;
+    /* The plane: the least-squares fit of the positions (smallest eigenvector of their covariance)
+     * when the cloud is clearly flat and the fit agrees with the normals. The sampled mean normal
+     * alone wobbles by sigma_n / sqrt(hits) (several degrees with ~70 hits of a rough surface), and
+     * a plane tilted by e turns the cell's width into a height variance size^2 e^2 / 12 that has
+     * nothing to do with the surface's relief. */
+    double ew[3], ev[3][3];
+    eigen_sym3(C, ew, ev);
+    int lo = 0, mid = 1;
+    for (int i = 1; i < 3; i++)
+        if (ew[i] < ew[lo])
+            lo = i;
+    for (int i = 0; i < 3; i++)
+        if (i != lo && (mid == lo || ew[i] < ew[mid]))
+            mid = i;
+    double fit[3] = {ev[0][lo], ev[1][lo], ev[2][lo]};
+    double agree = fit[0] * N[0] + fit[1] * N[1] + fit[2] * N[2];
+    if (ew[lo] < 0.25 * ew[mid] && fabs(agree) > 0.7) {
+        double sgn = agree < 0.0 ? -1.0 : 1.0;
+        for (int i = 0; i < 3; i++)
+            N[i] = sgn * fit[i];
+    }
+    /* Stored normal: the plane's orientation with the mean normal's length along it (how much the
+     * normals agree); a two-sided sheet stores its unit axis. */
+    double along = d->two_sided ? 1.0 : fmax(nbar[0] * N[0] + nbar[1] * N[1] + nbar[2] * N[2], HN_ONE_SIDED_MIN);
+    d->n = v3((float)(along * N[0]), (float)(along * N[1]), (float)(along * N[2]));
+    double h = 0.0, var_h = 0.0, mq = 0.0, var_tilt = 0.0;
     for (int i = 0; i < 3; i++) {
         h += N[i] * mean[i];
         for (int k = 0; k < 3; k++) {
             var_h += N[i] * C[i][k] * N[k];
             mq += N[i] * NN[i][k] * N[k];
+            var_tilt += N[i] * m->tang[i][k] * N[k] / m->w;
         }
     }
     var_h = fmax(var_h, 0.0);
+    var_tilt = fmin(fmax(var_tilt, 0.0), var_h);
     d->h = (float)h;
     d->var_h = (float)var_h;
     d->var_n = (float)hn_sigma2_of_m(mq);
@@ -244,14 +340,21 @@ static void derive(const moments *m, float size, hn_data *d)
      * E[h s(h)] = sigma_h / sqrt(pi), so a_s = sqrt(pi) Cov(a, h) / sigma_h exactly; unlike the
      * projection on s itself, the covariance combines exactly from children to parents. With
      * sigma_h = 0 (g a step: no depth to correlate with) a_s is 0. */
+    /* A child's tilt relative to this cell's plane (its in-plane spread seen along this normal,
+     * var_tilt) is height variation whose colour correlation the child's record cannot carry (it
+     * keeps a_s along its own normal only). Under H5 colour follows depth at every scale, so that
+     * part of the variance gets the regression slope Cov / Var of the rest; the factor is capped
+     * so that a curved cell (all tilt, little else) does not amplify a chance correlation. */
     double as[3] = {0, 0, 0};
+    double var_rest = var_h - var_tilt;
+    double gain = var_rest > 0.0 ? fmin(var_h / var_rest, 4.0) : 1.0;
     if (sigma_h > 1e-5 * size) {
         for (int c = 0; c < 3; c++) {
             double cov = 0.0;
             for (int k = 0; k < 3; k++)
                 cov += N[k] * (m->ax[c][k] / m->wf - a[c] * m->xf[k] / m->wf);
             double bound = fmin(a[c], 1.0 - a[c]);
-            as[c] = fmin(fmax(sqrt(M_PI) * cov / sigma_h, -bound), bound);
+            as[c] = fmin(fmax(sqrt(M_PI) * gain * cov / sigma_h, -bound), bound);
         }
     }
     d->as = v3((float)as[0], (float)as[1], (float)as[2]);
@@ -346,7 +449,8 @@ static void moments_of_record(const hn_data *d, float size, moments *m)
         m->a[i] = m->wf * a[i];
         for (int k = 0; k < 3; k++) {
             double delta = i == k ? 1.0 : 0.0, nn = N[i] * N[k];
-            m->xx[i][k] = w * (d->var_h * nn + tang * (delta - nn) + mean[i] * mean[k]);
+            m->xx[i][k] = w * (d->var_h * nn + mean[i] * mean[k]);
+            m->tang[i][k] = w * tang * (delta - nn);
             m->nn[i][k] = w * (mq * nn + 0.5 * (1.0 - mq) * (delta - nn));
         }
     }
@@ -405,10 +509,14 @@ void hn_fill_stencil(const voxel_grid *g, vec3 p, float level, hn_stencil *st)
     st->level_frac = L1 > L0 ? lv - (float)L0 : 0.0f;
     double lat[3];
     grid_to_lattice(g, p, lat);
+    size_t off = 0;
+    for (int l = 0; l < L0; l++)
+        off += g->level[l].count;
     for (int slot = 0; slot < (L1 > L0 ? 2 : 1); slot++) {
         int L = slot ? L1 : L0;
-        double scale = ldexp(1.0, -L), size = ldexp(g->voxel_size_d, L);
-        size_t off = bake_level_offset(g, L);
+        if (slot)
+            off += g->level[L0].count; /* records of level L1 = L0 + 1 follow level L0's */
+        double scale = 1.0 / (double)(1u << L), size = g->voxel_size_d * (double)(1u << L);
         int i0[3];
         double f[3];
         for (int a = 0; a < 3; a++) {

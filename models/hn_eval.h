@@ -191,9 +191,9 @@ VX_INLINE vec3 hn_radiance(const hn_sample *s, vec3 N, const vx_query *q)
     return sum;
 }
 
-/* The answer of an element of radius r centred at p: coverage mask over the footprint (in the frame
- * of q->ray_dir) and radiance (only when q has lights: the tracer asks first for the mask, and for
- * the radiance only when the element adds coverage). opacity = covered fraction. */
+/* The answer of an element of radius r: coverage mask over the footprint (in the frame of
+ * q->ray_dir), opacity = the covered fraction, and the radiance when q has lights and the mask is
+ * not empty. */
 VX_INLINE void hn_answer(VX_GLOBAL const unsigned int *table, const hn_sample *s, const vx_query *q, float r,
                          vx_answer *a)
 {
@@ -218,7 +218,8 @@ VX_INLINE void hn_answer(VX_GLOBAL const unsigned int *table, const hn_sample *s
         hn_plane_mask(table, nx, ny, nz, D - hn_visible_depth_offset(sigma_h, lambda_v), r, a->mask);
     }
     a->opacity = (float)hn_mask_count(a->mask) / (float)HN_MASK_SAMPLES;
-    a->radiance = q->light_count > 0 ? hn_radiance(s, N, q) : v3(0.0f, 0.0f, 0.0f);
+    /* An element that covers nothing shows nothing: no shading to compute. */
+    a->radiance = q->light_count > 0 && a->opacity > 0.0f ? hn_radiance(s, N, q) : v3(0.0f, 0.0f, 0.0f);
 }
 
 #endif

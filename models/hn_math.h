@@ -11,6 +11,8 @@
 #include "shading.h"
 
 #define HN_SQRT_PI 1.77245385090551602730f
+/* Slope deviations past this are vertical walls for every purpose; clamping keeps sigma^2 finite. */
+#define HN_SIGMA_MAX 1e6f
 #define HN_SQRT2 1.41421356237309504880f
 
 /* The tail of Laplace's continued fraction for erfc: erfc(x) = e^(-x^2)/sqrt(pi) / (x + K(x)),
@@ -57,6 +59,7 @@ VX_INLINE float hn_lambda_mu(float mu, float sigma)
 {
     if (!(sigma > 1e-12f))
         return 0.0f; /* a flat surface masks nothing */
+    sigma = fminf(sigma, HN_SIGMA_MAX);
     mu = fmaxf(mu, 1e-6f);
     float x = mu / (HN_SQRT2 * sigma);
     if (!(x < 9.5f))
@@ -104,6 +107,7 @@ VX_INLINE float hn_lambert_cos_mean(float sigma)
 {
     if (!(sigma > 1e-6f))
         return 1.0f;
+    sigma = fminf(sigma, HN_SIGMA_MAX);
     float y = 1.0f / (HN_SQRT2 * sigma); /* sqrt(beta) */
     return fminf(1.0f, y * hn_sqrtpi_erfcx(y));
 }
@@ -117,17 +121,25 @@ VX_INLINE float hn_visible_tilt(float mu, float sigma)
 {
     if (!(sigma > 1e-8f))
         return 0.0f;
+    sigma = fminf(sigma, HN_SIGMA_MAX);
     float z = mu / sigma;
     float P = hn_phi_cdf(z);
     float den = mu * P + sigma * hn_phi_pdf(z);
     return den > 1e-30f ? sigma * sigma * P / den : 0.0f;
 }
 
-/* IEEE half -> float (no type punning, so it compiles as OpenCL C as is). */
+/* IEEE half -> float without type punning or ldexp (a libm call on the hot path): the exponent
+ * is a power of two built with an integer shift. Infinity and NaN read as 65504 (never stored). */
 VX_INLINE float hn_half_to_float(unsigned int h)
 {
     unsigned int e = (h >> 10) & 31u, m = h & 1023u;
-    float v = e == 0u ? ldexpf((float)m, -24) : (e == 31u ? 65504.0f : ldexpf((float)(1024u + m), (int)e - 25));
+    float v;
+    if (e == 0u)
+        v = (float)m * (1.0f / 16777216.0f); /* subnormal: m 2^-24 */
+    else if (e == 31u)
+        v = 65504.0f;
+    else
+        v = (float)(1024u + m) * ((float)(1u << e) * (1.0f / 33554432.0f)); /* (1024 + m) 2^(e-25) */
     return (h & 0x8000u) ? -v : v;
 }
 

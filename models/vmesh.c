@@ -2,19 +2,15 @@
  * octahedron whose eight faces hold a colour and 1-3 normals or three extremal normals of a
  * distribution, and a 3x3x3 subgrid of opacities projected as disks for a directional opacity;
  * front-to-back alpha compositing. Record: vmesh_record.h; bake: vmesh_bake.c and the files it
- * calls; per-voxel evaluation (portable C): vmesh_opacity.h, vmesh_shade.h. */
+ * calls; per-voxel evaluation (portable C): vmesh_eval.h. */
 #include "vmesh_bake.h"
-#include "vmesh_opacity.h"
-#include "vmesh_shade.h"
+#include "vmesh_eval.h"
 
-static float vmesh_opacity(VX_GLOBAL const void *record, const vx_query *q)
-{
-    return vmesh_opacity_along((VX_GLOBAL const vmesh_record *)record, q->ray_dir);
-}
+static float vmesh_opacity(VX_GLOBAL const void *record, const vx_query *q) { return vmesh_eval_opacity(record, q); }
 
 static void vmesh_shade(VX_GLOBAL const void *record, const vx_query *q, vx_answer *a)
 {
-    a->radiance = vmesh_shade_record((VX_GLOBAL const vmesh_record *)record, q);
+    vmesh_eval_shade(record, q, a);
 }
 
 const vx_model model_vmesh = {

@@ -37,6 +37,11 @@ void vmesh_fit_face(const vec3 *normals, int n, const vec3 vertex_dir[3], vmesh_
  * back) or hit one of the voxel's own triangles beyond it, else 0. */
 void vmesh_subgrid(const vx_voxel *v, const vx_sample *samples, int n, float opacity[VMESH_SUBCELLS]);
 
+/* The sub-cells a chord crosses, in order, in lattice units (the voxel is [0, 3]^3): entry point e,
+ * direction d (scaled like the lattice), parameter length len. Pieces shorter than 1e-6 len are
+ * skipped. Returns the count (at most 7). */
+int vmesh_chord_cells(vec3 e, vec3 d, float len, int cells[8]);
+
 /* vx_model.bake_voxel: fills the vmesh_record `out` (zeroed by the caller). */
 void vmesh_bake_voxel(const vx_voxel *v, const vx_sample *samples, int n, void *out);
 

@@ -29,15 +29,19 @@ VX_INLINE float vmesh_disk_overlap(float r1, float r2, float d)
     if (!(r1 > 0.0f) || !(r2 > 0.0f))
         return 0.0f;
     d = fabsf(d);
-    float rmin = fminf(r1, r2), rmax = fmaxf(r1, r2);
+    /* Ternaries rather than fminf/fmaxf: the inputs are finite here, and in C those are libm calls
+     * on the renderer's hottest path. */
+    float rmin = r1 < r2 ? r1 : r2, rmax = r1 < r2 ? r2 : r1;
     if (!(d < r1 + r2))
         return 0.0f;
     if (d <= rmax - rmin)
         return VX_PI * rmin * rmin;
-    float x1 = fminf(fmaxf((d * d + r1 * r1 - r2 * r2) / (2.0f * d * r1), -1.0f), 1.0f);
-    float x2 = fminf(fmaxf((d * d + r2 * r2 - r1 * r1) / (2.0f * d * r2), -1.0f), 1.0f);
+    float x1 = (d * d + r1 * r1 - r2 * r2) / (2.0f * d * r1), x2 = (d * d + r2 * r2 - r1 * r1) / (2.0f * d * r2);
+    x1 = x1 < -1.0f ? -1.0f : (x1 > 1.0f ? 1.0f : x1);
+    x2 = x2 < -1.0f ? -1.0f : (x2 > 1.0f ? 1.0f : x2);
     float a = r1 * r1 * (acosf(x1) - x1 * sqrtf(1.0f - x1 * x1)) + r2 * r2 * (acosf(x2) - x2 * sqrtf(1.0f - x2 * x2));
-    return fminf(a, VX_PI * rmin * rmin);
+    float small = VX_PI * rmin * rmin;
+    return a < small ? a : small;
 }
 
 /* Directional opacity of a record seen along `dir` (either sign: a projection does not depend on
@@ -97,16 +101,20 @@ VX_INLINE float vmesh_opacity_along(VX_GLOBAL const vmesh_record *r, vec3 dir)
                 if (d2 >= far2)
                     continue;
                 float ratio = d2 <= near2 ? 1.0f : vmesh_disk_overlap(rs, rc, sqrtf(d2)) * inv_cell_disk;
-                best = fmaxf(best, a * ratio);
+                best = a * ratio > best ? a * ratio : best;
             }
             num += best;
-            /* The full voxel's value: the ratio falls with distance, so the nearest of all 27. */
+            /* The full voxel's value: the ratio falls with distance, so the nearest of all 27. The
+             * projected centres and the window are symmetric about the voxel's centre, so cell
+             * (3 - cx, 3 - cy) has the same value: computed for the first 8 cells, counted twice. */
+            if (cy >= 2)
+                continue;
             float dmin2 = 1e30f;
             for (int s = 0; s < VMESH_SUBCELLS; s++) {
-                float du = pu[s] - u, dv = pv[s] - v;
-                dmin2 = fminf(dmin2, du * du + dv * dv);
+                float du = pu[s] - u, dv = pv[s] - v, d2 = du * du + dv * dv;
+                dmin2 = d2 < dmin2 ? d2 : dmin2;
             }
-            den += dmin2 <= near2 ? 1.0f : vmesh_disk_overlap(rs, rc, sqrtf(dmin2)) * inv_cell_disk;
+            den += 2.0f * (dmin2 <= near2 ? 1.0f : vmesh_disk_overlap(rs, rc, sqrtf(dmin2)) * inv_cell_disk);
         }
     return den > 0.0f ? fminf(num / den, 1.0f) : 0.0f;
 }

@@ -13,9 +13,9 @@
  *    occlusion. This is the conservative side the paper reports (thicker occluders).
  *  - A sub-cell's opacity is the mean value over the rays whose chord crosses it.
  *
- * The chord is cut at the sub-cell planes it crosses (at most 6), and each piece is attributed to
- * the sub-cell of its midpoint: exact, and free of the stepping corner cases of a DDA. Pieces
- * shorter than 1e-6 voxel (a ray grazing an edge) are ignored. */
+ * The chord is walked with a 3D-DDA over the 3x3x3 lattice from its entry point (at most 7
+ * pieces). Pieces shorter than 1e-6 of the chord (a ray grazing an edge or a corner) are not
+ * counted as a traversal. */
 #include <math.h>
 
 #include "vmesh_bake.h"
@@ -24,6 +24,54 @@ static int sub_index(float u) /* lattice coordinate in [0, 3] -> 0..2 */
 {
     int i = (int)floorf(u);
     return i < 0 ? 0 : (i > VMESH_SUB - 1 ? VMESH_SUB - 1 : i);
+}
+
+int vmesh_chord_cells(vec3 e, vec3 d, float len, int cells[8])
+{
+    /* The inner planes (1 and 2 on each axis) the chord crosses, in the order it meets them on
+     * that axis, then all of them sorted by distance: at most 6 crossings. The voxel's own faces
+     * end the chord and are not crossings. (Written without libm's fminf/fmaxf, which are calls,
+     * and with one division per axis: this runs for every sample ray.) */
+    float ea[3] = {e.x, e.y, e.z}, da[3] = {d.x, d.y, d.z}, tc[6];
+    int idx[3], move[6], m = 0; /* move: axis * 2 + (1 when the index grows) */
+    for (int a = 0; a < 3; a++) {
+        int i = sub_index(ea[a]);
+        idx[a] = i;
+        if (da[a] > 1e-12f) {
+            float inv = 1.0f / da[a];
+            for (int p = i + 1; p <= VMESH_SUB - 1; p++) {
+                float t = ((float)p - ea[a]) * inv;
+                if (t < len)
+                    tc[m] = t, move[m++] = 2 * a + 1;
+            }
+        } else if (da[a] < -1e-12f) {
+            float inv = 1.0f / da[a];
+            for (int p = i; p >= 1; p--) {
+                float t = ((float)p - ea[a]) * inv;
+                if (t < len)
+                    tc[m] = t, move[m++] = 2 * a;
+            }
+        }
+    }
+    for (int i = 1; i < m; i++) /* insertion sort; per axis the crossings are already in order */
+        for (int j = i; j > 0 && tc[j] < tc[j - 1]; j--) {
+            float t = tc[j];
+            tc[j] = tc[j - 1], tc[j - 1] = t;
+            int v = move[j];
+            move[j] = move[j - 1], move[j - 1] = v;
+        }
+    float t = 0.0f, min_piece = 1e-6f * len;
+    int count = 0;
+    for (int k = 0; k <= m; k++) {
+        float end = k < m ? tc[k] : len;
+        if (end - t > min_piece)
+            cells[count++] = (idx[0] * VMESH_SUB + idx[1]) * VMESH_SUB + idx[2];
+        if (k < m) {
+            t = end > t ? end : t;
+            idx[move[k] >> 1] += (move[k] & 1) ? 1 : -1;
+        }
+    }
+    return count;
 }
 
 void vmesh_subgrid(const vx_voxel *v, const vx_sample *samples, int n, float opacity[VMESH_SUBCELLS])
@@ -42,33 +90,11 @@ void vmesh_subgrid(const vx_voxel *v, const vx_sample *samples, int n, float opa
         /* Work from the entry point (lattice units) so the far-away origin costs no precision. */
         vec3 e = v3_scale(v3_sub(v3_madd(s->origin, s->dir, s->t_entry), v->lo), scale);
         vec3 d = v3_scale(s->dir, scale);
-        float cut[8];
-        int m = 0;
-        cut[m++] = 0.0f;
-        for (int a = 0; a < 3; a++) {
-            float ea = v3_get(e, a), da = v3_get(d, a);
-            if (fabsf(da) < 1e-12f)
-                continue;
-            for (int plane = 1; plane < VMESH_SUB; plane++) {
-                float tc = ((float)plane - ea) / da;
-                if (tc > 0.0f && tc < len)
-                    cut[m++] = tc;
-            }
-        }
-        cut[m++] = len;
-        for (int i = 1; i < m; i++) /* insertion sort: at most 8 */
-            for (int j = i; j > 0 && cut[j] < cut[j - 1]; j--) {
-                float t = cut[j];
-                cut[j] = cut[j - 1];
-                cut[j - 1] = t;
-            }
-        for (int i = 0; i + 1 < m; i++) {
-            if (!(cut[i + 1] - cut[i] > 1e-6f * len))
-                continue;
-            vec3 p = v3_madd(e, d, 0.5f * (cut[i] + cut[i + 1]));
-            int c = (sub_index(p.x) * VMESH_SUB + sub_index(p.y)) * VMESH_SUB + sub_index(p.z);
-            rays[c] += 1.0f;
-            value[c] += occ;
+        int cells[8];
+        int m = vmesh_chord_cells(e, d, len, cells);
+        for (int i = 0; i < m; i++) {
+            rays[cells[i]] += 1.0f;
+            value[cells[i]] += occ;
         }
         if (k == VX_SAMPLE_INSIDE_FRONT) {
             vec3 h = v3_madd(e, d, s->t_hit - s->t_entry);

@@ -1,5 +1,5 @@
 /* voxlab render SCENE --model M (--res N [--rays K] | --vox FILE) [--spp N] [--size WxH] [--seed S]
- *               [--threads T] [--no-cache] [--no-shadow-skip] -o OUT [--stats S.json] */
+ *               [--threads T] [--no-cache] [--no-shadow-skip] [--backend c|opencl] -o OUT [--stats S.json] */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -8,13 +8,15 @@
 #include "cli.h"
 #include "commands.h"
 #include "fileio.h"
+#include "opencl_backend.h"
 #include "parallel.h"
 #include "render.h"
 #include "voxfile.h"
 
 static const char usage[] =
     "usage: voxlab render SCENE --model M (--res N [--rays K] | --vox FILE) [--spp N] [--size WxH] [--seed S]\n"
-    "                     [--threads T] [--no-cache] [--no-shadow-skip] -o OUT.exr|OUT.png [--stats S.json]\n";
+    "                     [--threads T] [--no-cache] [--no-shadow-skip] [--backend c|opencl] -o OUT.exr|OUT.png\n"
+    "                     [--stats S.json]\n";
 
 /* Loads a .vox file for scene s: the model it names, the grid rebuilt at its resolution, its records. */
 static int load_baked(const scene *s, const char *path, const char *model_name, const vx_model **m,
@@ -50,6 +52,7 @@ int cmd_render(int argc, char **argv)
 {
     const char *scene_path = NULL, *out_path = NULL, *stats_path = NULL, *model_name = NULL, *vox = NULL,
                *size = NULL;
+    int opencl = 0; /* --backend opencl */
     render_options o;
     render_default_options(&o);
     bake_options bo = {.rays = 150, .seed = 1, .progress = 1};
@@ -77,6 +80,13 @@ int cmd_render(int argc, char **argv)
             stats_path = val;
         else if (strcmp(a, "--size") == 0)
             size = val;
+        else if (strcmp(a, "--backend") == 0) {
+            if (strcmp(val, "c") != 0 && strcmp(val, "opencl") != 0) {
+                fprintf(stderr, "voxlab render: --backend %s: expected c or opencl\n%s", val, usage);
+                return 1;
+            }
+            opencl = strcmp(val, "opencl") == 0;
+        }
         else if (strcmp(a, "--res") == 0) {
             if (cli_int("render", a, val, 1, GRID_MAX_N, &v))
                 return 1;
@@ -132,6 +142,7 @@ int cmd_render(int argc, char **argv)
     double grid_seconds = 0;
     image img = {0};
     render_counts rcnt;
+    opencl_counts ocnt = {0};
     if ((size && scene_parse_size_string(size, &o.width, &o.height, &e)) || fileio_check_writable(out_path, &e) ||
         (stats_path && fileio_check_writable(stats_path, &e)))
         goto fail;
@@ -144,15 +155,28 @@ int cmd_render(int argc, char **argv)
         goto fail;
     }
     have_grid = 1;
-    if (render_image(&s, &g, m, records, &o, &img, &rcnt, &e) || image_write(&img, out_path, &e))
+    if ((opencl ? render_image_opencl(&s, &g, m, records, &o, &img, &rcnt, &ocnt, &e)
+                : render_image(&s, &g, m, records, &o, &img, &rcnt, &e)) ||
+        image_write(&img, out_path, &e))
         goto fail;
     if (stats_path) {
         cJSON *j = stats_scene_fields(&s);
         cJSON_AddStringToObject(j, "command", "render");
         stats_add_bake(j, m, &g, &bc, bo.rays, grid_seconds);
+        cJSON_AddStringToObject(j, "backend", opencl ? "opencl" : "c");
         cJSON_AddNumberToObject(j, "seconds", rcnt.seconds);
-        cJSON_AddNumberToObject(j, "traversal_seconds", rcnt.traversal_seconds);
-        cJSON_AddNumberToObject(j, "model_seconds", rcnt.model_seconds);
+        if (opencl) {
+            /* Device time is not split between traversal and model; compile time is apart from seconds. */
+            cJSON_AddNullToObject(j, "traversal_seconds");
+            cJSON_AddNullToObject(j, "model_seconds");
+            cJSON_AddNumberToObject(j, "opencl_compile_seconds", ocnt.compile_seconds);
+            cJSON_AddNumberToObject(j, "opencl_kernel_seconds", ocnt.kernel_seconds);
+            cJSON_AddStringToObject(j, "opencl_device", ocnt.device);
+            cJSON_AddNumberToObject(j, "opencl_compute_units", ocnt.compute_units);
+        } else {
+            cJSON_AddNumberToObject(j, "traversal_seconds", rcnt.traversal_seconds);
+            cJSON_AddNumberToObject(j, "model_seconds", rcnt.model_seconds);
+        }
         cJSON_AddNumberToObject(j, "rays", (double)rcnt.rays);
         cJSON_AddNumberToObject(j, "shadow_rays", (double)rcnt.shadow_rays);
         cJSON_AddNumberToObject(j, "voxel_visits", (double)rcnt.voxel_visits);

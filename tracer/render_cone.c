@@ -133,25 +133,43 @@ static void march(const render_job *j, const cone *c, float t, float t_end, int 
     float vs = g->voxel_size;
     int top = g->levels - 1;
     int known_K = -1, known[3] = {0, 0, 0}; /* the last cell whose neighbourhood was non-empty */
+    int K_skip = 0;                           /* the level the last jump used */
     for (int steps = 0; steps < CONE_MAX_ELEMENTS && t < t_end && comp->count < FULL_MASK; steps++) {
         float r = cone_radius(c, t + cone_radius(c, t));
         float tc_ = t + r;
         vec3 p = v3_madd(c->org, c->dir, tc_);
         float level = log2f(2.0f * r / vs);
         level = level > 0.0f ? (level < (float)top ? level : (float)top) : 0.0f;
-        int K = (int)level + 1 <= top ? (int)level + 1 : top;
+        /* Empty-space skipping over the coarse levels with hysteresis (as grid_traverse's DDA):
+         * start at the level the last jump used, descend while the neighbourhood is occupied,
+         * climb while the coarser one is empty, jump out of the cell. K_min = the finest level
+         * whose emptiness proves the element's stencil (floor(level) + 1) empty. */
+        int K_min = (int)level + 1 <= top ? (int)level + 1 : top;
+        int K = K_skip > K_min ? K_skip : K_min;
         double lat[3], u[3];
         grid_to_lattice(g, p, lat);
-        double scale = 1.0 / (double)(1u << K);
-        int cell[3];
-        for (int a = 0; a < 3; a++) {
-            u[a] = lat[a] * scale;
-            cell[a] = (int)floor(u[a]);
+        int cell[3], empty = 0;
+        for (;;) {
+            double scale = 1.0 / (double)(1u << K);
+            for (int a = 0; a < 3; a++) {
+                u[a] = lat[a] * scale;
+                cell[a] = (int)floor(u[a]);
+            }
+            /* Consecutive elements mostly share a cell: a neighbourhood found occupied stays so. */
+            if (K == known_K && cell[0] == known[0] && cell[1] == known[1] && cell[2] == known[2])
+                break;
+            if (neighbourhood_empty(g, K, cell)) {
+                empty = 1;
+                break;
+            }
+            if (K == K_min) {
+                known_K = K;
+                memcpy(known, cell, sizeof known);
+                break;
+            }
+            K--;
         }
-        /* Consecutive elements mostly share a cell: a neighbourhood found non-empty stays so. */
-        int same = K == known_K && cell[0] == known[0] && cell[1] == known[1] && cell[2] == known[2];
-        if (!same && neighbourhood_empty(g, K, cell)) {
-            /* Climb while the coarser neighbourhood is empty too, then jump out of the cell. */
+        if (empty) {
             while (K < top) {
                 int up[3] = {cell[0] >> 1, cell[1] >> 1, cell[2] >> 1};
                 if (!neighbourhood_empty(g, K + 1, up))
@@ -161,14 +179,14 @@ static void march(const render_job *j, const cone *c, float t, float t_end, int 
                 for (int a = 0; a < 3; a++)
                     u[a] *= 0.5;
             }
+            K_skip = K;
             double exit = cell_exit(g, K, u, c->dir);
             if (!(exit < INFINITY))
                 break;
             t = tc_ + (float)exit + 1e-4f * vs * (float)(1u << K);
             continue;
         }
-        known_K = K;
-        memcpy(known, cell, sizeof known);
+        K_skip = K_min;
         tc->voxel_visits++; /* one cone element evaluated */
         q.position = p;
         q.level = level;
@@ -177,7 +195,18 @@ static void march(const render_job *j, const cone *c, float t, float t_end, int 
         q.t1 = tc_ + r;
         q.voxel_size = 2.0f * r;
         q.voxel_lo = v3_sub(p, v3(r, r, r));
+        /* Lights unshadowed at first: most elements show nothing, and shadow cones are cast only
+         * from those that add coverage. */
         q.light_count = 0;
+        vec3 irr[VX_MAX_LIGHTS];
+        float dist[VX_MAX_LIGHTS];
+        if (shade) {
+            q.light_count = s->light_count < VX_MAX_LIGHTS ? s->light_count : VX_MAX_LIGHTS;
+            for (int li = 0; li < q.light_count; li++) {
+                rt_light_at(s, li, p, &q.to_light[li], &irr[li], &dist[li]);
+                q.irradiance[li] = irr[li];
+            }
+        }
         vx_answer a;
         uint64_t c0 = cycles();
         m->cone_element(&q, &a);
@@ -188,22 +217,27 @@ static void march(const render_job *j, const cone *c, float t, float t_end, int 
             fresh += __builtin_popcount(a.mask[w] & ~comp->covered[w]);
         if (fresh > 0) {
             if (shade) {
-                /* Lights only for elements that show: the mask decides first, then one more call
-                 * with the lights (and their shadow cones) gives the radiance. */
-                q.light_count = s->light_count < VX_MAX_LIGHTS ? s->light_count : VX_MAX_LIGHTS;
-                for (int li = 0; li < q.light_count; li++) {
-                    vec3 dir, irr;
-                    float dist;
-                    rt_light_at(s, li, p, &dir, &irr, &dist);
-                    if (s->effects & EFFECT_SHADOWS)
-                        irr = v3_scale(irr, light_transmittance(j, p, r, dir, dist, tc));
-                    q.to_light[li] = dir;
-                    q.irradiance[li] = irr;
+                if ((s->effects & EFFECT_SHADOWS) && q.light_count > 0) {
+                    float T[VX_MAX_LIGHTS];
+                    int all_lit = 1;
+                    for (int li = 0; li < q.light_count; li++) {
+                        T[li] = light_transmittance(j, p, r, q.to_light[li], dist[li], tc);
+                        all_lit &= T[li] == 1.0f;
+                    }
+                    if (q.light_count == 1) {
+                        /* Radiance is linear in the one light's irradiance. */
+                        a.radiance = v3_scale(a.radiance, T[0]);
+                    } else if (!all_lit) {
+                        for (int li = 0; li < q.light_count; li++)
+                            q.irradiance[li] = v3_scale(irr[li], T[li]);
+                        vx_answer b;
+                        c0 = cycles();
+                        m->cone_element(&q, &b);
+                        tc->model_cycles += cycles() - c0;
+                        tc->model_evals++;
+                        a.radiance = b.radiance;
+                    }
                 }
-                c0 = cycles();
-                m->cone_element(&q, &a);
-                tc->model_cycles += cycles() - c0;
-                tc->model_evals++;
                 comp->color = v3_madd(comp->color, a.radiance, (float)fresh / (float)FULL_MASK);
             }
             comp->count = 0;
@@ -229,7 +263,7 @@ static float light_transmittance(const render_job *j, vec3 p, float r, vec3 to_l
         return 1.0f;
     composite comp;
     memset(&comp, 0, sizeof comp);
-    march(j, &c, fmaxf(t0, 2.0f * r), fminf(t1, distance), 0, &comp, tc);
+    march(j, &c, fmaxf(t0, 3.0f * r), fminf(t1, distance), 0, &comp, tc);
     return 1.0f - (float)comp.count / (float)FULL_MASK;
 }
 

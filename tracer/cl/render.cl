@@ -1,4 +1,4 @@
-/* The OpenCL voxel tracer: the C tracer (tracer/render.c) as two kernels, built from the same
+/* The OpenCL voxel tracer: the C tracer (tracer/render.c) as one kernel, built from the same
  * portable sources. tracer/opencl_program.c assembles the program: tracer/cl/prelude.h, then the
  * model's cl_source header, then this file, with
  *   VX_CL_OPACITY, VX_CL_SHADE  the model's cl_opacity and cl_shade functions
@@ -10,9 +10,13 @@
  * mirrors render.c line for line (shadow_transmittance, gather_lights, evaluate, answer_for_voxel,
  * trace_ray, render_row) so that both backends give the same image.
  *
- * The shading cache: the C tracer caches each voxel's answer for the direction voxel -> camera the
- * first time a ray visits it; that answer depends only on the voxel, so vx_fill_cache computes it
- * up front for every non-empty voxel (one work-item each) and vx_render only reads it. */
+ * The shading cache works as the C tracer's: the first ray to visit a voxel computes its answer for
+ * the direction voxel -> camera and publishes it (state 0 empty, 1 being written, 2 ready); a ray
+ * that finds it ready reads it, one that does not computes it itself. The answer depends only on
+ * the voxel, so whoever computes it writes the same numbers and the image does not depend on the
+ * order in which work-items run. Publication: the entry is written, a global fence orders it before
+ * state = 2, and readers use volatile loads (served from coherent memory, not a stale per-core
+ * cache line on GPUs) of the state first, then of the entry. */
 #include "grid_traverse_core.h"
 #include "model.h"
 #include "render_params.h"
@@ -34,13 +38,14 @@ typedef struct {
     __global const vx_cl_params *P;
     const voxel_grid *g;
     __global const uchar *records;
-    __global const vx_cl_cache *cache;
+    volatile __global vx_cl_cache *cache;
+    volatile __global int *state; /* per voxel: 0 empty, 1 being written, 2 ready */
     uint count[VX_CL_COUNTERS];
 } cl_job;
 
 /* The grid as grid_core.h expects it: the tables of every level, rebuilt from buffer offsets. */
 static void cl_grid(voxel_grid *g, __global const vx_cl_params *P, __global ulong *cols, __global ulong *bits,
-                    __global uint *prefix, __global uint *coords0)
+                    __global uint *prefix)
 {
     g->n = P->n;
     g->origin = P->grid_origin;
@@ -57,8 +62,8 @@ static void cl_grid(voxel_grid *g, __global const vx_cl_params *P, __global ulon
         L->cols = used ? cols + P->level_cols[l] : 0;
         L->bits = used ? bits + P->level_words[l] : 0;
         L->prefix = used ? prefix + P->level_words[l] : 0;
-        L->coords = l == 0 ? coords0 : 0;
-        L->words = 0; /* unused by the lookups and the DDA */
+        L->coords = 0; /* the coordinates, words and counts are not used by the lookups and the DDA */
+        L->words = 0;
         L->count = l == 0 ? (size_t)P->voxel_count : 0;
     }
 }
@@ -188,18 +193,66 @@ static void cl_answer_uncached(cl_job *j, const grid_hit *h, vec3 org, vec3 dir,
     cl_evaluate(j, &q, h->index, centre, a);
 }
 
-static void cl_answer(cl_job *j, const grid_hit *h, vec3 org, vec3 dir, vx_answer *a)
+/* answer_for_voxel with the cache: the voxel's answer for the direction voxel -> camera. */
+static void cl_answer_cached(cl_job *j, const grid_hit *h, vec3 dir, vx_answer *a)
 {
-    if (!j->P->cache) {
-        cl_answer_uncached(j, h, org, dir, a);
+    __global const vx_cl_params *P = j->P;
+    volatile __global int *state = &j->state[h->index];
+    volatile __global vx_cl_cache *ce = &j->cache[h->index];
+    if (*state == 2) {
+        j->count[VX_CL_HITS]++;
+        a->radiance = v3(ce->radiance[0], ce->radiance[1], ce->radiance[2]);
+        a->opacity = ce->opacity;
+        for (int w = 0; w < VX_MASK_WORDS; w++)
+            a->mask[w] = ce->mask[w];
         return;
     }
-    __global const vx_cl_cache *ce = &j->cache[h->index];
-    j->count[VX_CL_HITS]++;
-    a->radiance = v3(ce->radiance[0], ce->radiance[1], ce->radiance[2]);
-    a->opacity = ce->opacity;
-    for (int w = 0; w < VX_MASK_WORDS; w++)
-        a->mask[w] = ce->mask[w];
+    vx_query q;
+    vec3 centre;
+    cl_query_for_voxel(j, h->x, h->y, h->z, &q, &centre);
+    /* The cached direction: from the voxel's centre toward the camera. */
+    vec3 to_cam = v3_sub(P->cam.position, centre);
+    float dist = v3_length(to_cam);
+    q.to_viewer = v3_normalize_or(to_cam, v3_scale(dir, -1.0f));
+    q.ray_dir = v3_scale(q.to_viewer, -1.0f);
+    q.ray_origin = P->cam.position;
+    q.t0 = dist - 0.5f * j->g->voxel_size;
+    q.t1 = dist + 0.5f * j->g->voxel_size;
+    q.footprint = dist * P->spread;
+    cl_evaluate(j, &q, h->index, centre, a);
+    if (atomic_cmpxchg(state, 0, 1) == 0) {
+        ce->radiance[0] = a->radiance.x;
+        ce->radiance[1] = a->radiance.y;
+        ce->radiance[2] = a->radiance.z;
+        ce->opacity = a->opacity;
+        for (int w = 0; w < VX_MASK_WORDS; w++)
+            ce->mask[w] = a->mask[w];
+        mem_fence(CLK_GLOBAL_MEM_FENCE);
+        atomic_xchg(state, 2);
+    }
+}
+
+static void cl_answer(cl_job *j, const grid_hit *h, vec3 org, vec3 dir, vx_answer *a)
+{
+    if (j->P->cache)
+        cl_answer_cached(j, h, dir, a);
+    else
+        cl_answer_uncached(j, h, org, dir, a);
+}
+
+/* Adds a work-item's counters to its work-group's slot: VX_CL_COUNTERS 64-bit sums, each a low and
+ * a high 32-bit word (a carry out of the low word's atomic add goes to the high word), so that
+ * OpenCL 1.2's 32-bit atomics suffice. Work-items of one group rarely contend (a CPU device runs a
+ * group on one thread), and the host reads back one slot per group, not per pixel. */
+static void cl_flush_counts(__global uint *counts, const uint *c)
+{
+    __global uint *slot = counts + (size_t)get_group_id(0) * (2 * VX_CL_COUNTERS);
+    for (int k = 0; k < VX_CL_COUNTERS; k++)
+        if (c[k]) {
+            uint old = atomic_add(&slot[2 * k], c[k]);
+            if (old + c[k] < old)
+                atomic_inc(&slot[2 * k + 1]);
+        }
 }
 
 /* render.c's trace_ray; the compositing rule is a constant of the program. */
@@ -243,58 +296,18 @@ static vec3 cl_trace_ray(cl_job *j, vec3 org, vec3 dir)
     return v3_madd(color, j->P->background, 1.0f - A);
 }
 
-/* One work-item per non-empty level-0 voxel: its answer for the direction voxel -> camera, as
- * answer_for_voxel computes it on a cache miss. counts: VX_CL_SHADOW_RAYS and VX_CL_EVALS per voxel
- * (2 words). */
-__kernel void vx_fill_cache(__global const vx_cl_params *P, __global ulong *cols, __global ulong *bits,
-                            __global uint *prefix, __global uint *coords0, __global const uchar *records,
-                            __global vx_cl_cache *cache, __global uint *counts, int count)
-{
-    int i = (int)get_global_id(0);
-    if (i >= count)
-        return;
-    voxel_grid g;
-    cl_grid(&g, P, cols, bits, prefix, coords0);
-    cl_job j = {P, &g, records, cache, {0, 0, 0, 0}};
-    uint c = coords0[i];
-    vx_query q;
-    vec3 centre;
-    cl_query_for_voxel(&j, (int)(c >> 20), (int)((c >> 10) & 1023u), (int)(c & 1023u), &q, &centre);
-    vec3 to_cam = v3_sub(P->cam.position, centre);
-    float dist = v3_length(to_cam);
-    /* The C tracer falls back on the first visiting ray's direction when the camera sits exactly at
-     * the voxel's centre; there is no such ray here, the view direction stands in. */
-    q.to_viewer = v3_normalize_or(to_cam, v3_scale(P->cam.forward, -1.0f));
-    q.ray_dir = v3_scale(q.to_viewer, -1.0f);
-    q.ray_origin = P->cam.position;
-    q.t0 = dist - 0.5f * g.voxel_size;
-    q.t1 = dist + 0.5f * g.voxel_size;
-    q.footprint = dist * P->spread;
-    vx_answer a;
-    cl_evaluate(&j, &q, i, centre, &a);
-    __global vx_cl_cache *ce = &cache[i];
-    ce->radiance[0] = a.radiance.x;
-    ce->radiance[1] = a.radiance.y;
-    ce->radiance[2] = a.radiance.z;
-    ce->opacity = a.opacity;
-    for (int w = 0; w < VX_MASK_WORDS; w++)
-        ce->mask[w] = a.mask[w];
-    counts[2 * i] = j.count[VX_CL_SHADOW_RAYS];
-    counts[2 * i + 1] = j.count[VX_CL_EVALS];
-}
-
 /* One work-item per pixel: render.c's render_row for one pixel (same random stream, strata, rays
- * and box filter). counts: VX_CL_COUNTERS words per pixel. */
+ * and box filter). counts: one slot per work-group (cl_flush_counts). */
 __kernel void vx_render(__global const vx_cl_params *P, __global ulong *cols, __global ulong *bits,
-                        __global uint *prefix, __global const uchar *records, __global const vx_cl_cache *cache,
-                        __global float *image, __global uint *counts, int pixels)
+                        __global uint *prefix, __global const uchar *records, __global vx_cl_cache *cache,
+                        __global int *state, __global float *image, __global uint *counts, int pixels)
 {
     int pix = (int)get_global_id(0);
     if (pix >= pixels)
         return;
     voxel_grid g;
-    cl_grid(&g, P, cols, bits, prefix, 0);
-    cl_job j = {P, &g, records, cache, {0, 0, 0, 0}};
+    cl_grid(&g, P, cols, bits, prefix);
+    cl_job j = {P, &g, records, cache, state, {0, 0, 0, 0}};
     int width = P->width, height = P->height, spp = P->spp;
     int px = pix % width, py = pix / width;
     int dof = (P->effects & VX_EFFECT_DOF) != 0;
@@ -317,6 +330,5 @@ __kernel void vx_render(__global const vx_cl_params *P, __global ulong *cols, __
     dst[0] = sum.x / (float)spp;
     dst[1] = sum.y / (float)spp;
     dst[2] = sum.z / (float)spp;
-    for (int k = 0; k < VX_CL_COUNTERS; k++)
-        counts[VX_CL_COUNTERS * (size_t)pix + k] = j.count[k];
+    cl_flush_counts(counts, j.count);
 }

@@ -47,14 +47,16 @@ typedef struct {
     int pad_;
 } vx_cl_params;
 
-/* A voxel's answer for the direction voxel -> camera (the C tracer's cache_entry, precomputed). */
+/* A voxel's answer for the direction voxel -> camera (the C tracer's cache_entry; its state is a
+ * separate int array, zeroed by the host). */
 typedef struct {
     float radiance[3];
     float opacity;
     unsigned int mask[VX_MASK_WORDS];
 } vx_cl_cache;
 
-/* Per work-item counters the host sums into render_counts. */
+/* A work-item's counters (render_counts' fields). The kernels add them up per work-group, each as a
+ * 64-bit sum in two 32-bit words (low, high), and the host sums the groups. */
 enum { VX_CL_VISITS = 0, VX_CL_SHADOW_RAYS = 1, VX_CL_EVALS = 2, VX_CL_HITS = 3, VX_CL_COUNTERS = 4 };
 
 #endif

@@ -1,0 +1,45 @@
+#!/usr/bin/python3
+"""Runs one declared experiment (experiments/*.json) and writes its rows.
+
+    /usr/bin/python3 experiments/sweep.py experiments/table1.json [--results results] [--cache DIR]
+        [--jobs 2] [--voxlab build/voxlab] [--fresh] [--out DIR] [--history FILE] [--check]
+
+Writes <out> (default <results>/<name>/): rows.csv and rows.json, one row per configuration (scene x
+model x resolution x parameters) with MSE, SSIM, timings and memory, or status "failed" and voxlab's
+message; rows.json also holds the run's machine, commit, date, binary hash and settings. Every voxlab
+job is cached under <cache> (default <results>/cache) by the hash of its inputs. --check only
+validates the declaration. Exit status: 0 (even when some configurations failed: they are in the
+rows), 1 when the sweep could not run at all, 2 for a bad declaration.
+"""
+import argparse
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import voxlab_runner as vr  # noqa: E402
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("declaration", help="experiment declaration (JSON)")
+    vr.add_common_args(ap)
+    ap.add_argument("--out", help="output directory (default <results>/<name>)")
+    ap.add_argument("--history", help="history CSV to append to when the declaration asks (default "
+                                      "<results>/history.csv)")
+    ap.add_argument("--check", action="store_true", help="only validate the declaration")
+    a = ap.parse_args(argv)
+
+    def go():
+        decl = vr.load_declaration(a.declaration)
+        if a.check:
+            print(f"{decl['shown']}: ok ({len(decl['scenes'])} scene(s), {len(decl['runs'])} run(s))")
+            return 0
+        vr.run_experiment(decl, results=a.results, cache_dir=a.cache, voxlab=a.voxlab, jobs=a.jobs, fresh=a.fresh,
+                          out_dir=a.out, history=a.history)
+        return 0
+
+    return vr.main_wrapper(go, "sweep")
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,118 @@
+/* Benchmark of `render --backend opencl` against the C backend, for every registered model: render
+ * time (median of RUNS, alternating backends so that drift hits both alike) of OpenCL over C on the
+ * same baked grid, same options (default 4 spp, cache on) and the same cores; the OpenCL time
+ * excludes the kernel compile, which is reported apart (the first call's, and a cached one's). The
+ * images are compared too (max per-pixel difference) so that a fast but wrong kernel shows.
+ * Models that cannot run on OpenCL are listed with the backend's reason.
+ * usage: bench_opencl [SCENE [RES [SIZE]]]   (defaults: scenes/bunny.json 128 256) */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "commands.h"
+#include "opencl_backend.h"
+#include "parallel.h"
+#include "render.h"
+
+#define RUNS 5
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static double median(double *v, int n)
+{
+    qsort(v, (size_t)n, sizeof *v, cmp_double);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+static double max_difference(const image *a, const image *b)
+{
+    double d = 0;
+    size_t n = (size_t)a->width * (size_t)a->height * (size_t)a->channels;
+    for (size_t i = 0; i < n; i++)
+        d = fmax(d, fabs((double)a->data[i] - (double)b->data[i]));
+    return d;
+}
+
+static int bench_model(const scene *s, const vx_model *m, int res, int size)
+{
+    vx_err e;
+    voxel_grid g;
+    void *records = NULL;
+    bake_counts bc;
+    double grid_seconds;
+    bake_options bo = {.rays = 150, .seed = 1, .progress = 0};
+    if (bake_scene(s, m, res, &bo, &g, &records, &bc, &grid_seconds, &e)) {
+        fprintf(stderr, "bench_opencl: bake %s: %s\n", m->name, e.msg);
+        return 1;
+    }
+    render_options o;
+    render_default_options(&o);
+    o.width = o.height = size;
+    o.progress = 0;
+    double c_s[RUNS], cl_s[RUNS], kernel_s[RUNS], first_compile = 0, compile = 0;
+    image img_c = {0}, img_cl = {0};
+    int rc = 0;
+    for (int run = 0; run < RUNS && !rc; run++) {
+        render_counts cnt;
+        opencl_counts oc;
+        image_free(&img_c);
+        image_free(&img_cl);
+        if (render_image(s, &g, m, records, &o, &img_c, &cnt, &e)) {
+            fprintf(stderr, "bench_opencl: C render of %s: %s\n", m->name, e.msg);
+            rc = 1;
+            break;
+        }
+        c_s[run] = cnt.seconds;
+        if (render_image_opencl(s, &g, m, records, &o, &img_cl, &cnt, &oc, &e)) {
+            printf("opencl %-8s %d^3 %-12s not run on OpenCL: %s\n", s->name, res, m->name, e.msg);
+            goto done;
+        }
+        cl_s[run] = cnt.seconds;
+        kernel_s[run] = oc.kernel_seconds;
+        if (run == 0)
+            first_compile = oc.compile_seconds;
+        else
+            compile = oc.compile_seconds;
+    }
+    if (!rc) {
+        double c = median(c_s, RUNS), cl = median(cl_s, RUNS);
+        printf("opencl %-8s %d^3 %-12s %dx%d %d spp: C %.1f ms, OpenCL %.1f ms (kernel %.1f); compile %.2f s "
+               "first, %.2f s cached; max |OpenCL - C| %.2g\n",
+               s->name, res, m->name, size, size, o.spp, 1e3 * c, 1e3 * cl, 1e3 * median(kernel_s, RUNS),
+               first_compile, compile, max_difference(&img_c, &img_cl));
+        printf("opencl %-8s %-12s ratio OpenCL-on-PoCL/C render time: %.2f (target <= 1; median of %d)\n", s->name,
+               m->name, cl / c, RUNS);
+    }
+done:
+    image_free(&img_c);
+    image_free(&img_cl);
+    free(records);
+    grid_free(&g);
+    return rc;
+}
+
+int main(int argc, char **argv)
+{
+    const char *path = argc > 1 ? argv[1] : "scenes/bunny.json";
+    int res = argc > 2 ? atoi(argv[2]) : 128, size = argc > 3 ? atoi(argv[3]) : 256;
+    vx_err e;
+    scene s;
+    if (res < 1 || size < 1) {
+        fprintf(stderr, "usage: bench_opencl [SCENE [RES [SIZE]]]\n");
+        return 1;
+    }
+    if (scene_load(path, &s, &e)) {
+        fprintf(stderr, "bench_opencl: %s\n", e.msg);
+        return 1;
+    }
+    int rc = 0;
+    for (const vx_model *const *m = model_all(); *m && !rc; m++)
+        rc = bench_model(&s, *m, res, size);
+    scene_free(&s);
+    return rc;
+}

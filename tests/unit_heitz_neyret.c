@@ -1,0 +1,468 @@
+/* The Heitz–Neyret model's numerics: one table of hard cases (every output finite and in range),
+ * then checks of each piece against independent expectations: the mask table against the exact
+ * area of a disk segment, the bake against synthetic Gaussian surfaces with known statistics, the
+ * MIP combination against a plane seen at two levels, Smith's Lambda and the view-dependent colour
+ * against their limits.
+ *
+ * `unit_heitz_neyret --lambda COS,SIGMA...` prints Lambda for each pair (%.9g): tests/
+ * test_heitz_neyret.py compares those with an mpmath evaluation at 40 digits. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "grid.h"
+#include "hn_host.h"
+#include "mesh.h"
+#include "model.h"
+#include "unit.h"
+
+static int finite3(vec3 v) { return isfinite(v.x) && isfinite(v.y) && isfinite(v.z); }
+
+/* ---------- the test's own random numbers (xorshift64*) ---------- */
+
+static uint64_t rnd_u64(uint64_t *s)
+{
+    *s ^= *s >> 12;
+    *s ^= *s << 25;
+    *s ^= *s >> 27;
+    return *s * 0x2545F4914F6CDD1DULL;
+}
+static double rnd01(uint64_t *s) { return (double)(rnd_u64(s) >> 11) * (1.0 / 9007199254740992.0); }
+static double rnd_gauss(uint64_t *s)
+{
+    double u = rnd01(s), v = rnd01(s);
+    return sqrt(-2.0 * log(u + 1e-300)) * cos(2.0 * M_PI * v);
+}
+
+/* A uniform-ish sample of the query space's awkward corners: one element answer per case. */
+typedef struct {
+    const char *name;
+    vec3 n;          /* blended mean normal (not unit) */
+    float D;         /* distance of the element's centre above the plane */
+    float var_h, var_n;
+    float two_sided;
+    vec3 ray_dir;    /* unit or not */
+    float r;         /* element radius */
+    int lights;
+    float light_cos; /* cos of the light to +z */
+    unsigned effects;
+} element_case;
+
+static const element_case element_cases[] = {
+    {"facing the ray, nx = ny = 0", {0, 0, 1}, 0.0f, 0.01f, 0.1f, 0, {0, 0, -1}, 0.5f, 1, 1.0f, 0},
+    {"facing away, nx = ny = 0", {0, 0, 1}, 0.2f, 0.01f, 0.1f, 0, {0, 0, 1}, 0.5f, 1, 1.0f, 0},
+    {"edge-on (nz = 0)", {1, 0, 0}, 0.0f, 0.0f, 0.0f, 0, {0, 0, 1}, 0.5f, 1, 0.5f, VX_EFFECT_SPECULAR},
+    {"edge-on and rough", {0, 1, 0}, 0.1f, 0.04f, 4.0f, 0, {0, 0, 1}, 0.5f, 1, 0.5f, VX_EFFECT_SHADOWS},
+    {"mean normal of length 0", {0, 0, 0}, 0.0f, 0.01f, 1.0f, 0, {0, 0.6f, -0.8f}, 0.5f, 1, 0.7f, 0},
+    {"mean normal of length 0, two-sided", {0, 0, 0}, 0.0f, 0.01f, 1.0f, 1, {0, 0.6f, -0.8f}, 0.5f, 1, 0.7f, 0},
+    {"sigma_n = 0", {0, 0, 1}, 0.0f, 0.0f, 0.0f, 0, {0.6f, 0, -0.8f}, 0.5f, 1, 0.9f, VX_EFFECT_SPECULAR},
+    {"sigma_n huge", {0, 0, 1}, 0.0f, 0.01f, 1e8f, 0, {0.6f, 0, -0.8f}, 0.5f, 1, 0.9f,
+     VX_EFFECT_SPECULAR | VX_EFFECT_SHADOWS},
+    {"sigma_h = 0 (g a step)", {0, 0, 1}, 0.1f, 0.0f, 0.3f, 0, {0.6f, 0, -0.8f}, 0.5f, 1, 0.9f, VX_EFFECT_SHADOWS},
+    {"sigma_h huge", {0, 0, 1}, 0.1f, 1e12f, 0.3f, 0, {0.6f, 0, -0.8f}, 0.5f, 1, 0.9f, 0},
+    {"grazing view 89.99 deg", {0, 0, 1}, 0.0f, 0.01f, 0.3f, 0, {0.99999998f, 0, -0.0002f}, 0.5f, 1, 0.5f,
+     VX_EFFECT_SHADOWS | VX_EFFECT_SPECULAR},
+    {"grazing light", {0, 0, 1}, 0.0f, 0.01f, 0.3f, 0, {0, 0, -1}, 0.5f, 1, 1e-7f, VX_EFFECT_SHADOWS},
+    {"light behind the surface", {0, 0, 1}, 0.0f, 0.01f, 0.3f, 0, {0, 0, -1}, 0.5f, 1, -0.5f,
+     VX_EFFECT_SHADOWS | VX_EFFECT_SPECULAR},
+    {"element radius 0", {0, 0, 1}, 0.0f, 0.01f, 0.3f, 0, {0.3f, 0.4f, -0.866f}, 0.0f, 1, 0.9f, 0},
+    {"element radius huge", {0, 0, 1}, 1.0f, 0.01f, 0.3f, 0, {0.3f, 0.4f, -0.866f}, 1e30f, 1, 0.9f, 0},
+    {"far above (v << -1)", {0.3f, 0, 1}, 1e6f, 0.01f, 0.3f, 0, {0.3f, 0.4f, -0.866f}, 0.5f, 1, 0.9f, 0},
+    {"far below (v >> 1)", {0.3f, 0, 1}, -1e6f, 0.01f, 0.3f, 0, {0.3f, 0.4f, -0.866f}, 0.5f, 1, 0.9f, 0},
+    {"NaN distance", {0.3f, 0, 1}, NAN, 0.01f, 0.3f, 0, {0.3f, 0.4f, -0.866f}, 0.5f, 1, 0.9f, 0},
+    {"zero ray direction", {0, 0, 1}, 0.0f, 0.01f, 0.3f, 0, {0, 0, 0}, 0.5f, 1, 0.9f, 0},
+    {"no lights", {0, 0, 1}, 0.0f, 0.01f, 0.3f, 0, {0, 0, -1}, 0.5f, 0, 0.9f, 0},
+};
+
+static void element_table(void)
+{
+    const unsigned *table = hn_mask_table();
+    for (size_t i = 0; i < sizeof element_cases / sizeof element_cases[0]; i++) {
+        const element_case *c = &element_cases[i];
+        hn_sample s;
+        memset(&s, 0, sizeof s);
+        s.n = c->n;
+        s.D = c->D;
+        s.var_h = c->var_h;
+        s.var_n = c->var_n;
+        s.two_sided = c->two_sided;
+        s.a = v3(0.5f, 0.6f, 0.7f);
+        s.as = v3(0.3f, -0.2f, 0.1f);
+        s.f0 = 0.5f;
+        s.var_brdf = 0.0f; /* a mirror microsurface: only sigma_n makes the lobe finite */
+        vx_query q;
+        memset(&q, 0, sizeof q);
+        q.ray_dir = c->ray_dir;
+        q.to_viewer = v3_scale(c->ray_dir, -1.0f);
+        q.effects = c->effects;
+        q.light_count = c->lights;
+        float st = sqrtf(fmaxf(0.0f, 1.0f - c->light_cos * c->light_cos));
+        q.to_light[0] = v3(st, 0.0f, c->light_cos);
+        q.irradiance[0] = v3(3.0f, 3.0f, 3.0f);
+        vx_answer a;
+        hn_answer(table, &s, &q, c->r, &a);
+        char name[160];
+        snprintf(name, sizeof name, "element: %s: finite, opacity in [0,1], radiance >= 0", c->name);
+        /* Bound: irradiance x (albedo / pi + the Beckmann lobe's peak at the smallest alpha the
+         * model allows, 1e-3: f0 / (pi alpha^2) / 4 cos^2 ... generous but finite). */
+        CHECK(name, finite3(a.radiance) && a.radiance.x >= 0 && a.radiance.y >= 0 && a.radiance.z >= 0 &&
+                        isfinite(a.opacity) && a.opacity >= 0.0f && a.opacity <= 1.0f && a.radiance.x < 1e12f);
+        snprintf(name, sizeof name, "element: %s: opacity = mask popcount / 128", c->name);
+        CHECK(name, fabsf(a.opacity - (float)hn_mask_count(a.mask) / 128.0f) < 1e-6f);
+    }
+}
+
+/* ---------- scalar functions at their limits ---------- */
+
+typedef struct {
+    const char *name;
+    float cos_theta, sigma;
+} lambda_case;
+
+static const lambda_case lambda_cases[] = {
+    {"theta = 0", 1.0f, 0.3f},        {"theta -> 0", 1.0f - 1e-7f, 0.3f}, {"theta = 90", 0.0f, 0.3f},
+    {"theta -> 90", 1e-7f, 0.3f},     {"behind", -0.5f, 0.3f},           {"sigma = 0", 0.5f, 0.0f},
+    {"sigma tiny", 0.5f, 1e-30f},     {"sigma huge", 0.5f, 1e30f},       {"NaN cos", NAN, 0.3f},
+    {"NaN sigma", 0.5f, NAN},         {"erfc tail x = 9.49", 0.99f, 0.7f / 9.49f}, /* x ~ 9.49 */
+    {"erfc tail x = 2", 0.8f, 0.4714f}, {"infinite sigma", 0.5f, INFINITY},
+};
+
+static void scalar_table(void)
+{
+    for (size_t i = 0; i < sizeof lambda_cases / sizeof lambda_cases[0]; i++) {
+        const lambda_case *c = &lambda_cases[i];
+        float L = hn_lambda(c->cos_theta, c->sigma);
+        float dh = hn_visible_depth_offset(0.1f, L);
+        float a = hn_attribute(0.5f, 0.3f, L, L);
+        float tilt = hn_visible_tilt(hn_cot_from_cos(c->cos_theta), c->sigma);
+        float k = hn_lambert_cos_mean(c->sigma);
+        char name[160];
+        snprintf(name, sizeof name, "scalar: %s: Lambda, h(v), a(v,l), tilt, cos mean finite and in range", c->name);
+        CHECK(name, isfinite(L) && L >= 0.0f && isfinite(dh) && dh >= 0.0f && isfinite(a) && a >= 0.5f && a <= 0.8f &&
+                        isfinite(tilt) && tilt >= 0.0f && isfinite(k) && k >= 0.0f && k <= 1.0f);
+    }
+    CHECK_NEAR("Lambda(theta = 0) = 0", hn_lambda(1.0f, 0.3f), 0.0, 0.0);
+    CHECK_NEAR("Lambda(sigma = 0) = 0", hn_lambda(0.3f, 0.0f), 0.0, 0.0);
+    /* Grazing: Lambda ~ sigma / (mu sqrt(2 pi)) - 1/2 for mu << sigma. */
+    float mu = hn_cot_from_cos(1e-3f);
+    CHECK_NEAR("Lambda grazing asymptote", hn_lambda(1e-3f, 0.5f), 0.5 / (mu * sqrt(2 * M_PI)) - 0.5, 1e-3);
+    CHECK_NEAR("a(v,l) = a at normal incidence", hn_attribute(0.4f, 0.2f, 0.0f, 0.0f), 0.4, 1e-7);
+    CHECK_NEAR("a(v,l) -> a + a_s at grazing", hn_attribute(0.4f, 0.2f, 1e30f, 0.0f), 0.6, 1e-6);
+    CHECK_NEAR("a(v,l) eq. 17 at Lambda = 1", hn_attribute(0.4f, 0.2f, 0.5f, 0.5f), 0.4 + 0.2 * (2.0 * 2 / 3 - 1), 1e-6);
+    /* g(h) with sigma_h = 0 is a step. */
+    CHECK("g(h) with sigma_h = 0 is a step",
+          hn_g(-1e-20f, 0.0f) == 0.0f && hn_g(1e-20f, 0.0f) == 1.0f && hn_g(0.0f, 0.0f) == 0.5f);
+    CHECK_NEAR("g(0) = 1/2", hn_g(0.0f, 0.2f), 0.5, 1e-7);
+    CHECK_NEAR("g(sigma) = Phi(1)", hn_g(0.2f, 0.2f), 0.841344746, 1e-6);
+    /* erfcx tail: sqrt(pi) erfcx(y) -> 1/y. */
+    CHECK_NEAR("erfcx tail", hn_sqrtpi_erfcx(1e4f) * 1e4f, 1.0, 1e-6);
+    CHECK_NEAR("erfcx at 2 (branch point)", hn_sqrtpi_erfcx(2.0f), sqrt(M_PI) * exp(4.0) * erfc(2.0), 2e-6);
+    CHECK_NEAR("erfcx just past 2", hn_sqrtpi_erfcx(2.0001f), sqrt(M_PI) * exp(2.0001 * 2.0001) * erfc(2.0001), 2e-6);
+    /* Visible tilt: sigma^2 / mu for flat views, ~1.25 sigma at grazing. */
+    CHECK_NEAR("visible tilt, small sigma", hn_visible_tilt(1.0f, 0.01f), 1e-4, 1e-7);
+    CHECK_NEAR("visible tilt, grazing", hn_visible_tilt(1e-6f, 0.3f), 0.3 * sqrt(2 * M_PI) / 2, 1e-4);
+    /* Half floats. */
+    float hv[] = {0.0f, 1e-7f, 6.1e-5f, 0.333333f, 1.0f, 1000.5f, 65504.0f, -2.5f};
+    int ok = 1;
+    for (size_t i = 0; i < sizeof hv / sizeof hv[0]; i++) {
+        float back = hn_half_to_float(hn_float_to_half(hv[i]));
+        ok &= fabsf(back - hv[i]) <= fmaxf(fabsf(hv[i]) * 4.9e-4f, 3e-8f);
+    }
+    CHECK("half float round trip within half an ulp", ok);
+    CHECK("half float saturates", hn_half_to_float(hn_float_to_half(1e30f)) == 65504.0f &&
+                                      hn_half_to_float(hn_float_to_half(NAN)) == 0.0f);
+    /* Slope variance from normals' second moment, round trip and limits. */
+    ok = 1;
+    for (double s2 = 1e-6; s2 < 1e4; s2 *= 3.7)
+        ok &= fabs(hn_sigma2_of_m(hn_m_of_sigma2(s2)) / s2 - 1.0) < 1e-6;
+    CHECK("sigma_n^2 from E[(n.N)^2]: round trip", ok);
+    CHECK("sigma_n^2 from E[(n.N)^2]: flat and degenerate", hn_sigma2_of_m(1.0) == 0.0 && isfinite(hn_sigma2_of_m(0.0)) &&
+                                                               hn_sigma2_of_m(0.0) > 1e3 && isfinite(hn_sigma2_of_m(NAN)));
+}
+
+/* ---------- the coverage masks ---------- */
+
+/* Area fraction of the unit disk where x <= v. */
+static double segment_fraction(double v)
+{
+    if (v <= -1)
+        return 0;
+    if (v >= 1)
+        return 1;
+    return (M_PI - acos(v) + v * sqrt(1 - v * v)) / M_PI;
+}
+
+static void masks(void)
+{
+    const float *smp = hn_mask_samples();
+    const unsigned *table = hn_mask_table();
+    double dmin = 1e9;
+    int inside = 1;
+    for (int i = 0; i < HN_MASK_SAMPLES; i++) {
+        inside &= smp[2 * i] * smp[2 * i] + smp[2 * i + 1] * smp[2 * i + 1] <= 1.0f;
+        for (int k = 0; k < i; k++)
+            dmin = fmin(dmin, hypot(smp[2 * i] - smp[2 * k], smp[2 * i + 1] - smp[2 * k + 1]));
+    }
+    CHECK("mask samples lie in the unit disk", inside);
+    /* Poisson-disk: pure random points would come within ~0.01 of each other; a dense Poisson
+     * packing of 128 points in the unit disk keeps them about 0.15 apart. */
+    printf("# mask samples: minimum distance %.4f\n", dmin);
+    CHECK("mask samples are Poisson-disk distributed (min distance > 0.1)", dmin > 0.1);
+    double worst = 0, sum = 0;
+    int n = 0;
+    for (int ti = 0; ti < HN_TABLE_T; ti += 3)
+        for (int vi = 0; vi < HN_TABLE_V; vi += 3) {
+            double v = -1.0 + (vi + 0.5) * 2.0 / HN_TABLE_V;
+            unsigned m[VX_MASK_WORDS];
+            hn_mask_lookup(table, 2.0f * (float)M_PI * (float)ti / HN_TABLE_T, (float)v, m);
+            double e = fabs(hn_mask_count(m) / 128.0 - segment_fraction(v));
+            worst = fmax(worst, e);
+            sum += e;
+            n++;
+        }
+    printf("# mask coverage vs exact segment area: mean error %.4f, worst %.4f\n", sum / n, worst);
+    /* 128 samples quantise the fraction by 1/128 and place it with their own jitter: a relaxed
+     * Poisson set stays within about one sample on average and six at worst. */
+    CHECK("mask coverage tracks the disk segment's area (mean error < 1.3/128)", sum / n < 1.3 / 128.0);
+    CHECK("mask coverage tracks the disk segment's area (worst < 6/128)", worst < 6.0 / 128.0);
+    unsigned m[VX_MASK_WORDS];
+    hn_mask_lookup(table, 0.3f, -1.0f, m);
+    CHECK("v = -1 covers nothing", hn_mask_count(m) == 0);
+    hn_mask_lookup(table, 0.3f, 1.0f, m);
+    CHECK("v = 1 covers everything", hn_mask_count(m) == 128);
+    hn_mask_lookup(table, 0.3f, -1e30f, m);
+    CHECK("v far below the table covers nothing", hn_mask_count(m) == 0);
+    hn_mask_lookup(table, 0.3f, INFINITY, m);
+    CHECK("v = inf covers everything", hn_mask_count(m) == 128);
+    hn_mask_lookup(table, 0.3f, NAN, m);
+    CHECK("v = NaN covers nothing", hn_mask_count(m) == 0);
+    hn_mask_lookup(table, 1e30f, 0.0f, m);
+    CHECK("angle far outside [0, 2 pi) is still a valid entry", hn_mask_count(m) > 30 && hn_mask_count(m) < 98);
+    /* Opposite half-planes are complementary (up to samples on the line). */
+    unsigned a[VX_MASK_WORDS], b[VX_MASK_WORDS];
+    hn_mask_lookup(table, 0.0f, 0.0f, a);
+    hn_mask_lookup(table, (float)M_PI, 0.0f, b);
+    int overlap = 0, uni = 0;
+    for (int w = 0; w < VX_MASK_WORDS; w++) {
+        overlap += __builtin_popcount(a[w] & b[w]);
+        uni += __builtin_popcount(a[w] | b[w]);
+    }
+    CHECK("opposite half-planes cover complementary samples", overlap <= 2 && uni >= 126);
+    /* Plane masks: head-on, edge-on. */
+    hn_plane_mask(table, 0.0f, 0.0f, -1.0f, 0.4f, 0.5f, m);
+    CHECK("plane facing the ray within reach covers all", hn_mask_count(m) == 128);
+    hn_plane_mask(table, 0.0f, 0.0f, -1.0f, 0.6f, 0.5f, m);
+    CHECK("plane facing the ray out of reach covers nothing", hn_mask_count(m) == 0);
+    hn_plane_mask(table, 1.0f, 0.0f, 0.0f, 0.0f, 0.5f, m);
+    CHECK("voxel edge-on through the centre covers half", abs(hn_mask_count(m) - 64) <= 4);
+    hn_slab_mask(table, 1.0f, 0.0f, 0.0f, 0.0f, 0.5f, 0.0f, m);
+    CHECK("zero-thickness sheet edge-on covers a thin line", hn_mask_count(m) <= 8);
+    hn_slab_mask(table, 0.0f, 0.0f, 1.0f, 0.3f, 0.5f, 0.0f, m);
+    CHECK("sheet facing the ray within reach covers all", hn_mask_count(m) == 128);
+}
+
+/* ---------- the bake against a synthetic Gaussian surface ---------- */
+
+/* Hits of a horizontal Gaussian height field inside the unit voxel [0,1]^3: heights N(h0, s^2)
+ * around z = 0.5 + h0, normals with slopes N(0, sn^2) per axis, albedo a + d erf(h/(sqrt2 s)). The
+ * directions come from above (front hits) and are uniform on the upper hemisphere. */
+static void bake_gaussian(const vx_model *m, double h0, double s, double sn, double abar, double d, hn_record *rec,
+                          int n)
+{
+    vx_sample *smp = calloc((size_t)n, sizeof *smp);
+    uint64_t r = 12345;
+    for (int i = 0; i < n; i++) {
+        double h = rnd_gauss(&r) * s, px = rnd01(&r), py = rnd01(&r);
+        double p = rnd_gauss(&r) * sn, q = rnd_gauss(&r) * sn, len = sqrt(1 + p * p + q * q);
+        double z = 2 * rnd01(&r) - 1, phi = 2 * M_PI * rnd01(&r), sz = sqrt(1 - z * z);
+        vec3 dir = v3((float)(sz * cos(phi)), (float)(sz * sin(phi)), (float)-fabs(z));
+        vec3 hit = v3((float)px, (float)py, (float)(0.5 + h0 + h));
+        smp[i].origin = v3_madd(hit, dir, -10.0f);
+        smp[i].dir = dir;
+        smp[i].t_entry = 9.0f;
+        smp[i].t_exit = 11.0f;
+        smp[i].t_hit = 10.0f;
+        smp[i].kind = VX_SAMPLE_INSIDE_FRONT;
+        smp[i].normal = v3((float)(-p / len), (float)(-q / len), (float)(1 / len));
+        float c = (float)(abar + d * erf(h / (M_SQRT2 * s)));
+        smp[i].albedo = v3(c, c, 0.5f);
+        smp[i].specular = 0.04f;
+        smp[i].roughness = 0.3f;
+    }
+    vx_voxel v = {0, 0, 0, 0, v3(0, 0, 0), 1.0f, 0};
+    memset(rec, 0, sizeof *rec);
+    m->bake_voxel(&v, smp, n, rec);
+    free(smp);
+}
+
+static void bake(void)
+{
+    const vx_model *m = model_find("heitz-neyret");
+    CHECK("registered as heitz-neyret", m != NULL);
+    if (!m)
+        return;
+    CHECK("record is 24 bytes", m->voxel_bytes == 24 && sizeof(hn_record) == 24);
+    CHECK("declares cone marching, coverage masks and levels",
+          m->march == VX_MARCH_CONE && m->compositing == VX_COMPOSITE_COVERAGE && m->uses_levels && m->cone_element);
+    hn_record rec;
+    hn_data d;
+    bake_gaussian(m, 0.1, 0.05, 0.3, 0.5, 0.3, &rec, 20000);
+    hn_decode(&rec, 1.0f, &d);
+    printf("# bake: h %.4f sigma_h %.4f sigma_n %.4f a %.4f a_s %.4f two %d\n", d.h, sqrt(d.var_h), sqrt(d.var_n), d.a.x,
+           d.as.x, d.two_sided);
+    CHECK_NEAR("bake: mean height along the mean normal", d.h, 0.1, 0.005);
+    CHECK_NEAR("bake: sigma_h", sqrt(d.var_h), 0.05, 0.003);
+    CHECK_NEAR("bake: sigma_n (slopes from normals' second moment)", sqrt(d.var_n), 0.3, 0.02);
+    CHECK_NEAR("bake: mean colour", d.a.x, 0.5, 0.01);
+    CHECK_NEAR("bake: a_s = projection of the colour on s(h)", d.as.x, 0.3, 0.015);
+    CHECK_NEAR("bake: uncorrelated channel has a_s = 0", d.as.z, 0.0, 0.01);
+    CHECK("bake: one-sided, normal up", !d.two_sided && d.n.z > 0.9f);
+    CHECK_NEAR("bake: material roughness kept", sqrt(2 * d.var_brdf), 0.3, 0.005);
+    /* sigma_h = 0: a flat plane; a_s must be 0 (no depth to correlate with), nothing NaN. */
+    bake_gaussian(m, -0.2, 0.0, 0.0, 0.3, 0.0, &rec, 500);
+    hn_decode(&rec, 1.0f, &d);
+    CHECK("bake: flat plane: sigma_h = sigma_n = a_s = 0",
+          d.var_h < 1e-8f && d.var_n < 1e-6f && d.as.x == 0.0f && fabsf(d.h + 0.2f) < 1e-3f);
+    /* Opposite normals (a double-sided sheet hit from both sides) -> two-sided axis. */
+    vx_sample two[400];
+    memset(two, 0, sizeof two);
+    for (int i = 0; i < 400; i++) {
+        float sgn = i % 2 ? 1.0f : -1.0f;
+        vec3 dir = v3(0.1f, 0.2f, -sgn);
+        dir = v3_normalize(dir);
+        vec3 hit = v3(0.1f + 0.002f * (float)i, 0.3f + 0.001f * (float)i, 0.5f);
+        two[i] = (vx_sample){v3_madd(hit, dir, -5.0f), dir, 4.5f, 5.5f, 5.0f, VX_SAMPLE_INSIDE_FRONT, 1,
+                             v3(0, 0, sgn), v3(0.2f, 0.8f, 0.2f), 0, 0.5f};
+    }
+    vx_voxel v = {0, 0, 0, 0, v3(0, 0, 0), 1.0f, 0};
+    m->bake_voxel(&v, two, 400, &rec);
+    hn_decode(&rec, 1.0f, &d);
+    CHECK("bake: opposite normals give a two-sided sheet along their axis",
+          d.two_sided && fabsf(fabsf(d.n.z) - 1.0f) < 1e-3f && fabsf(fabsf(d.h) - 0.0f) < 1e-3f);
+    /* No hit at all: area 0 (ignored by the interpolation). */
+    memset(&rec, 0, sizeof rec);
+    m->bake_voxel(&v, two, 0, &rec);
+    hn_decode(&rec, 1.0f, &d);
+    CHECK("bake: no samples -> empty record", d.area == 0.0f);
+}
+
+/* ---------- a real grid: MIP levels, stencils, wide cones ---------- */
+
+static void grid_cases(void)
+{
+    const vx_model *m = model_find("heitz-neyret");
+    if (!m)
+        return;
+    /* A flat square at z = 0.3 inside [0, 1]^2 (mesh bounds), 16^3 grid. */
+    mesh me;
+    memset(&me, 0, sizeof me);
+    mesh_add_quad(&me, v3(0, 0, 0.3f), v3(1, 0, 0.3f), v3(1, 1, 0.3f), v3(0, 1, 0.3f), 0);
+    mesh_add_flat_triangle(&me, v3(0, 0, 0), v3(0.001f, 0, 0), v3(0, 0.001f, 0), 0); /* bounds down to z = 0 */
+    voxel_grid g;
+    vx_err e;
+    if (grid_build(&g, &me, 16, &e)) {
+        CHECK("grid builds", 0);
+        return;
+    }
+    size_t nrec = 0;
+    for (int l = 0; l < g.levels; l++)
+        nrec += grid_count(&g, l);
+    hn_record *recs = calloc(nrec, sizeof *recs);
+    /* Level 0 records as the bake would make them: the quad's plane, exactly. */
+    for (size_t i = 0; i < grid_count(&g, 0); i++) {
+        int x, y, z;
+        grid_coords(&g, 0, i, &x, &y, &z);
+        vec3 c = grid_cell_center(&g, 0, x, y, z);
+        hn_data d;
+        memset(&d, 0, sizeof d);
+        int on_quad = fabsf(c.z - 0.3f) < g.voxel_size && c.x > 0 && c.x < 1 && c.y > 0 && c.y < 1;
+        d.n = v3(0, 0, 1);
+        d.h = 0.3f - c.z;
+        d.area = on_quad ? g.voxel_size * g.voxel_size : 1e-3f * g.voxel_size * g.voxel_size;
+        d.a = v3(0.5f, 0.5f, 0.5f);
+        d.has_color = 1;
+        hn_encode(&d, g.voxel_size, &recs[i]);
+    }
+    CHECK("bake_finish succeeds", m->bake_finish(&g, recs) == 0);
+    /* Every coarser record must describe the same plane: h = 0.3 - centre.z. */
+    double worst = 0;
+    size_t off = grid_count(&g, 0);
+    for (int l = 1; l < g.levels; l++) {
+        for (size_t i = 0; i < grid_count(&g, l); i++) {
+            int x, y, z;
+            grid_coords(&g, l, i, &x, &y, &z);
+            vec3 c = grid_cell_center(&g, l, x, y, z);
+            hn_data d;
+            hn_decode(&recs[off + i], (float)ldexp(g.voxel_size, l), &d);
+            if (d.area > 0.01f * (float)ldexp(g.voxel_size, 2 * l))
+                worst = fmax(worst, fabs(d.h - (0.3 - c.z)) / ldexp(g.voxel_size, l));
+        }
+        off += grid_count(&g, l);
+    }
+    printf("# MIP: worst plane height error %.2e cell sizes\n", worst);
+    CHECK("MIP levels keep the plane (height within 0.1 cell)", worst < 0.1);
+    /* Cone elements at every level, including wider than the grid, and far outside it. */
+    float levels[] = {0.0f, 0.5f, 1.0f, 2.7f, (float)(g.levels - 1), 40.0f, -3.0f, NAN};
+    vec3 points[] = {v3(0.5f, 0.5f, 0.3f), v3(0.5f, 0.5f, 0.25f), v3(0.5f, 0.5f, 0.9f), v3(0.01f, 0.99f, 0.3f),
+                     v3(100.0f, -50.0f, 3.0f), v3(NAN, 0.5f, 0.3f)};
+    int ok = 1, covered_below = 1, empty_above = 1;
+    for (size_t li = 0; li < sizeof levels / sizeof levels[0]; li++)
+        for (size_t pi = 0; pi < sizeof points / sizeof points[0]; pi++) {
+            vx_query q;
+            memset(&q, 0, sizeof q);
+            q.grid = &g;
+            q.records = recs;
+            q.position = points[pi];
+            q.level = levels[li];
+            q.footprint = isfinite(levels[li]) ? 0.5f * g.voxel_size * exp2f(fminf(fmaxf(levels[li], 0.0f), 40.0f)) : 1.0f;
+            q.ray_dir = v3_normalize(v3(0.2f, 0.1f, -1.0f));
+            q.to_viewer = v3_scale(q.ray_dir, -1.0f);
+            q.light_count = 1;
+            q.to_light[0] = v3(0, 0, 1);
+            q.irradiance[0] = v3(1, 1, 1);
+            q.effects = VX_EFFECT_SHADOWS | VX_EFFECT_SPECULAR;
+            vx_answer a;
+            m->cone_element(&q, &a);
+            ok &= finite3(a.radiance) && a.radiance.x >= 0 && isfinite(a.opacity) && a.opacity >= 0 && a.opacity <= 1;
+            if (pi == 1 && li <= 1)
+                covered_below &= a.opacity == 1.0f;
+            if (pi == 2 && li <= 1)
+                empty_above &= a.opacity == 0.0f;
+        }
+    CHECK("cone elements at every level (wider than the grid, NaN, far away): finite, in range", ok);
+    CHECK("element below the plane is covered", covered_below);
+    CHECK("element well above the plane is empty", empty_above);
+    /* Without a grid (the hard-case table's queries): nothing, not a crash. */
+    vx_query q;
+    memset(&q, 0, sizeof q);
+    vx_answer a;
+    m->cone_element(&q, &a);
+    CHECK("cone element without a grid answers nothing", a.opacity == 0.0f && hn_mask_count(a.mask) == 0);
+    free(recs);
+    grid_free(&g);
+    mesh_free(&me);
+}
+
+static int print_lambda(int argc, char **argv)
+{
+    for (int i = 2; i < argc; i++) {
+        float c, s;
+        if (sscanf(argv[i], "%f,%f", &c, &s) != 2)
+            return 1;
+        printf("%.9g %.9g %.9g\n", c, s, hn_lambda(c, s));
+    }
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc > 1 && strcmp(argv[1], "--lambda") == 0)
+        return print_lambda(argc, argv);
+    element_table();
+    scalar_table();
+    masks();
+    bake();
+    grid_cases();
+    return unit_exit();
+}

@@ -1,0 +1,349 @@
+#include "opencl_backend.h"
+
+#include <limits.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "camera.h"
+#include "cl/render_params.h"
+#include "opencl_program.h"
+#include "opencl_runtime.h"
+#include "parallel.h"
+#include "truth.h"
+
+/* The kernels call camera.h's camera_ray on a vx_cl_camera: it must be scene.h's camera exactly. */
+_Static_assert(sizeof(camera) == sizeof(vx_cl_camera), "vx_cl_camera must mirror scene.h's camera");
+_Static_assert(offsetof(camera, up) == offsetof(vx_cl_camera, up), "vx_cl_camera must mirror scene.h's camera");
+_Static_assert(offsetof(camera, tan_half_fov_y) == offsetof(vx_cl_camera, tan_half_fov_y), "camera layout");
+_Static_assert(offsetof(camera, aperture_radius) == offsetof(vx_cl_camera, aperture_radius), "camera layout");
+_Static_assert(offsetof(camera, focus_distance) == offsetof(vx_cl_camera, focus_distance), "camera layout");
+_Static_assert(LIGHT_DIRECTIONAL == 0 && LIGHT_POINT == 1, "render.cl's cl_light_at tests type == 0");
+_Static_assert((int)EFFECT_SHADOWS == (int)VX_EFFECT_SHADOWS && (int)EFFECT_DOF == (int)VX_EFFECT_DOF &&
+                   (int)EFFECT_SPECULAR == (int)VX_EFFECT_SPECULAR && (int)EFFECT_TEXTURES == (int)VX_EFFECT_TEXTURES,
+               "the kernels test scene effects with the VX_EFFECT_* bits");
+
+/* Work-group size: enough work-items for PoCL to vectorise across, small enough for any device. */
+#define LOCAL_SIZE 64
+
+/* vx_render's arguments, in order (render.cl), then the pixel count. */
+enum { B_PARAMS, B_COLS, B_BITS, B_PREFIX, B_RECORDS, B_CACHE, B_STATE, B_IMAGE, B_COUNTS, B_N };
+
+typedef struct {
+    opencl_runtime rt;
+    cl_program program;
+    cl_kernel render;
+    size_t local; /* work-group size */
+    cl_mem buf[B_N];
+    char *source;
+    uint32_t *counts; /* per work-group counter slots read back */
+} cl_state;
+
+static void release(cl_state *st)
+{
+    for (int i = 0; i < B_N; i++)
+        if (st->buf[i])
+            clReleaseMemObject(st->buf[i]);
+    if (st->render)
+        clReleaseKernel(st->render);
+    if (st->program)
+        clReleaseProgram(st->program);
+    opencl_close(&st->rt);
+    free(st->source);
+    free(st->counts);
+}
+
+static int cl_check(cl_int err, const char *what, vx_err *e)
+{
+    if (err == CL_SUCCESS)
+        return 0;
+    return vx_fail(e, "OpenCL: %s failed: %s", what, opencl_error_name(err));
+}
+
+/* A buffer; `host` is copied (CL_MEM_COPY_HOST_PTR) or, with CL_MEM_USE_HOST_PTR in flags, used in
+ * place: on a CPU device that is the same memory, no copy and no second set of fresh pages. */
+static int make_buffer(cl_state *st, int which, cl_mem_flags flags, size_t bytes, const void *host, vx_err *e)
+{
+    cl_int err;
+    if (host && bytes && !(flags & CL_MEM_USE_HOST_PTR))
+        flags |= CL_MEM_COPY_HOST_PTR;
+    if (!bytes) {
+        /* OpenCL has no empty buffers; an empty grid still gets one element that nothing reads. */
+        flags &= ~(cl_mem_flags)(CL_MEM_USE_HOST_PTR | CL_MEM_COPY_HOST_PTR);
+        host = NULL;
+        bytes = 16;
+    }
+    st->buf[which] = clCreateBuffer(st->rt.context, flags, bytes, (void *)host, &err);
+    if (!st->buf[which])
+        return vx_fail(e, "OpenCL: cannot allocate a %zu-byte buffer on %s: %s", bytes, st->rt.device_name,
+                       opencl_error_name(err));
+    return 0;
+}
+
+static void fill_params(vx_cl_params *p, const scene *s, const voxel_grid *g, const render_options *o)
+{
+    memset(p, 0, sizeof *p);
+    uint64_t cols = 0, words = 0;
+    for (int l = 0; l < g->levels; l++) {
+        p->level_cols[l] = cols;
+        p->level_words[l] = words;
+        p->level_n[l] = g->level[l].n;
+        cols += (uint64_t)g->level[l].n * (uint64_t)g->level[l].n;
+        words += g->level[l].words;
+    }
+    for (int a = 0; a < 3; a++)
+        p->origin_d[a] = g->origin_d[a];
+    p->voxel_size_d = g->voxel_size_d;
+    p->seed = o->seed;
+    memcpy(&p->cam, &s->camera, sizeof p->cam);
+    p->background = s->background;
+    p->light_count = s->light_count < VX_MAX_LIGHTS ? s->light_count : VX_MAX_LIGHTS;
+    for (int i = 0; i < p->light_count; i++) {
+        p->lights[i].type = s->lights[i].type;
+        p->lights[i].direction = s->lights[i].direction;
+        p->lights[i].position = s->lights[i].position;
+        p->lights[i].radiance = s->lights[i].radiance;
+    }
+    p->grid_origin = g->origin;
+    p->voxel_size = g->voxel_size;
+    p->spread = camera_pixel_spread(&s->camera, o->height);
+    p->stop_opacity = o->stop_opacity;
+    p->n = g->n;
+    p->levels = g->levels;
+    p->width = o->width;
+    p->height = o->height;
+    p->spp = o->spp;
+    truth_strata(o->spp, &p->strata_x, &p->strata_y);
+    p->effects = s->effects;
+    p->shadow_skip = o->shadow_skip;
+    p->cache = o->cache;
+    p->voxel_count = (int)grid_count(g, 0);
+}
+
+/* The grid's level tables, concatenated level after level (offsets in vx_cl_params). */
+static int upload_grid(cl_state *st, const voxel_grid *g, vx_err *e)
+{
+    size_t cols = 0, words = 0;
+    for (int l = 0; l < g->levels; l++) {
+        cols += (size_t)g->level[l].n * (size_t)g->level[l].n;
+        words += g->level[l].words;
+    }
+    if (make_buffer(st, B_COLS, CL_MEM_READ_ONLY, cols * sizeof(uint64_t), NULL, e) ||
+        make_buffer(st, B_BITS, CL_MEM_READ_ONLY, words * sizeof(uint64_t), NULL, e) ||
+        make_buffer(st, B_PREFIX, CL_MEM_READ_ONLY, words * sizeof(uint32_t), NULL, e))
+        return -1;
+    cl_command_queue q = st->rt.queue;
+    size_t c = 0, w = 0;
+    for (int l = 0; l < g->levels; l++) {
+        const grid_level *L = &g->level[l];
+        size_t nc = (size_t)L->n * (size_t)L->n;
+        cl_int err = clEnqueueWriteBuffer(q, st->buf[B_COLS], CL_FALSE, c * sizeof(uint64_t), nc * sizeof(uint64_t),
+                                          L->cols, 0, NULL, NULL);
+        if (err == CL_SUCCESS && L->words) {
+            err = clEnqueueWriteBuffer(q, st->buf[B_BITS], CL_FALSE, w * sizeof(uint64_t), L->words * sizeof(uint64_t),
+                                       L->bits, 0, NULL, NULL);
+            if (err == CL_SUCCESS)
+                err = clEnqueueWriteBuffer(q, st->buf[B_PREFIX], CL_FALSE, w * sizeof(uint32_t),
+                                           L->words * sizeof(uint32_t), L->prefix, 0, NULL, NULL);
+        }
+        if (cl_check(err, "uploading the grid", e))
+            return -1;
+        c += nc;
+        w += L->words;
+    }
+    return 0;
+}
+
+static size_t round_up(size_t items, size_t local)
+{
+    size_t global = (items + local - 1) / local * local;
+    return global ? global : local;
+}
+
+/* Runs kernel k over `items` work-items (rounded up to whole work-groups; the kernel ignores the
+ * extra ones) and waits for it. */
+static int run(cl_state *st, cl_kernel k, size_t local, size_t items, const char *what, vx_err *e)
+{
+    size_t global = round_up(items, local);
+    cl_int err = clEnqueueNDRangeKernel(st->rt.queue, k, 1, NULL, &global, &local, 0, NULL, NULL);
+    if (err == CL_SUCCESS)
+        err = clFinish(st->rt.queue);
+    return cl_check(err, what, e);
+}
+
+static size_t local_size(const cl_state *st, cl_kernel k)
+{
+    size_t local = LOCAL_SIZE, max = 0;
+    if (clGetKernelWorkGroupInfo(k, st->rt.device, CL_KERNEL_WORK_GROUP_SIZE, sizeof max, &max, NULL) == CL_SUCCESS &&
+        max > 0 && max < local)
+        local = max;
+    return local;
+}
+
+/* The program for model m, built (or taken from PoCL's cache), and its two kernels. */
+static int compile(cl_state *st, const vx_model *m, const char *src_dir, const char *build_dir, vx_err *e)
+{
+    st->source = opencl_program_text(src_dir, m, sizeof(vx_cl_params), e);
+    if (!st->source)
+        return -1;
+    char what[128], log_path[PATH_MAX + 64];
+    snprintf(what, sizeof what, "model %s", m->name);
+    snprintf(log_path, sizeof log_path, "%s/opencl-build-%s.log", build_dir, m->name);
+    if (opencl_build(&st->rt, st->source, what, log_path, &st->program, e))
+        return -1;
+    cl_int err;
+    st->render = clCreateKernel(st->program, "vx_render", &err);
+    if (!st->render)
+        return cl_check(err, "creating kernel vx_render", e);
+    st->local = local_size(st, st->render);
+    return 0;
+}
+
+static int bind(cl_state *st, int pixels, vx_err *e)
+{
+    cl_int err = CL_SUCCESS;
+    for (int i = 0; i < B_N && err == CL_SUCCESS; i++)
+        err = clSetKernelArg(st->render, (cl_uint)i, sizeof(cl_mem), &st->buf[i]);
+    if (err == CL_SUCCESS)
+        err = clSetKernelArg(st->render, B_N, sizeof(int), &pixels);
+    return cl_check(err, "setting the arguments of vx_render", e);
+}
+
+/* Launches the kernel once over the real size with nothing to do (0 pixels: every work-item returns
+ * at once). PoCL compiles a kernel's work-group function at its first launch, specialised for the
+ * local size and for whether the grid is small, so the real size is needed; that compile belongs
+ * to the compile time, not to the render. */
+static int warm_up(cl_state *st, size_t pixels, vx_err *e)
+{
+    return bind(st, 0, e) || run(st, st->render, st->local, pixels, "preparing vx_render", e) ? -1 : 0;
+}
+
+/* Sums the per-work-group counter slots (cl_flush_counts) of `groups` groups into sums. */
+static void add_counts(const uint32_t *slots, size_t groups, uint64_t sums[VX_CL_COUNTERS])
+{
+    for (size_t gi = 0; gi < groups; gi++)
+        for (int k = 0; k < VX_CL_COUNTERS; k++) {
+            const uint32_t *w = &slots[(gi * VX_CL_COUNTERS + (size_t)k) * 2];
+            sums[k] += (uint64_t)w[0] | (uint64_t)w[1] << 32;
+        }
+}
+
+/* Reads the image: mapped, since with CL_MEM_USE_HOST_PTR on a CPU device it already is out->data. */
+static int read_image(cl_state *st, image *out, size_t bytes, vx_err *e)
+{
+    cl_int err;
+    void *p = clEnqueueMapBuffer(st->rt.queue, st->buf[B_IMAGE], CL_TRUE, CL_MAP_READ, 0, bytes, 0, NULL, NULL, &err);
+    if (!p)
+        return cl_check(err, "reading the image back", e);
+    if (p != (void *)out->data)
+        memcpy(out->data, p, bytes);
+    err = clEnqueueUnmapMemObject(st->rt.queue, st->buf[B_IMAGE], p, 0, NULL, NULL);
+    if (err == CL_SUCCESS)
+        err = clFinish(st->rt.queue);
+    return cl_check(err, "reading the image back", e);
+}
+
+static int render_on_device(cl_state *st, const scene *s, const voxel_grid *g, const vx_model *m, const void *records,
+                            const render_options *o, image *out, render_counts *counts, opencl_counts *oc,
+                            const char *src_dir, const char *build_dir, vx_err *e)
+{
+    size_t voxels = grid_count(g, 0), pixels = (size_t)o->width * (size_t)o->height;
+    double t0 = now_seconds();
+    if (compile(st, m, src_dir, build_dir, e))
+        return -1;
+    double t_compiled = now_seconds();
+    size_t groups = round_up(pixels, st->local) / st->local;
+    size_t slot_bytes = 2 * VX_CL_COUNTERS * sizeof(uint32_t);
+    st->counts = calloc(groups, slot_bytes);
+    if (!st->counts)
+        return vx_fail(e, "out of memory for the render's counters");
+    vx_cl_params params;
+    fill_params(&params, s, g, o);
+    size_t cached = o->cache ? voxels : 0;
+    const cl_mem_flags RO = CL_MEM_READ_ONLY, RW = CL_MEM_READ_WRITE;
+    /* The kernel only reads the records and only writes the image: both used in place. */
+    if (make_buffer(st, B_PARAMS, RO, sizeof params, &params, e) || upload_grid(st, g, e) ||
+        make_buffer(st, B_RECORDS, RO | CL_MEM_USE_HOST_PTR, voxels * m->voxel_bytes, records, e) ||
+        make_buffer(st, B_CACHE, RW, cached * sizeof(vx_cl_cache), NULL, e) ||
+        make_buffer(st, B_STATE, RW, cached * sizeof(cl_int), NULL, e) ||
+        make_buffer(st, B_IMAGE, CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR, pixels * 3 * sizeof(float), out->data, e) ||
+        make_buffer(st, B_COUNTS, RW, groups * slot_bytes, st->counts, e))
+        return -1;
+    cl_int zero = 0, err = CL_SUCCESS;
+    if (cached)
+        err = clEnqueueFillBuffer(st->rt.queue, st->buf[B_STATE], &zero, sizeof zero, 0, cached * sizeof(cl_int), 0,
+                                  NULL, NULL);
+    if (cl_check(err, "clearing the shading cache", e))
+        return -1;
+    double t_bound = now_seconds();
+    if (warm_up(st, pixels, e) || bind(st, (int)pixels, e))
+        return -1;
+    double t_warm = now_seconds();
+    if (run(st, st->render, st->local, pixels, "running vx_render", e))
+        return -1;
+    double t_traced = now_seconds();
+    if (read_image(st, out, pixels * 3 * sizeof(float), e) ||
+        cl_check(clEnqueueReadBuffer(st->rt.queue, st->buf[B_COUNTS], CL_TRUE, 0, groups * slot_bytes, st->counts, 0,
+                                     NULL, NULL),
+                 "reading the counters back", e))
+        return -1;
+    double t_done = now_seconds();
+
+    uint64_t sums[VX_CL_COUNTERS] = {0};
+    add_counts(st->counts, groups, sums);
+    memset(counts, 0, sizeof *counts);
+    counts->rays = (uint64_t)pixels * (uint64_t)o->spp;
+    counts->voxel_visits = sums[VX_CL_VISITS];
+    counts->shadow_rays = sums[VX_CL_SHADOW_RAYS];
+    counts->model_evals = sums[VX_CL_EVALS];
+    counts->cache_hits = sums[VX_CL_HITS];
+    oc->compile_seconds = (t_compiled - t0) + (t_warm - t_bound);
+    oc->kernel_seconds = t_traced - t_warm;
+    counts->seconds = (t_bound - t_compiled) + (t_done - t_warm);
+    return 0;
+}
+
+int render_image_opencl(const scene *s, const voxel_grid *g, const vx_model *m, const void *records,
+                        const render_options *o, image *out, render_counts *counts, opencl_counts *oc, vx_err *e)
+{
+    memset(oc, 0, sizeof *oc);
+    if (o->spp < 1)
+        return vx_fail(e, "--spp %d: expected at least 1 ray per pixel", o->spp);
+    if (m->march == VX_MARCH_CONE)
+        return vx_fail(e, "model %s marches cones (VX_MARCH_CONE), which the OpenCL backend does not do yet; use "
+                          "--backend c",
+                       m->name);
+    if (!m->cl_source)
+        return vx_fail(e, "model %s cannot run on OpenCL: it declares no portable evaluation source (cl_source); "
+                          "use --backend c",
+                       m->name);
+    if ((size_t)o->width * (size_t)o->height > (size_t)INT_MAX / VX_CL_COUNTERS || grid_count(g, 0) > (size_t)INT_MAX / 2)
+        return vx_fail(e, "OpenCL backend: %dx%d pixels or %zu voxels is more than it indexes", o->width, o->height,
+                       grid_count(g, 0));
+    char src_dir[PATH_MAX], build_dir[PATH_MAX], cache_dir[PATH_MAX + 16];
+    if (opencl_source_dir(src_dir, sizeof src_dir, build_dir, sizeof build_dir, e))
+        return -1;
+    snprintf(cache_dir, sizeof cache_dir, "%s/pocl-cache", build_dir);
+    /* --threads for PoCL's CPU device (its own variable wins when set). */
+    if (o->threads > 0 && !getenv("POCL_CPU_MAX_CU_NUM")) {
+        char n[16];
+        snprintf(n, sizeof n, "%d", o->threads);
+        setenv("POCL_CPU_MAX_CU_NUM", n, 0);
+    }
+    cl_state st;
+    memset(&st, 0, sizeof st);
+    if (opencl_open(&st.rt, cache_dir, e))
+        return -1;
+    snprintf(oc->device, sizeof oc->device, "%s", st.rt.device_name);
+    oc->compute_units = st.rt.compute_units;
+    if (image_alloc(out, o->width, o->height, 3, e)) {
+        release(&st);
+        return -1;
+    }
+    int rc = render_on_device(&st, s, g, m, records, o, out, counts, oc, src_dir, build_dir, e);
+    release(&st);
+    if (rc)
+        image_free(out);
+    return rc;
+}

@@ -1,0 +1,36 @@
+/* The OpenCL runtime for the render backend: picking a device, a context and a queue, and building
+ * a program with its build log reported. Every failure (no platform, no device with double
+ * precision, a kernel that does not compile) is a message in vx_err, never a crash. */
+#ifndef VX_OPENCL_RUNTIME_H
+#define VX_OPENCL_RUNTIME_H
+
+#define CL_TARGET_OPENCL_VERSION 120
+#include <CL/cl.h>
+
+#include "error.h"
+
+typedef struct {
+    cl_device_id device;
+    cl_context context;
+    cl_command_queue queue;
+    char device_name[256];
+    char platform_name[256];
+    cl_uint compute_units;
+    int correctly_rounded_sqrt; /* the device honours -cl-fp32-correctly-rounded-divide-sqrt */
+} opencl_runtime;
+
+/* The name of an OpenCL error code ("CL_OUT_OF_RESOURCES"), or "OpenCL error N". */
+const char *opencl_error_name(cl_int code);
+
+/* Opens the first device (of the first platform that has one) with double precision, which the
+ * grid traversal needs. pocl_cache_dir: where PoCL keeps compiled kernels unless POCL_CACHE_DIR is
+ * already set (it must be set before the first OpenCL call, which loads PoCL). */
+int opencl_open(opencl_runtime *rt, const char *pocl_cache_dir, vx_err *e);
+void opencl_close(opencl_runtime *rt);
+
+/* Builds `source` for the runtime's device; on failure the message names `what` and carries the
+ * build log (its head, when long: the whole log goes to log_path when that is not NULL). */
+int opencl_build(const opencl_runtime *rt, const char *source, const char *what, const char *log_path,
+                 cl_program *out, vx_err *e);
+
+#endif
