@@ -2,16 +2,9 @@
  * octahedron whose eight faces hold a colour and 1-3 normals or three extremal normals of a
  * distribution, and a 3x3x3 subgrid of opacities projected as disks for a directional opacity;
  * front-to-back alpha compositing. Record: vmesh_record.h; bake: vmesh_bake.c and the files it
- * calls; per-voxel evaluation (portable C): vmesh_eval.h. */
+ * calls; per-voxel evaluation (portable C, also the OpenCL backend's source): vmesh_eval.h. */
 #include "vmesh_bake.h"
 #include "vmesh_eval.h"
-
-static float vmesh_opacity(VX_GLOBAL const void *record, const vx_query *q) { return vmesh_eval_opacity(record, q); }
-
-static void vmesh_shade(VX_GLOBAL const void *record, const vx_query *q, vx_answer *a)
-{
-    vmesh_eval_shade(record, q, a);
-}
 
 const vx_model model_vmesh = {
     .name = "vmesh",
@@ -22,6 +15,9 @@ const vx_model model_vmesh = {
     .uses_levels = 0,
     .march = VX_MARCH_VOXELS,
     .bake_voxel = vmesh_bake_voxel,
-    .opacity = vmesh_opacity,
-    .shade = vmesh_shade,
+    .opacity = vmesh_eval_opacity,
+    .shade = vmesh_eval_shade,
+    .cl_source = "vmesh_eval.h",
+    .cl_opacity = "vmesh_eval_opacity",
+    .cl_shade = "vmesh_eval_shade",
 };

@@ -17,12 +17,12 @@ typedef struct {
 
 void vmesh_sggx_fit(const vec3 *normals, int n, vmesh_sggx *out);
 
-/* The three normals a face stores, one per vertex (vertex k lies along vertex_dir[k]). With 1-3
- * distinct normals (clusters 5 degrees apart) they are the clusters' mean normals, each placed on
- * the vertex it points closest to, a repeated one filling a free vertex; with more, the face holds
- * a distribution: three extremal normals on the cone around the mean normal (opening
+/* The normals a face stores, one per vertex (vertex k lies along vertex_dir[k]). With 1-3 distinct
+ * normals (clusters 5 degrees apart) they are the clusters' mean normals, each on its own vertex
+ * (where it points most along the vertex), free vertices holding the zero vector; with more, the
+ * face holds a distribution: three extremal normals on the cone around the mean normal (opening
  * max(theta_max, 0.1 rad)), placed to enclose as many of the normals with as little empty cone as
- * possible. */
+ * possible. No normals: three zero vectors. */
 typedef struct {
     vec3 normal[3];
     int distribution;

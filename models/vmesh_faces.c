@@ -15,25 +15,26 @@
  * largest (equilateral) triangle, with normals in a wedge it prefers the triangle around the wedge. */
 #define EMPTY_WEIGHT 0.3f
 
-/* Puts k (1..3) candidate normals on the three vertices: every candidate used, each vertex given
- * the candidate that points most along it (the largest total alignment over all such maps). */
+/* Puts k (1..3) candidate normals on k distinct vertices, each where it points most along the
+ * vertex (the largest total alignment over all placements); the other vertices get the zero vector,
+ * which the record keeps as "no normal here". */
 static void place_on_vertices(const vec3 *cand, int k, const vec3 dir[3], vec3 out[3])
 {
+    static const int perm[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
     float best = -INFINITY;
-    int best_map = 0;
-    for (int map = 0; map < k * k * k; map++) {
-        int a[3] = {map % k, (map / k) % k, map / (k * k)};
-        if (((1 << a[0]) | (1 << a[1]) | (1 << a[2])) != (1 << k) - 1)
-            continue;
-        float score = v3_dot(cand[a[0]], dir[0]) + v3_dot(cand[a[1]], dir[1]) + v3_dot(cand[a[2]], dir[2]);
+    int best_p = 0;
+    for (int p = 0; p < 6; p++) { /* candidate j goes to vertex perm[p][j] */
+        float score = 0.0f;
+        for (int j = 0; j < k; j++)
+            score += v3_dot(cand[j], dir[perm[p][j]]);
         if (score > best) {
             best = score;
-            best_map = map;
+            best_p = p;
         }
     }
-    int a[3] = {best_map % k, (best_map / k) % k, best_map / (k * k)};
-    for (int s = 0; s < 3; s++)
-        out[s] = cand[a[s]];
+    out[0] = out[1] = out[2] = v3(0, 0, 0);
+    for (int j = 0; j < k; j++)
+        out[perm[best_p][j]] = cand[j];
 }
 
 static float cross2(float ax, float ay, float bx, float by) { return ax * by - ay * bx; }
@@ -102,10 +103,9 @@ void vmesh_fit_face(const vec3 *normals, int n, const vec3 vertex_dir[3], vmesh_
 {
     out->distribution = 0;
     out->distinct = 0;
-    if (n <= 0) {
-        out->normal[0] = vertex_dir[0], out->normal[1] = vertex_dir[1], out->normal[2] = vertex_dir[2];
+    out->normal[0] = out->normal[1] = out->normal[2] = v3(0, 0, 0);
+    if (n <= 0)
         return;
-    }
     /* Greedy clustering: a normal joins the first cluster whose first normal is within 5 degrees. */
     vec3 rep[3], sum[3];
     int clusters = 0, many = 0;

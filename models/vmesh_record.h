@@ -5,7 +5,8 @@
  * Layout (§4 of the paper, all bytes, no padding): 139 bytes
  *   axis[3][3]      9  SGGX eigenvectors, signed bytes (x127), right-handed, descending 2nd moment
  *   area[3]         3  projected-area eigenvalues lambda_k = mean |v_k . n| in [0.1, 1] (x255)
- *   normal[8][3][3] 72 per octahedron face, one normal per vertex (signed bytes, x127)
+ *   normal[8][3][3] 72 per octahedron face, one normal per vertex (signed bytes, x127; (0,0,0) = no
+ *                      normal on that vertex, for faces with fewer than 3 distinct normals)
  *   color[8][3]     24 per face, the mean albedo of its normals (x255, linear)
  *   faces           1  bit f: face f holds data
  *   distribution    1  bit f: face f's three normals are extremal normals of a cone (interpolate)
@@ -13,7 +14,8 @@
  *   opacity[27]     27 3x3x3 subgrid opacities (x255), index (i * 3 + j) * 3 + k for x, y, z
  *   specular        1  mean specular reflectance of the front hits (x255)
  *   roughness       1  mean Beckmann roughness, stored as 255 sqrt(alpha / 2) (precision at small alpha)
- * The paper reports about 143 bytes; it keeps a boolean per face where we keep one bit.
+ * The paper reports "approximately 143 bytes" without itemising them (a boolean byte per face
+ * instead of our two bit masks would make 145).
  *
  * Faces are indexed by octant: bit 0 of f set = the face's vertex on axis 0 is the negative one, bit
  * 1 for axis 1, bit 2 for axis 2. The face of octant (s0, s1, s2) has vertices s_k a_k v_k (k = 0, 1,

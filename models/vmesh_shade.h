@@ -10,10 +10,9 @@
  *    are preserved by a parallel projection, so the points are fixed barycentric triples (8x5 strata
  *    centres of the unit square, Shirley's square-to-triangle warp) and the normal is the
  *    normalised barycentric blend of the three extremal normals.
- *  - 1-3 distinct normals: a point takes the normal of its nearest vertex. Measured by the largest
- *    barycentric coordinate, each vertex owns exactly a third of the triangle whatever the view, so
- *    the three vertex normals are evaluated once each with a third of the area (the bake repeats a
- *    normal on two vertices when a face has only two).
+ *  - 1-3 distinct normals: a point takes the normal of its nearest vertex holding one. Measured by
+ *    the largest barycentric coordinate among those vertices, each of the m of them owns exactly
+ *    1/m of the triangle whatever the view, so each normal is evaluated once with 1/m of the area.
  *  - A face's flat octahedron side tilts by up to atan(0.1) = 5.7 degrees from its normals (the
  *    projected areas are clamped to >= 0.1), so a surface seen at 84-90 degrees would have no
  *    front-facing face left and turn black at every silhouette. Only when the front-facing faces
@@ -81,8 +80,12 @@ VX_INLINE vec3 vmesh_shade_record(VX_GLOBAL const vmesh_record *r, const vx_quer
             vec3 albedo = v3(vmesh_decode_unorm(r->color[f][0]), vmesh_decode_unorm(r->color[f][1]),
                              vmesh_decode_unorm(r->color[f][2]));
             vec3 n[3];
-            for (int k = 0; k < 3; k++)
-                n[k] = v3_normalize_or(vmesh_decode_vec(r->normal[f][k]), w);
+            int held = 0; /* vertices holding a normal (a stored unit vector is never (0,0,0)) */
+            for (int k = 0; k < 3; k++) {
+                vec3 raw = vmesh_decode_vec(r->normal[f][k]);
+                held += raw.x != 0.0f || raw.y != 0.0f || raw.z != 0.0f;
+                n[k] = v3_normalize_or(raw, v3(0.0f, 0.0f, 0.0f));
+            }
             if ((r->distribution >> f) & 1) {
                 float share = area / (float)VMESH_DIST_SAMPLES;
                 for (int i = 0; i < VMESH_DIST_SAMPLES; i++) {
@@ -94,9 +97,9 @@ VX_INLINE vec3 vmesh_shade_record(VX_GLOBAL const vmesh_record *r, const vx_quer
                     sum = v3_madd(sum, vmesh_point_radiance(m, albedo, f0, alpha, q), share);
                     weight += share;
                 }
-            } else {
-                float share = area / 3.0f;
-                for (int k = 0; k < 3; k++) {
+            } else if (held > 0) {
+                float share = area / (float)held;
+                for (int k = 0; k < 3; k++) { /* an empty vertex has n = 0 and fails the test */
                     if (!(v3_dot(n[k], w) > VMESH_MIN_COS))
                         continue;
                     sum = v3_madd(sum, vmesh_point_radiance(n[k], albedo, f0, alpha, q), share);

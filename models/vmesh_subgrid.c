@@ -13,9 +13,9 @@
  *    occlusion. This is the conservative side the paper reports (thicker occluders).
  *  - A sub-cell's opacity is the mean value over the rays whose chord crosses it.
  *
- * The chord is walked with a 3D-DDA over the 3x3x3 lattice from its entry point (at most 7
- * pieces). Pieces shorter than 1e-6 of the chord (a ray grazing an edge or a corner) are not
- * counted as a traversal. */
+ * The chord's crossings of the inner sub-cell planes are sorted and walked from the sub-cell of its
+ * entry point (at most 7 pieces). Pieces shorter than 1e-6 of the chord (a ray grazing an edge or
+ * a corner) are not counted as a traversal. */
 #include <math.h>
 
 #include "vmesh_bake.h"

@@ -3,6 +3,7 @@
  *  - SGGX: normals drawn from known distributions whose second moments and mean |v . n| are known in
  *    closed form (a direction, a plane's two sides, a spherical cap, a great circle, the sphere);
  *  - overlap: numeric integration on a fine grid;
+ *  - subgrid traversal: brute-force stepping along random chords;
  *  - opacity and shading: records baked from synthetic sample rays that follow the shared sampler's
  *    recipe (direction uniform on the sphere, origin uniform over the voxel's projection) and are
  *    classified against analytic planes here, not by Embree; the expectations are the planes'
@@ -665,6 +666,37 @@ static void test_shading(void)
     double e3 = rel_err(shade_of(&crr, &q), v3_scale(v3_mul(col, E), cl / (float)PI));
     snprintf(name, sizeof name, "shading: crease seen along one side's normal = that side's Lambert (rel err %.4f)", e3);
     CHECK(name, e3 < 0.05);
+
+    /* Two distinct normals in one face (a building's edge: +x and +z, half the hits each): both
+     * facing the viewer, each nearest-vertex region is half the face, so the voxel is the mean of
+     * the two Lamberts, as the two equal, equally foreshortened facets are seen from (1, 0, 1). */
+    {
+        enum { K = 150 };
+        vx_sample ks[K];
+        synth(SYN_FOAM, NULL, 0, K, 12, ks);
+        for (int i = 0; i < K; i++) {
+            ks[i].normal = i % 2 ? v3(1, 0, 0) : v3(0, 0, 1);
+            ks[i].albedo = col;
+        }
+        vx_voxel kv;
+        memset(&kv, 0, sizeof kv);
+        kv.size = 1.0f;
+        vmesh_record edge;
+        memset(&edge, 0, sizeof edge);
+        model_vmesh.bake_voxel(&kv, ks, K, &edge);
+        vx_query qe = light_query(v3(1, 0, 1), v3(1.0f, 0.3f, 0.4f), E, 0);
+        float lx = qe.to_light[0].x, lz = qe.to_light[0].z;
+        vec3 want2 = v3_scale(v3_mul(col, E), 0.5f * (lx + lz) / (float)PI);
+        double e6 = rel_err(shade_of(&edge, &qe), want2);
+        snprintf(name, sizeof name, "shading: edge with normals +x, +z from (1,0,1) = mean of both Lamberts (rel err %.4f)",
+                 e6);
+        CHECK(name, e6 < 0.02);
+        qe = light_query(v3(0, 0, 1), v3(1.0f, 0.3f, 0.4f), E, 0);
+        want2 = v3_scale(v3_mul(col, E), lz / (float)PI);
+        e6 = rel_err(shade_of(&edge, &qe), want2);
+        snprintf(name, sizeof name, "shading: same edge seen along +z = the +z facet's Lambert (rel err %.4f)", e6);
+        CHECK(name, e6 < 0.02);
+    }
 
     /* A distribution: normals uniform on a 35-degree cap (a bumpy surface, one colour). Seen and lit
      * along the cap axis, the exact answer is col E / pi times the mean of (n.l) weighted by the
