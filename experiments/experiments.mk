@@ -1,1 +1,71 @@
 # Experiment targets: see experiments/README.md. Included by the top-level Makefile.
+#
+#   make table1      Tables 1 and 2 (every scene x 128^3, 256^3 x every model)     results/table1/
+#   make pareto      error against render time and memory, Pareto fronts            results/pareto/
+#   make figures     image grids, view-angle colour, silhouette coverage, DoF       results/figures/
+#   make regress     the CI subset against results/baseline.json; fails on a regression
+#   make dashboard   all of the above, then results/dashboard/index.html (+ screenshot.png)
+#   make dashboard-page  only the page, from whatever results exist (seconds)
+#   make baseline    store the regress run as the baseline (BASELINE_EXPERIMENTS="regress table1" for both)
+#   make experiments-clean-cache   delete results/cache (every cached voxlab job)
+#
+# Variables: EXP_JOBS=2 (voxlab processes at once), FRESH=1 (recompute every job: fresh timings),
+# EXP_VOXLAB=path (the binary to run; default build/voxlab).
+# Every job is cached under results/cache by the hash of its inputs (voxlab binary, scene files,
+# options), so a second run costs seconds; a rebuilt voxlab recomputes what it may change.
+
+EXP_PY := /usr/bin/python3
+EXP_JOBS ?= 2
+# EXP_VOXLAB: another binary, e.g. a snapshot in results/cache/bin/<hash>/voxlab, to finish a set of
+# results with the binary that started it while build/voxlab is being rebuilt.
+EXP_VOXLAB ?= $(BUILD)/voxlab
+EXP_ARGS = --jobs $(EXP_JOBS) --voxlab $(EXP_VOXLAB) $(if $(filter 1,$(FRESH)),--fresh)
+BASELINE_EXPERIMENTS ?= regress
+
+# chromium: tests/test_dashboard.py and the dashboard screenshot (headless); time: GNU time measures
+# the ground truth's peak memory (voxlab truth's stats do not report it).
+DEPS += chromium time
+
+.PHONY: table1 pareto figures regress regress-run dashboard dashboard-page baseline experiments-clean-cache
+
+# Every target first makes sure the packages and the binary are there (as `make test` does).
+define exp_prepare
+	@$(MAKE) --no-print-directory deps
+	@$(MAKE) --no-print-directory $(BUILD)/voxlab
+endef
+
+table1:
+	$(exp_prepare)
+	$(EXP_PY) experiments/table1.py $(EXP_ARGS)
+
+pareto:
+	$(exp_prepare)
+	$(EXP_PY) experiments/pareto.py $(EXP_ARGS)
+
+figures:
+	$(exp_prepare)
+	$(EXP_PY) experiments/figures.py $(EXP_ARGS)
+
+regress:
+	$(exp_prepare)
+	$(EXP_PY) experiments/regress.py $(EXP_ARGS)
+
+# The dashboard shows a regression rather than stopping at it.
+regress-run:
+	$(exp_prepare)
+	-$(EXP_PY) experiments/regress.py $(EXP_ARGS)
+
+dashboard: regress-run table1 figures pareto
+	$(EXP_PY) experiments/dashboard.py --voxlab $(EXP_VOXLAB) --screenshot
+
+dashboard-page:
+	$(EXP_PY) experiments/dashboard.py --voxlab $(EXP_VOXLAB) --screenshot
+
+baseline:
+	$(exp_prepare)
+	@for e in $(BASELINE_EXPERIMENTS); do \
+	  $(EXP_PY) experiments/regress.py --experiment experiments/$$e.json --write-baseline $(EXP_ARGS) || exit 1; \
+	done
+
+experiments-clean-cache:
+	rm -rf results/cache

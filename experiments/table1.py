@@ -79,7 +79,6 @@ def build(meta, rows, decl, out):
     vr.write_csv(os.path.join(out, "table1.csv"), t1, T1_FIELDS)
 
     head = vr.settings_text(meta)
-    s = meta["settings"]
     run = decl["runs"][0]
     setting_line = (f"settings: truth {decl['truth_spp']} spp (seed {decl['seed']}); models rendered at "
                     f"{', '.join(map(str, run['spp']))} spp with {', '.join(map(str, run['rays']))} bake rays per "

@@ -299,8 +299,10 @@ def make_strip(tiles, size, path):
 def git_commit():
     try:
         head = subprocess.run(["git", "-C", REPO, "rev-parse", "HEAD"], capture_output=True, text=True, check=True)
-        dirty = subprocess.run(["git", "-C", REPO, "status", "--porcelain", "--untracked-files=no"],
-                               capture_output=True, text=True, check=True)
+        # results/ is left out: runs append to results/history.csv, which must not make the next
+        # run's checkout count as modified.
+        dirty = subprocess.run(["git", "-C", REPO, "status", "--porcelain", "--untracked-files=no", "--", ".",
+                                ":(exclude)results"], capture_output=True, text=True, check=True)
     except (OSError, subprocess.CalledProcessError):
         return "unknown (not a git checkout)"
     return head.stdout.strip() + (" (with uncommitted changes)" if dirty.stdout.strip() else "")
@@ -739,15 +741,18 @@ class Progress:
         self.start = time.monotonic()
         self.lock = threading.Lock()
         self.speed = {}  # calibration group -> [seconds, cost]
+        self.timed = [0.0, 0]  # seconds and count of every finished job
 
-    def _rate(self, job):
+    def _estimate(self, job):
+        """Predicted seconds: the job's work times the speed of its group, else of its kind, else
+        the mean time of any finished job (work units differ between kinds)."""
         for g in (job.calib, job.kind):
             s = self.speed.get(g)
             if s and s[1] > 0:
-                return s[0] / s[1]
-        tot = [sum(v[0] for k, v in self.speed.items() if isinstance(k, str)),
-               sum(v[1] for k, v in self.speed.items() if isinstance(k, str))]
-        return tot[0] / tot[1] if tot[1] > 0 else None
+                return s[0] / s[1] * job.cost
+        if self.timed[1]:
+            return self.timed[0] / self.timed[1]
+        return None
 
     def finished(self, job, seconds, msg):
         with self.lock:
@@ -755,14 +760,16 @@ class Progress:
             if job.status == "failed":
                 self.failed += 1
             elif seconds is not None:
+                self.timed[0] += seconds
+                self.timed[1] += 1
                 for g in (job.calib, job.kind):
                     s = self.speed.setdefault(g, [0.0, 0.0])
                     s[0] += seconds
                     s[1] += job.cost
             left = [j for j in self.jobs if j.status == "pending"]
-            rates = [self._rate(j) for j in left]
-            if left and all(r is not None for r in rates):
-                eta = f"~{fmt_duration(sum(r * j.cost for r, j in zip(rates, left)) / self.workers)} left"
+            est = [self._estimate(j) for j in left]
+            if left and all(e is not None for e in est):
+                eta = f"~{fmt_duration(sum(est) / self.workers)} left"
             else:
                 eta = "done" if not left else "estimating"
             elapsed = fmt_duration(time.monotonic() - self.start)
@@ -782,10 +789,17 @@ class Sweep:
         self.jobs = max(1, jobs)
         self.threads = max(1, (os.cpu_count() or 1) // self.jobs)
         self.fresh, self.name, self.timeout = fresh, name, timeout
+        self.source = None
         self.voxlab, self.voxlab_sha256 = self._snapshot(os.path.abspath(voxlab))
         self.models = models_info(self.voxlab)
         self.all = {}  # key -> Job
         self.baseline_rss = None
+
+    def _read_source(self, dest):
+        try:
+            self.source = load_json(os.path.join(dest, "source.json"))
+        except (OSError, ValueError):
+            self.source = None
 
     def _snapshot(self, voxlab):
         if not os.access(voxlab, os.X_OK):
@@ -799,6 +813,7 @@ class Sweep:
             dest = os.path.join(self.cache_dir, "bin", digest[:16])
             exe = os.path.join(dest, "voxlab")
             if os.path.isfile(exe) and os.path.isfile(os.path.join(dest, ".complete")):
+                self._read_source(dest)
                 return exe, digest
             tmp = f"{dest}.tmp.{os.getpid()}"
             shutil.rmtree(tmp, ignore_errors=True)
@@ -810,11 +825,16 @@ class Sweep:
             same = file_sha256(os.path.join(tmp, "voxlab")) == file_sha256(voxlab)
             ok = same and subprocess.run([os.path.join(tmp, "voxlab"), "models"], capture_output=True).returncode == 0
             if ok:
+                # Which checkout the binary was built from, as far as we can tell: the cache may keep
+                # using this snapshot after the tree has moved on.
+                write_json(os.path.join(tmp, "source.json"), {"git": git_info(), "snapshot_date": now_iso(),
+                                                              "from": voxlab})
                 open(os.path.join(tmp, ".complete"), "w").close()
                 try:
                     os.rename(tmp, dest)
                 except OSError:  # another run made the same snapshot meanwhile
                     shutil.rmtree(tmp, ignore_errors=True)
+                self._read_source(dest)
                 return exe, digest
             shutil.rmtree(tmp, ignore_errors=True)
             time.sleep(2)
@@ -854,9 +874,9 @@ class Sweep:
                          [bake], w * h * spp, ("render", b["model"]))
 
     def compare(self, ref, img):
-        w, h = ref.inputs["size"]
+        # A compare's time is mostly voxlab starting and reading two files: one unit each.
         return self._job("compare", f"{img.label}-vs-{ref.label}", {"ref": ref.key, "image": img.key}, [ref, img],
-                         w * h, ("compare",))
+                         1, ("compare",))
 
     # -- execution ---------------------------------------------------------------------------------
 
@@ -902,6 +922,7 @@ class Sweep:
         os.makedirs(tmp)
         try:
             cmd = [self.voxlab, *map(str, self._command(job, tmp))]
+            load = os.getloadavg()[0]  # how busy the machine was: other processes inflate the timing
             out, err, rc, wall, rss = run_measured(cmd, self.timeout)
             if rc != 0:
                 why = (f"killed by {signal.Signals(-rc).name}" if rc < 0 and -rc in signal.valid_signals()
@@ -924,7 +945,8 @@ class Sweep:
             rec = {"key": job.key, "kind": job.kind, "label": job.label,
                    "inputs": {k: v for k, v in job.inputs.items() if not k.startswith("_")},
                    "command": [os.path.basename(cmd[0]), *cmd[1:]], "outputs": outputs, "wall_seconds": wall,
-                   "peak_rss_bytes": rss, "threads": self.threads, "date": now_iso(), "host": platform.node()}
+                   "peak_rss_bytes": rss, "threads": self.threads, "date": now_iso(), "host": platform.node(),
+                   "load_average": load}
             write_json(os.path.join(tmp, "job.json"), rec)
             if os.path.exists(job.dir):  # --fresh, or an incomplete entry: replace it
                 trash = f"{job.dir}.old.{os.getpid()}.{threading.get_ident()}"
@@ -1051,6 +1073,12 @@ def row_key(r):
                                      f"truth{r['truth_spp']}", f"seed{r['seed']}"))
 
 
+def _load_summary(jobs):
+    loads = [j.record["load_average"] for j in jobs if j.record and "load_average" in j.record]
+    return {"mean": sum(loads) / len(loads) if loads else None, "max": max(loads) if loads else None,
+            "jobs": len(loads), "unrecorded": len(jobs) - len(loads)}
+
+
 def _rel(path, root):
     path = os.path.abspath(path)
     root = os.path.abspath(root)
@@ -1058,11 +1086,12 @@ def _rel(path, root):
 
 
 def run_experiment(decl, results=DEFAULT_RESULTS, cache_dir=None, voxlab=None, jobs=2, fresh=False, out_dir=None,
-                   history=None, sweep=None):
+                   history=None, sweep=None, record_history=True):
     """Runs a loaded declaration; writes <results>/<name>/rows.csv and rows.json; returns (meta, rows).
 
     Row paths are relative to `results`. With decl["history"] the rows are also appended to
-    <results>/history.csv (or `history`)."""
+    <results>/history.csv (or `history`), unless record_history is false (a script that only
+    needs another experiment's rows, as figures.py needs Table 1's, is not a run of it)."""
     results = os.path.abspath(results)
     cache_dir = os.path.abspath(cache_dir or os.path.join(results, "cache"))
     out_dir = os.path.abspath(out_dir or os.path.join(results, decl["name"]))
@@ -1193,14 +1222,17 @@ def run_experiment(decl, results=DEFAULT_RESULTS, cache_dir=None, voxlab=None, j
         "experiment": decl["name"], "declaration": decl["shown"], "description": decl["description"],
         "settings": decl["raw"], "date": date, "finished": now_iso(),
         "elapsed_s": time.monotonic() - started, "machine": machine_info(), "git": git_info(),
-        "voxlab_sha256": sw.voxlab_sha256, "models": sw.models, "jobs": sw.jobs, "threads": sw.threads,
+        "voxlab_sha256": sw.voxlab_sha256, "voxlab_source": sw.source, "models": sw.models, "jobs": sw.jobs, "threads": sw.threads,
         "counts": counts, "oldest_cached": cached_dates[0] if cached_dates else None,
         "failed_rows": sum(r["status"] != "ok" for r in rows), "results_root": results,
+        # Other processes on the machine slow the timed jobs down: say how busy it was when the
+        # jobs behind these rows ran (recorded per job, so cached jobs keep their own).
+        "load_average": _load_summary([j for j in sw.all.values() if j.kind in ("bake", "render", "truth")]),
     }
     os.makedirs(out_dir, exist_ok=True)
     write_csv(os.path.join(out_dir, "rows.csv"), rows, ROW_FIELDS)
     write_json(os.path.join(out_dir, "rows.json"), {"meta": meta, "rows": rows})
-    if decl["history"]:
+    if decl["history"] and record_history:
         append_history(history or os.path.join(results, "history.csv"), meta, rows, cache_dir)
     bad = [r for r in rows if r["status"] != "ok"]
     print(f"{decl['name']}: {len(rows)} row(s), {len(bad)} failed; {counts['ran']} job(s) ran, {counts['cached']} "
@@ -1224,7 +1256,8 @@ def append_history(path, meta, rows, lock_dir):
     rewritten under a lock (temp + rename) so concurrent runs neither interleave nor lose lines."""
     os.makedirs(lock_dir, exist_ok=True)
     g = meta["git"]
-    run_id = f"{meta['date']}-{g['commit'][:8]}-{meta['experiment']}"
+    # Two runs can start in the same second; the process id keeps their ids apart.
+    run_id = f"{meta['date']}-{g['commit'][:8]}-{meta['experiment']}-{os.getpid()}"
     with open(os.path.join(lock_dir, "history.lock"), "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         text = ""
@@ -1351,6 +1384,25 @@ def main_wrapper(fn, prog):
         return 1
 
 
+def source_text(src):
+    if not src:
+        return "copied from build/voxlab before its source commit was recorded"
+    g = src.get("git", {})
+    return f"copied from {os.path.basename(os.path.dirname(src.get('from', '')))}/voxlab on {src.get('snapshot_date', '?')} " \
+           f"with the checkout at {g.get('commit', '?')[:10]}{' + uncommitted changes' if g.get('dirty') else ''}"
+
+
+def load_text(meta):
+    la = meta.get("load_average") or {}
+    if not isinstance(la, dict) or not la.get("jobs"):
+        return "machine load while the jobs ran: not recorded"
+    return (f"machine load (1-minute average) when the timed jobs started: mean {la['mean']:.1f}, max "
+            f"{la['max']:.1f} on {meta['machine']['nproc']} cores" +
+            (f" ({la['unrecorded']} older jobs not recorded)" if la.get("unrecorded") else "") +
+            (f"; above the sweep's own {meta['jobs']} jobs other processes shared the cores and the times are "
+             f"inflated" if la["max"] > meta["jobs"] + 0.5 else ""))
+
+
 def settings_text(meta):
     """The lines every table and page states: date, machine, commit, binary, job layout, cache use."""
     g, c = meta["git"], meta["counts"]
@@ -1358,9 +1410,11 @@ def settings_text(meta):
         f"date: {meta['date']}",
         f"machine: {machine_text(meta['machine'])}",
         f"git commit: {g['text']}",
-        f"voxlab sha256: {meta['voxlab_sha256'][:16]}; models: {', '.join(m['name'] for m in meta['models'])}",
+        f"voxlab sha256: {meta['voxlab_sha256'][:16]} ({source_text(meta.get('voxlab_source'))}); models: "
+        f"{', '.join(m['name'] for m in meta['models'])}",
         f"declaration: {meta['declaration']}; {meta['jobs']} job(s) at a time, {meta['threads']} voxlab thread(s) "
         f"each (times are {'single' if meta['threads'] == 1 else str(meta['threads']) + '-'}-threaded)",
+        load_text(meta),
         f"jobs: {c['ran']} ran now, {c['cached']} reused from the cache (same binary, scene files and options"
         + (f"; the oldest from {meta['oldest_cached']}: its timings are from that run" if meta["oldest_cached"]
            else "") + ")",

@@ -550,17 +550,30 @@ static void answer_clear(vx_answer *a)
     hn_mask_set(a->mask, 0u);
 }
 
+/* One cone element: geometry and mask at the element's centre; for an element that shows and has
+ * lights, the attributes at the foot of the centre on the blended plane (see hn_blend_attributes:
+ * they describe the surface, wherever the element sits above or below it). */
 static void hn_cone_element(const vx_query *q, vx_answer *a)
 {
     answer_clear(a);
     if (!q->grid || !q->records)
         return;
+    VX_GLOBAL const hn_record *records = (VX_GLOBAL const hn_record *)q->records;
     hn_stencil st;
     hn_fill_stencil(q->grid, q->position, q->level, &st);
     hn_sample s;
-    if (!hn_interpolate((VX_GLOBAL const hn_record *)q->records, &st, q->position, &s))
+    if (!hn_blend_geometry(records, &st, q->position, &s))
         return;
-    hn_answer(hn_mask_table(), &s, q, fmaxf(q->footprint, 0.0f), a);
+    vec3 N = hn_mask_answer(hn_mask_table(), &s, q, fmaxf(q->footprint, 0.0f), a);
+    if (q->light_count <= 0 || !(a->opacity > 0.0f))
+        return;
+    vec3 nu = v3_normalize_or(s.n, N);
+    vec3 foot = v3_madd(q->position, nu, -s.D);
+    if (!(fabsf(s.D) < 1e30f))
+        foot = q->position;
+    hn_fill_stencil(q->grid, foot, q->level, &st);
+    hn_blend_attributes(records, &st, foot, nu, &s);
+    a->radiance = hn_radiance(&s, N, q);
 }
 
 /* Voxel-marching entry points (opacity for shadow rays and the hard-case tests, shade): the
@@ -582,7 +595,11 @@ static int single_record(VX_GLOBAL const void *record, const vx_query *q, hn_sam
     *p = isfinite(tm) ? v3_madd(q->ray_origin, q->ray_dir, tm) : st.centre[0];
     if (!isfinite(p->x) || !isfinite(p->y) || !isfinite(p->z))
         *p = st.centre[0];
-    return hn_interpolate((VX_GLOBAL const hn_record *)record, &st, *p, s);
+    VX_GLOBAL const hn_record *r = (VX_GLOBAL const hn_record *)record;
+    if (!hn_blend_geometry(r, &st, *p, s))
+        return 0;
+    hn_blend_attributes(r, &st, st.centre[0], s->n, s);
+    return 1;
 }
 
 static float hn_opacity(VX_GLOBAL const void *record, const vx_query *q)

@@ -43,27 +43,17 @@ VX_INLINE void hn_sample_zero(hn_sample *s)
     s->a = s->as = v3(0.0f, 0.0f, 0.0f);
 }
 
-/* Per level: geometry (normal, distance, variances) and attributes (colours, material) summed with
- * their own weights. */
-typedef struct {
-    hn_sample g;   /* n, D, var_h, var_n, two_sided use the geometry weights */
-    hn_sample at;  /* a, as, f0, var_brdf use the attribute weights */
-    float wg, wa;
-} hn_level_sum;
-
-/* Blends the stencil's records at point p. Returns 0 when no cell has surface (nothing there).
- * Weights: geometry by w min(1, 2 area / size^2), so that a cell whose surface only clips a corner
- * (few samples: a noisy plane) counts less than one the surface crosses; attributes by w area (the
- * surface-weighted mean, as the MIP levels are), and only from cells whose colour is known. */
-VX_INLINE int hn_interpolate(VX_GLOBAL const hn_record *records, const hn_stencil *st, vec3 p, hn_sample *out)
+/* Geometry at point p (normal, signed distance, sidedness; and the variances the mask needs):
+ * the trilinear weights times min(1, 2 area / size^2), so that a cell whose surface only clips a
+ * corner (few samples, a noisy plane) counts less. Returns 0 when no cell has surface. */
+VX_INLINE int hn_blend_geometry(VX_GLOBAL const hn_record *records, const hn_stencil *st, vec3 p, hn_sample *out)
 {
-    hn_level_sum lv[2];
-    for (int k = 0; k < 2; k++) {
-        hn_sample_zero(&lv[k].g);
-        hn_sample_zero(&lv[k].at);
-        lv[k].wg = lv[k].wa = 0.0f;
-    }
-    for (int i = 0; i < st->count; i++) {
+    hn_sample lv[2];
+    float wsum[2] = {0.0f, 0.0f};
+    hn_sample_zero(&lv[0]);
+    hn_sample_zero(&lv[1]);
+    int count = st->count < HN_STENCIL_MAX ? st->count : HN_STENCIL_MAX;
+    for (int i = 0; i < count; i++) {
         float w = st->weight[i];
         if (!(w > 0.0f))
             continue;
@@ -76,70 +66,109 @@ VX_INLINE int hn_interpolate(VX_GLOBAL const hn_record *records, const hn_stenci
         float h = d.h;
         /* A two-sided sheet has an axis, not a side: turn it toward what is already blended so
          * that opposite axes do not cancel. */
-        if (d.two_sided && v3_dot(n, lv[k].g.n) < 0.0f) {
+        if (d.two_sided && v3_dot(n, lv[k].n) < 0.0f) {
             n = v3_scale(n, -1.0f);
             h = -h;
         }
         vec3 nu = v3_normalize_or(n, v3(0.0f, 0.0f, 1.0f));
-        float s2 = st->size[i] * st->size[i];
-        float wg = w * fminf(1.0f, 2.0f * d.area / s2);
-        hn_sample *g = &lv[k].g;
+        float wg = w * fminf(1.0f, 2.0f * d.area / (st->size[i] * st->size[i]));
+        hn_sample *g = &lv[k];
         g->n = v3_madd(g->n, n, wg);
         g->D += wg * (v3_dot(nu, v3_sub(p, st->centre[i])) - h);
         g->var_h += wg * d.var_h;
         g->var_n += wg * d.var_n;
         g->two_sided += wg * (d.two_sided ? 1.0f : 0.0f);
-        lv[k].wg += wg;
-        if (d.has_color) {
-            float wa = w * d.area / s2;
-            hn_sample *at = &lv[k].at;
-            at->a = v3_madd(at->a, d.a, wa);
-            at->as = v3_madd(at->as, d.as, wa);
-            at->f0 += wa * d.f0;
-            at->var_brdf += wa * d.var_brdf;
-            lv[k].wa += wa;
-        }
+        wsum[k] += wg;
     }
     float f = fminf(fmaxf(st->level_frac, 0.0f), 1.0f);
-    float w0 = lv[0].wg > 0.0f ? 1.0f - f : 0.0f, w1 = lv[1].wg > 0.0f ? f : 0.0f;
+    float w0 = wsum[0] > 0.0f ? 1.0f - f : 0.0f, w1 = wsum[1] > 0.0f ? f : 0.0f;
     if (!(w0 + w1 > 0.0f)) { /* one level empty: the other alone */
-        w0 = lv[0].wg > 0.0f ? 1.0f : 0.0f;
-        w1 = lv[1].wg > 0.0f ? 1.0f : 0.0f;
+        w0 = wsum[0] > 0.0f ? 1.0f : 0.0f;
+        w1 = wsum[1] > 0.0f ? 1.0f : 0.0f;
     }
     if (!(w0 + w1 > 0.0f))
         return 0;
-    hn_sample_zero(out);
-    float total = w0 + w1;
     /* Two-sided axes of the two levels must agree too. */
-    if (w1 > 0.0f && lv[1].g.two_sided > 0.5f * lv[1].wg && v3_dot(lv[1].g.n, lv[0].g.n) < 0.0f) {
-        lv[1].g.n = v3_scale(lv[1].g.n, -1.0f);
-        lv[1].g.D = -lv[1].g.D;
+    if (w1 > 0.0f && lv[1].two_sided > 0.5f * wsum[1] && v3_dot(lv[1].n, lv[0].n) < 0.0f) {
+        lv[1].n = v3_scale(lv[1].n, -1.0f);
+        lv[1].D = -lv[1].D;
     }
-    float a0 = lv[0].wa > 0.0f ? 1.0f - f : 0.0f, a1 = lv[1].wa > 0.0f ? f : 0.0f;
-    if (!(a0 + a1 > 0.0f)) {
-        a0 = lv[0].wa > 0.0f ? 1.0f : 0.0f;
-        a1 = lv[1].wa > 0.0f ? 1.0f : 0.0f;
-    }
+    hn_sample_zero(out);
     for (int k = 0; k < 2; k++) {
-        float wk = (k ? w1 : w0) / total;
-        if (wk > 0.0f) {
-            float s = wk / lv[k].wg;
-            out->n = v3_madd(out->n, lv[k].g.n, s);
-            out->D += s * lv[k].g.D;
-            out->var_h += s * lv[k].g.var_h;
-            out->var_n += s * lv[k].g.var_n;
-            out->two_sided += s * lv[k].g.two_sided;
-        }
-        float ak = (k ? a1 : a0) / fmaxf(a0 + a1, 1e-30f);
-        if (ak > 0.0f) {
-            float s = ak / lv[k].wa;
-            out->a = v3_madd(out->a, lv[k].at.a, s);
-            out->as = v3_madd(out->as, lv[k].at.as, s);
-            out->f0 += s * lv[k].at.f0;
-            out->var_brdf += s * lv[k].at.var_brdf;
-        }
+        float wk = (k ? w1 : w0) / (w0 + w1);
+        if (!(wk > 0.0f))
+            continue;
+        float s = wk / wsum[k];
+        out->n = v3_madd(out->n, lv[k].n, s);
+        out->D += s * lv[k].D;
+        out->var_h += s * lv[k].var_h;
+        out->var_n += s * lv[k].var_n;
+        out->two_sided += s * lv[k].two_sided;
     }
     return 1;
+}
+
+/* Attributes (colours, variances, material) at a point p of the surface: they are averages over
+ * the surface, so they are weighted by area, bilinearly along the surface but summed over the
+ * cell layers it spans (the axis nearest the normal n). Trilinear weights would favour the nearer
+ * layer, and a layer holding only the tops of the bumps (light, on the paper's height-coloured
+ * surfaces) would tint the whole surface. Fills a, as, f0, var_brdf, var_h, var_n of out. */
+VX_INLINE void hn_blend_attributes(VX_GLOBAL const hn_record *records, const hn_stencil *st, vec3 p, vec3 n,
+                                   hn_sample *out)
+{
+    float ax = fabsf(n.x), ay = fabsf(n.y), az = fabsf(n.z);
+    int across = ax >= ay && ax >= az ? 0 : (ay >= az ? 1 : 2);
+    hn_sample lv[2];
+    float wv[2] = {0.0f, 0.0f}, wc[2] = {0.0f, 0.0f};
+    hn_sample_zero(&lv[0]);
+    hn_sample_zero(&lv[1]);
+    int count = st->count < HN_STENCIL_MAX ? st->count : HN_STENCIL_MAX;
+    for (int i = 0; i < count; i++) {
+        hn_data d;
+        hn_decode(records + st->index[i], st->size[i], &d);
+        if (!(d.area > 0.0f))
+            continue;
+        float wa = d.area / (st->size[i] * st->size[i]);
+        for (int a = 0; a < 3; a++)
+            if (a != across)
+                wa *= fmaxf(0.0f, 1.0f - fabsf(v3_get(p, a) - v3_get(st->centre[i], a)) / st->size[i]);
+        if (!(wa > 0.0f))
+            continue;
+        int k = st->slot[i] ? 1 : 0;
+        lv[k].var_h += wa * d.var_h;
+        lv[k].var_n += wa * d.var_n;
+        wv[k] += wa;
+        if (d.has_color) {
+            lv[k].a = v3_madd(lv[k].a, d.a, wa);
+            lv[k].as = v3_madd(lv[k].as, d.as, wa);
+            lv[k].f0 += wa * d.f0;
+            lv[k].var_brdf += wa * d.var_brdf;
+            wc[k] += wa;
+        }
+    }
+    float f = fminf(fmaxf(st->level_frac, 0.0f), 1.0f);
+    float w0 = wv[0] > 0.0f ? 1.0f - f : 0.0f, w1 = wv[1] > 0.0f ? f : 0.0f;
+    if (w0 + w1 > 0.0f) {
+        out->var_h = (w0 > 0.0f ? w0 * lv[0].var_h / wv[0] : 0.0f) + (w1 > 0.0f ? w1 * lv[1].var_h / wv[1] : 0.0f);
+        out->var_n = (w0 > 0.0f ? w0 * lv[0].var_n / wv[0] : 0.0f) + (w1 > 0.0f ? w1 * lv[1].var_n / wv[1] : 0.0f);
+        out->var_h /= w0 + w1;
+        out->var_n /= w0 + w1;
+    }
+    float c0 = wc[0] > 0.0f ? 1.0f - f : 0.0f, c1 = wc[1] > 0.0f ? f : 0.0f;
+    out->a = out->as = v3(0.0f, 0.0f, 0.0f);
+    out->f0 = out->var_brdf = 0.0f;
+    if (!(c0 + c1 > 0.0f))
+        return; /* no cell knows its colour: a dark occluder */
+    for (int k = 0; k < 2; k++) {
+        float c = (k ? c1 : c0) / (c0 + c1);
+        if (!(c > 0.0f))
+            continue;
+        c /= wc[k];
+        out->a = v3_madd(out->a, lv[k].a, c);
+        out->as = v3_madd(out->as, lv[k].as, c);
+        out->f0 += c * lv[k].f0;
+        out->var_brdf += c * lv[k].var_brdf;
+    }
 }
 
 /* Outgoing radiance toward q->to_viewer of the blended surface with unit mean normal N (facing the
@@ -164,6 +193,7 @@ VX_INLINE vec3 hn_radiance(const hn_sample *s, vec3 N, const vx_query *q)
     float kcos = hn_lambert_cos_mean(sigma);
     int shadows = (q->effects & VX_EFFECT_SHADOWS) != 0u;
     int specular = (q->effects & VX_EFFECT_SPECULAR) != 0u;
+    int two_sided = s->two_sided > 0.5f;
     float alpha = sqrtf(2.0f * (fmaxf(s->var_n, 0.0f) + fmaxf(s->var_brdf, 0.0f)));
     alpha = fminf(fmaxf(alpha, 1e-3f), 1e3f);
     vec3 sum = v3(0.0f, 0.0f, 0.0f);
@@ -176,6 +206,11 @@ VX_INLINE vec3 hn_radiance(const hn_sample *s, vec3 N, const vx_query *q)
                     hn_attribute(s->a.z, s->as.z, lambda_v, lambda_l));
         c = v3_min(v3_max(c, v3(0.0f, 0.0f, 0.0f)), v3(1.0f, 1.0f, 1.0f));
         float diff = kcos / VX_PI * fmaxf(0.0f, cl + v3_dot(l, tv) * tilt);
+        /* A two-sided cell whose normals spread (a cluster of leaves, a box smaller than the cell)
+         * has no meaningful axis: toward E[max(0, n.l)] = 1/4 of normals uniform on the sphere,
+         * as far as the mean facet cosine says the normals spread. */
+        if (two_sided)
+            diff = kcos * diff + (1.0f - kcos) * (0.25f / VX_PI);
         if (shadows)
             diff *= (1.0f + lambda_v) / (1.0f + lambda_v + lambda_l);
         vec3 f = v3_scale(c, diff);
@@ -191,11 +226,11 @@ VX_INLINE vec3 hn_radiance(const hn_sample *s, vec3 N, const vx_query *q)
     return sum;
 }
 
-/* The answer of an element of radius r: coverage mask over the footprint (in the frame of
- * q->ray_dir), opacity = the covered fraction, and the radiance when q has lights and the mask is
- * not empty. */
-VX_INLINE void hn_answer(VX_GLOBAL const unsigned int *table, const hn_sample *s, const vx_query *q, float r,
-                         vx_answer *a)
+/* The element's coverage mask over its footprint (radius r, in the frame of q->ray_dir) and
+ * opacity = the covered fraction, from the geometry in s. Returns the unit normal the radiance
+ * should use (facing the viewer for a two-sided sheet). */
+VX_INLINE vec3 hn_mask_answer(VX_GLOBAL const unsigned int *table, const hn_sample *s, const vx_query *q, float r,
+                              vx_answer *a)
 {
     vec3 dir = v3_normalize_or(q->ray_dir, v3(0.0f, 0.0f, 1.0f));
     int two = s->two_sided > 0.5f;
@@ -218,8 +253,18 @@ VX_INLINE void hn_answer(VX_GLOBAL const unsigned int *table, const hn_sample *s
         hn_plane_mask(table, nx, ny, nz, D - hn_visible_depth_offset(sigma_h, lambda_v), r, a->mask);
     }
     a->opacity = (float)hn_mask_count(a->mask) / (float)HN_MASK_SAMPLES;
-    /* An element that covers nothing shows nothing: no shading to compute. */
-    a->radiance = q->light_count > 0 && a->opacity > 0.0f ? hn_radiance(s, N, q) : v3(0.0f, 0.0f, 0.0f);
+    a->radiance = v3(0.0f, 0.0f, 0.0f);
+    return N;
+}
+
+/* Mask and radiance of one sample s that carries both geometry and attributes (the single-record
+ * entry points and the tests). */
+VX_INLINE void hn_answer(VX_GLOBAL const unsigned int *table, const hn_sample *s, const vx_query *q, float r,
+                         vx_answer *a)
+{
+    vec3 N = hn_mask_answer(table, s, q, r, a);
+    if (q->light_count > 0 && a->opacity > 0.0f)
+        a->radiance = hn_radiance(s, N, q);
 }
 
 #endif

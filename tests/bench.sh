@@ -9,3 +9,10 @@ BUILD=${BUILD:-build}
 # vmesh (Brito et al. 2023): bunny bake time at 128^3/256^3 against targets, the paper and alpha; render
 # time over alpha's with the cache on and off (medians of 3, ratios per run; ~2 min).
 "$BUILD"/tests/bench_vmesh scenes/bunny.json
+# heitz-neyret (Heitz & Neyret 2012): bunny render CPU time over alpha's at 256^3 (target <= 1.5x), us per
+# pixel per core, and the depth-of-field render over the focused one (interleaved medians of 5; ~1 min).
+"$BUILD"/tests/bench_hn scenes/bunny.json 256
+# OpenCL on PoCL: render time over the C backend's for every model (bunny and spheres, 128^3, 256x256,
+# 4 spp; medians of 5 alternating runs, compile time apart; ~1 min).
+"$BUILD"/tests/bench_opencl scenes/bunny.json
+"$BUILD"/tests/bench_opencl scenes/spheres.json

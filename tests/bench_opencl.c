@@ -2,13 +2,17 @@
  * time (median of RUNS, alternating backends so that drift hits both alike) of OpenCL over C on the
  * same baked grid, same options (default 4 spp, cache on) and the same cores; the OpenCL time
  * excludes the kernel compile, which is reported apart (the first call's, and a cached one's). The
- * images are compared too (max per-pixel difference) so that a fast but wrong kernel shows.
+ * CPU time of both (process CPU time over the render; for OpenCL over the kernel, PoCL's worker
+ * threads being in the process) is printed too: on a shared machine it is steadier than the wall
+ * clock, which depends on what else runs. The images are compared too (max per-pixel difference)
+ * so that a fast but wrong kernel shows.
  * Models that cannot run on OpenCL are listed with the backend's reason.
  * usage: bench_opencl [SCENE [RES [SIZE]]]   (defaults: scenes/bunny.json 128 256) */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "commands.h"
 #include "opencl_backend.h"
@@ -27,6 +31,13 @@ static double median(double *v, int n)
 {
     qsort(v, (size_t)n, sizeof *v, cmp_double);
     return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+static double cpu_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
 static double max_difference(const image *a, const image *b)
@@ -54,7 +65,7 @@ static int bench_model(const scene *s, const vx_model *m, int res, int size)
     render_default_options(&o);
     o.width = o.height = size;
     o.progress = 0;
-    double c_s[RUNS], cl_s[RUNS], kernel_s[RUNS], first_compile = 0, compile = 0;
+    double c_s[RUNS], cl_s[RUNS], kernel_s[RUNS], c_cpu[RUNS], cl_cpu[RUNS], first_compile = 0, compile = 0;
     image img_c = {0}, img_cl = {0};
     int rc = 0;
     for (int run = 0; run < RUNS && !rc; run++) {
@@ -62,18 +73,21 @@ static int bench_model(const scene *s, const vx_model *m, int res, int size)
         opencl_counts oc;
         image_free(&img_c);
         image_free(&img_cl);
+        double cpu0 = cpu_seconds();
         if (render_image(s, &g, m, records, &o, &img_c, &cnt, &e)) {
             fprintf(stderr, "bench_opencl: C render of %s: %s\n", m->name, e.msg);
             rc = 1;
             break;
         }
         c_s[run] = cnt.seconds;
+        c_cpu[run] = cpu_seconds() - cpu0;
         if (render_image_opencl(s, &g, m, records, &o, &img_cl, &cnt, &oc, &e)) {
             printf("opencl %-8s %d^3 %-12s not run on OpenCL: %s\n", s->name, res, m->name, e.msg);
             goto done;
         }
         cl_s[run] = cnt.seconds;
         kernel_s[run] = oc.kernel_seconds;
+        cl_cpu[run] = oc.kernel_cpu_seconds;
         if (run == 0)
             first_compile = oc.compile_seconds;
         else
@@ -81,12 +95,14 @@ static int bench_model(const scene *s, const vx_model *m, int res, int size)
     }
     if (!rc) {
         double c = median(c_s, RUNS), cl = median(cl_s, RUNS);
-        printf("opencl %-8s %d^3 %-12s %dx%d %d spp: C %.1f ms, OpenCL %.1f ms (kernel %.1f); compile %.2f s "
-               "first, %.2f s cached; max |OpenCL - C| %.2g\n",
-               s->name, res, m->name, size, size, o.spp, 1e3 * c, 1e3 * cl, 1e3 * median(kernel_s, RUNS),
-               first_compile, compile, max_difference(&img_c, &img_cl));
-        printf("opencl %-8s %-12s ratio OpenCL-on-PoCL/C render time: %.2f (target <= 1; median of %d)\n", s->name,
-               m->name, cl / c, RUNS);
+        double ccpu = median(c_cpu, RUNS), clcpu = median(cl_cpu, RUNS);
+        printf("opencl %-8s %d^3 %-12s %dx%d %d spp: C %.1f ms, OpenCL %.1f ms (kernel %.1f); CPU time C %.1f ms, "
+               "OpenCL kernel %.1f ms; compile %.2f s first, %.2f s cached; max |OpenCL - C| %.2g\n",
+               s->name, res, m->name, size, size, o.spp, 1e3 * c, 1e3 * cl, 1e3 * median(kernel_s, RUNS), 1e3 * ccpu,
+               1e3 * clcpu, first_compile, compile, max_difference(&img_c, &img_cl));
+        printf("opencl %-8s %-12s ratio OpenCL-on-PoCL/C render time: %.2f (target <= 1; median of %d); CPU time "
+               "ratio %.2f\n",
+               s->name, m->name, cl / c, RUNS, clcpu / ccpu);
     }
 done:
     image_free(&img_c);

@@ -151,7 +151,7 @@ int cmd_render(int argc, char **argv)
             goto fail;
         bc.seconds = h.bake_seconds;
         bo.rays = h.rays;
-    } else if (bake_scene(&s, m, res, &bo, &g, &records, &bc, &grid_seconds, &e)) {
+    } else if ((opencl && opencl_model_check(m, &e)) || bake_scene(&s, m, res, &bo, &g, &records, &bc, &grid_seconds, &e)) {
         goto fail;
     }
     have_grid = 1;
@@ -171,6 +171,7 @@ int cmd_render(int argc, char **argv)
             cJSON_AddNullToObject(j, "model_seconds");
             cJSON_AddNumberToObject(j, "opencl_compile_seconds", ocnt.compile_seconds);
             cJSON_AddNumberToObject(j, "opencl_kernel_seconds", ocnt.kernel_seconds);
+            cJSON_AddNumberToObject(j, "opencl_kernel_cpu_seconds", ocnt.kernel_cpu_seconds);
             cJSON_AddStringToObject(j, "opencl_device", ocnt.device);
             cJSON_AddNumberToObject(j, "opencl_compute_units", ocnt.compute_units);
         } else {

@@ -113,6 +113,7 @@ int cmd_truth(int argc, char **argv)
         cJSON_AddNumberToObject(j, "height", o.height);
         cJSON_AddNumberToObject(j, "seed", (double)o.seed);
         cJSON_AddNumberToObject(j, "threads", parallel_threads(o.threads));
+        cJSON_AddNumberToObject(j, "peak_rss_bytes", peak_rss_bytes());
         int bad = stats_write(j, stats_path, "truth");
         cJSON_Delete(j);
         if (bad) {

@@ -9,6 +9,12 @@
 
 #include "grid_core.h"
 
+/* How the iterator's two entry points are declared: a plain VX_INLINE here; an includer may ask
+ * for more (tracer/cl/render.cl forces inlining). */
+#ifndef GT_ITER_INLINE
+#define GT_ITER_INLINE VX_INLINE
+#endif
+
 typedef struct {
     int x, y, z;    /* cell coordinates at the iterator's level */
     int64_t index;  /* dense index at that level (see grid_index) */
@@ -70,7 +76,7 @@ VX_INLINE int gt_cell_at(const grid_iter *it, int a, double t, int lo, int hi)
 }
 
 /* grid_iter_init (see grid_traverse.h). */
-VX_INLINE int gt_iter_init(grid_iter *it, const voxel_grid *g, int level, vec3 origin, vec3 dir, float t_min,
+GT_ITER_INLINE int gt_iter_init(grid_iter *it, const voxel_grid *g, int level, vec3 origin, vec3 dir, float t_min,
                            float t_max)
 {
     grid_iter zero = {0};
@@ -160,7 +166,7 @@ VX_INLINE double gt_cell_exit(const grid_iter *it)
 }
 
 /* grid_iter_next (see grid_traverse.h). */
-VX_INLINE int gt_iter_next(grid_iter *it, grid_hit *hit)
+GT_ITER_INLINE int gt_iter_next(grid_iter *it, grid_hit *hit)
 {
     const voxel_grid *g = it->g;
     const grid_level *lv = g->level + it->level; /* lv[k]: blocks of 2^k cells */

@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "camera.h"
 #include "cl/render_params.h"
@@ -24,7 +25,8 @@ _Static_assert((int)EFFECT_SHADOWS == (int)VX_EFFECT_SHADOWS && (int)EFFECT_DOF 
                    (int)EFFECT_SPECULAR == (int)VX_EFFECT_SPECULAR && (int)EFFECT_TEXTURES == (int)VX_EFFECT_TEXTURES,
                "the kernels test scene effects with the VX_EFFECT_* bits");
 
-/* Work-group size: enough work-items for PoCL to vectorise across, small enough for any device. */
+/* Work-group size: a group is a strip of 64 consecutive pixels (coherent rays; PoCL's per-group cost
+ * spread over 64 work-items), a size every device accepts. */
 #define LOCAL_SIZE 64
 
 /* vx_render's arguments, in order (render.cl), then the pixel count. */
@@ -119,6 +121,34 @@ static void fill_params(vx_cl_params *p, const scene *s, const voxel_grid *g, co
     p->shadow_skip = o->shadow_skip;
     p->cache = o->cache;
     p->voxel_count = (int)grid_count(g, 0);
+}
+
+static double cpu_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static size_t gcd(size_t a, size_t b)
+{
+    while (b) {
+        size_t t = a % b;
+        a = b;
+        b = t;
+    }
+    return a;
+}
+
+/* The stride by which vx_render scatters work-groups over the image: coprime with the group count
+ * (so that it is a permutation) and near groups / golden ratio (so that consecutive groups land far
+ * apart and any run of them covers the image evenly). */
+static int group_stride(size_t groups)
+{
+    size_t k = (size_t)((double)groups * 0.6180339887) | 1;
+    while (k > 1 && gcd(k, groups) != 1)
+        k++;
+    return groups > 1 && k < groups ? (int)k : 1;
 }
 
 /* The grid's level tables, concatenated level after level (offsets in vx_cl_params). */
@@ -260,6 +290,7 @@ static int render_on_device(cl_state *st, const scene *s, const voxel_grid *g, c
         return vx_fail(e, "out of memory for the render's counters");
     vx_cl_params params;
     fill_params(&params, s, g, o);
+    params.group_stride = group_stride(groups);
     size_t cached = o->cache ? voxels : 0;
     const cl_mem_flags RO = CL_MEM_READ_ONLY, RW = CL_MEM_READ_WRITE;
     /* The kernel only reads the records and only writes the image: both used in place. */
@@ -279,10 +310,11 @@ static int render_on_device(cl_state *st, const scene *s, const voxel_grid *g, c
     double t_bound = now_seconds();
     if (warm_up(st, pixels, e) || bind(st, (int)pixels, e))
         return -1;
-    double t_warm = now_seconds();
+    double t_warm = now_seconds(), cpu_warm = cpu_seconds();
     if (run(st, st->render, st->local, pixels, "running vx_render", e))
         return -1;
     double t_traced = now_seconds();
+    oc->kernel_cpu_seconds = cpu_seconds() - cpu_warm;
     if (read_image(st, out, pixels * 3 * sizeof(float), e) ||
         cl_check(clEnqueueReadBuffer(st->rt.queue, st->buf[B_COUNTS], CL_TRUE, 0, groups * slot_bytes, st->counts, 0,
                                      NULL, NULL),
@@ -297,10 +329,23 @@ static int render_on_device(cl_state *st, const scene *s, const voxel_grid *g, c
     counts->voxel_visits = sums[VX_CL_VISITS];
     counts->shadow_rays = sums[VX_CL_SHADOW_RAYS];
     counts->model_evals = sums[VX_CL_EVALS];
-    counts->cache_hits = sums[VX_CL_HITS];
+    counts->cache_hits = o->cache ? sums[VX_CL_VISITS] - sums[VX_CL_EVALS] : 0;
     oc->compile_seconds = (t_compiled - t0) + (t_warm - t_bound);
     oc->kernel_seconds = t_traced - t_warm;
     counts->seconds = (t_bound - t_compiled) + (t_done - t_warm);
+    return 0;
+}
+
+int opencl_model_check(const vx_model *m, vx_err *e)
+{
+    if (m->march == VX_MARCH_CONE)
+        return vx_fail(e, "model %s cannot run on OpenCL: it marches cones (VX_MARCH_CONE), which the OpenCL "
+                          "backend does not do yet; use --backend c",
+                       m->name);
+    if (!m->cl_source || !m->cl_opacity || !m->cl_shade)
+        return vx_fail(e, "model %s cannot run on OpenCL: it declares no portable evaluation source (cl_source, "
+                          "cl_opacity, cl_shade in models/model.h); use --backend c",
+                       m->name);
     return 0;
 }
 
@@ -310,14 +355,8 @@ int render_image_opencl(const scene *s, const voxel_grid *g, const vx_model *m, 
     memset(oc, 0, sizeof *oc);
     if (o->spp < 1)
         return vx_fail(e, "--spp %d: expected at least 1 ray per pixel", o->spp);
-    if (m->march == VX_MARCH_CONE)
-        return vx_fail(e, "model %s marches cones (VX_MARCH_CONE), which the OpenCL backend does not do yet; use "
-                          "--backend c",
-                       m->name);
-    if (!m->cl_source)
-        return vx_fail(e, "model %s cannot run on OpenCL: it declares no portable evaluation source (cl_source); "
-                          "use --backend c",
-                       m->name);
+    if (opencl_model_check(m, e))
+        return -1;
     if ((size_t)o->width * (size_t)o->height > (size_t)INT_MAX / VX_CL_COUNTERS || grid_count(g, 0) > (size_t)INT_MAX / 2)
         return vx_fail(e, "OpenCL backend: %dx%d pixels or %zu voxels is more than it indexes", o->width, o->height,
                        grid_count(g, 0));

@@ -15,9 +15,14 @@
 typedef struct {
     double compile_seconds; /* assembling the program, building it (or loading it from the cache), preparing the kernels */
     double kernel_seconds;  /* the render kernel alone (part of render_counts.seconds, with the transfers) */
+    double kernel_cpu_seconds; /* CPU time the process spent meanwhile (all threads: PoCL's workers run in it) */
     char device[256];       /* the device's name */
     unsigned compute_units;
 } opencl_counts;
+
+/* 0 when model m can run on this backend, else -1 with a message naming the model and why (cone
+ * marching, no cl_source): cmd_render asks before baking, so the answer comes at once. */
+int opencl_model_check(const vx_model *m, vx_err *e);
 
 /* Like render_image (render.h); counts->seconds is the render without the compile time, and
  * traversal_seconds / model_seconds are not measured (0). */

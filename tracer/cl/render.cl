@@ -17,6 +17,7 @@
  * order in which work-items run. Publication: the entry is written, a global fence orders it before
  * state = 2, and readers use volatile loads (served from coherent memory, not a stale per-core
  * cache line on GPUs) of the state first, then of the entry. */
+#define GT_ITER_INLINE static inline __attribute__((always_inline))
 #include "grid_traverse_core.h"
 #include "model.h"
 #include "render_params.h"
@@ -43,7 +44,8 @@ typedef struct {
     uint count[VX_CL_COUNTERS];
 } cl_job;
 
-/* The grid as grid_core.h expects it: the tables of every level, rebuilt from buffer offsets. */
+/* The grid as grid_core.h expects it: the tables of every level, rebuilt from buffer offsets (the
+ * coordinates, word counts and the levels past the last are not used by the lookups and the DDA). */
 static void cl_grid(voxel_grid *g, __global const vx_cl_params *P, __global ulong *cols, __global ulong *bits,
                     __global uint *prefix)
 {
@@ -54,17 +56,16 @@ static void cl_grid(voxel_grid *g, __global const vx_cl_params *P, __global ulon
         g->origin_d[a] = P->origin_d[a];
     g->voxel_size_d = P->voxel_size_d;
     g->levels = P->levels;
-    for (int l = 0; l < GRID_MAX_LEVELS; l++) {
+    for (int l = 0; l < P->levels; l++) {
         grid_level *L = &g->level[l];
-        int used = l < P->levels;
-        L->n = used ? P->level_n[l] : 0;
+        L->n = P->level_n[l];
         L->words_per_col = (L->n + 63) / 64;
-        L->cols = used ? cols + P->level_cols[l] : 0;
-        L->bits = used ? bits + P->level_words[l] : 0;
-        L->prefix = used ? prefix + P->level_words[l] : 0;
-        L->coords = 0; /* the coordinates, words and counts are not used by the lookups and the DDA */
+        L->cols = cols + P->level_cols[l];
+        L->bits = bits + P->level_words[l];
+        L->prefix = prefix + P->level_words[l];
+        L->coords = 0;
         L->words = 0;
-        L->count = l == 0 ? (size_t)P->voxel_count : 0;
+        L->count = 0;
     }
 }
 
@@ -200,7 +201,6 @@ static void cl_answer_cached(cl_job *j, const grid_hit *h, vec3 dir, vx_answer *
     volatile __global int *state = &j->state[h->index];
     volatile __global vx_cl_cache *ce = &j->cache[h->index];
     if (*state == 2) {
-        j->count[VX_CL_HITS]++;
         a->radiance = v3(ce->radiance[0], ce->radiance[1], ce->radiance[2]);
         a->opacity = ce->opacity;
         for (int w = 0; w < VX_MASK_WORDS; w++)
@@ -302,12 +302,18 @@ __kernel void vx_render(__global const vx_cl_params *P, __global ulong *cols, __
                         __global uint *prefix, __global const uchar *records, __global vx_cl_cache *cache,
                         __global int *state, __global float *image, __global uint *counts, int pixels)
 {
-    int pix = (int)get_global_id(0);
+    /* Work-group g renders the strip of pixels (g * group_stride) mod groups, the stride coprime
+     * with the group count and near groups / golden ratio: a CPU device hands each thread a run
+     * of consecutive groups (PoCL: up to half of them at once), and in scanline order one thread
+     * could get all of the sky and the other all of the geometry; spread this way, any run of
+     * groups samples the whole image. Which work-item renders a pixel changes nothing in it. */
+    size_t strip = ((size_t)get_group_id(0) * (size_t)P->group_stride) % get_num_groups(0);
+    int pix = (int)(strip * get_local_size(0) + get_local_id(0));
     if (pix >= pixels)
         return;
     voxel_grid g;
     cl_grid(&g, P, cols, bits, prefix);
-    cl_job j = {P, &g, records, cache, state, {0, 0, 0, 0}};
+    cl_job j = {P, &g, records, cache, state, {0}};
     int width = P->width, height = P->height, spp = P->spp;
     int px = pix % width, py = pix / width;
     int dof = (P->effects & VX_EFFECT_DOF) != 0;

@@ -44,7 +44,7 @@ typedef struct {
     unsigned effects;         /* VX_EFFECT_* */
     int shadow_skip, cache;
     int voxel_count;          /* non-empty level-0 voxels */
-    int pad_;
+    int group_stride;         /* work-group g renders strip (g * group_stride) mod groups (see vx_render) */
 } vx_cl_params;
 
 /* A voxel's answer for the direction voxel -> camera (the C tracer's cache_entry; its state is a
@@ -55,8 +55,9 @@ typedef struct {
     unsigned int mask[VX_MASK_WORDS];
 } vx_cl_cache;
 
-/* A work-item's counters (render_counts' fields). The kernels add them up per work-group, each as a
- * 64-bit sum in two 32-bit words (low, high), and the host sums the groups. */
-enum { VX_CL_VISITS = 0, VX_CL_SHADOW_RAYS = 1, VX_CL_EVALS = 2, VX_CL_HITS = 3, VX_CL_COUNTERS = 4 };
+/* A work-item's counters (render_counts' fields; cache hits are the visits that needed no model
+ * evaluation, so the host derives them). The kernel adds them up per work-group, each as a 64-bit
+ * sum in two 32-bit words (low, high), and the host sums the groups. */
+enum { VX_CL_VISITS = 0, VX_CL_SHADOW_RAYS = 1, VX_CL_EVALS = 2, VX_CL_COUNTERS = 3 };
 
 #endif

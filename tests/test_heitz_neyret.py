@@ -1,0 +1,276 @@
+"""heitz-neyret against independent references and the Embree ground truth.
+
+1. Smith's Lambda (the C code, through `unit_heitz_neyret --lambda`) against mpmath at 40 digits.
+2. View-dependent colour (the 2012 paper's Figure 9): a Gaussian height field whose colour follows
+   s(h), seen from far enough that many bumps fall in a pixel, the view tilting from 0 to 75
+   degrees. The model's mean colour must track the truth's (mean relative error <= 2 % up to 60
+   degrees, <= 5 % at 75); the table shows alpha beside it.
+3. Correlated occlusion at silhouettes (Figure 4): per-pixel coverage of a sphere's silhouette
+   (a black sphere on a white background: pixel = 1 - coverage, whatever the lighting), heitz-neyret
+   closer to the truth than alpha.
+4. Emboss to shading (Figure 12): a bumpy specular surface under a point light, seen from afar:
+   the highlight must be as wide as the truth's (the bumps become roughness), not narrow like a
+   flat mirror's.
+5. Depth of field: one widened cone per pixel against the truth's lens sampling (error and time).
+"""
+import json
+import math
+import os
+import subprocess
+import time
+
+import numpy as np
+
+from testlib import REPO, TMP, finish, read_image, report, voxlab, write_ply, write_scene
+
+BUILD = os.environ.get("BUILD", "build")
+UNIT = os.path.join(REPO, BUILD, "tests", "unit_heitz_neyret")
+
+
+def mean_rgb(path):
+    return read_image(path).reshape(-1, 3).astype(np.float64).mean(0)
+
+
+def render(scene, model, out, *extra, vox=None, res=128):
+    args = ["render", scene, "--spp", "1" if model == "heitz-neyret" else "4", "-o", out, *extra]
+    args += ["--vox", vox] if vox else ["--model", model, "--res", res]
+    t0 = time.time()
+    voxlab(*args)
+    return time.time() - t0
+
+
+# ---------------------------------------------------------------------------------------------
+# 1. Lambda against mpmath.
+def lambda_reference():
+    import mpmath as mp
+
+    mp.mp.dps = 40
+    pairs = [(c, s) for c in (1.0, 0.999999, 0.99, 0.9, 0.7, 0.5, 0.3, 0.1, 0.03, 0.01, 1e-3, 1e-4, 1e-5)
+             for s in (1e-3, 0.05, 0.2, 0.5, 1.0, 3.0, 10.0)]
+    out = subprocess.run([UNIT, "--lambda", *[f"{c!r},{s!r}" for c, s in pairs]], capture_output=True, text=True,
+                         check=True).stdout.split("\n")
+    worst_abs = worst_rel = 0.0
+    bad = []
+    for line in out:
+        if not line.strip():
+            continue
+        c, s, got = (float(x) for x in line.split())
+        # The reference from the same float32 inputs the C code saw (printed with 9 digits).
+        C, S = mp.mpf(c), mp.mpf(s)
+        if C >= 1:
+            ref = mp.mpf(0)
+        else:
+            mu = C / mp.sqrt((1 - C) * (1 + C))
+            x = mu / (mp.sqrt(2) * S)
+            ref = (mp.sqrt(2 / mp.pi) * S / mu * mp.exp(-x * x) - mp.erfc(x)) / 2
+        err = abs(mp.mpf(got) - ref)
+        tol = 1e-5 * max(1, abs(ref))
+        worst_abs = max(worst_abs, float(err) if ref <= 1 else 0.0)
+        if ref > 1e-30:
+            worst_rel = max(worst_rel, float(err / ref))
+        if err > tol:
+            bad.append((c, s, got, float(ref)))
+    print(f"# Lambda vs mpmath over {len(pairs)} (cos, sigma) pairs: worst absolute error {worst_abs:.2e} "
+          f"(Lambda <= 1), worst relative error {worst_rel:.2e} (Lambda > 1e-30)")
+    report("lambda_matches_mpmath", not bad, f"outside 1e-5 max(1, ref): {bad[:5]}")
+
+
+lambda_reference()
+
+# ---------------------------------------------------------------------------------------------
+# 2. View-dependent colour on the height field.
+HF_PARAMS = {"size": 8, "resolution": 1024, "sigma_h": 0.00625, "wavelength_min": 0.042, "wavelength_max": 0.125,
+             "mean_color": [0.5, 0.5, 0.5], "delta_color": [0.35, 0.3, 0.2]}
+
+
+def heightfield_scene(name, tilt, params=HF_PARAMS, materials=None, lights=None, effects=(), size=(16, 4),
+                      pixel=0.2, dist=40.0):
+    """A strip of the height field at the centre of the view: `pixel` world units per pixel at normal
+    incidence (0.2: about 5 shortest wavelengths), far and narrow (orthographic-like)."""
+    fov = 2 * math.degrees(math.atan(size[1] * pixel / 2 / dist))
+    cam = {"orbit": {"distance": dist, "elevation_deg": 90 - tilt, "azimuth_deg": 0}, "look_at": [0, 0, 0],
+           "up": [0, 0, -1], "fov_deg": fov}
+    return write_scene(name, [{"generator": "heightfield", "seed": 1, "materials": {"surface": "surf"},
+                               "params": params}],
+                       lights or [{"type": "directional", "direction": [0, 1, 0], "irradiance": [math.pi] * 3}],
+                       cam, effects=effects, materials=materials or {"surf": {"color": [1, 1, 1]}}, size=size)
+
+
+def colour_curve():
+    tilts = [0, 30, 45, 60, 75]
+    vox = {}
+    base = heightfield_scene("hf_base", 45)
+    for m in ("heitz-neyret", "alpha"):
+        vox[m] = os.path.join(TMP, f"hf_{m}.vox")
+        voxlab("bake", base, "--model", m, "--res", 128, "-o", vox[m])
+    rows, errs = [], {}
+    for tilt in tilts:
+        sc = heightfield_scene(f"hf_{tilt}", tilt)
+        t_out = os.path.join(TMP, f"hf_truth_{tilt}.exr")
+        voxlab("truth", sc, "--spp", 512, "-o", t_out)
+        truth = mean_rgb(t_out)
+        got = {}
+        for m in ("heitz-neyret", "alpha"):
+            out = os.path.join(TMP, f"hf_{m}_{tilt}.exr")
+            render(sc, m, out, vox=vox[m])
+            got[m] = mean_rgb(out)
+        rows.append((tilt, truth, got["heitz-neyret"], got["alpha"]))
+        errs[tilt] = {m: float(np.mean(np.abs(got[m] - truth) / truth)) for m in got}
+    print("# View-dependent colour of the height field (mean pixel colour, light along the mean normal;")
+    print("# many bumps per pixel). Mean relative error over R, G, B.")
+    print("# hue = R / (R + G + B): the bumps are warm (R high), the valleys cool")
+    print("# tilt  truth R G B    hue     heitz-neyret R G B    hue     err     alpha R G B      hue     err")
+    hue = lambda c: c[0] / c.sum()  # noqa: E731
+    for tilt, t, h, a in rows:
+        print(f"# {tilt:4d}  {t[0]:.4f} {t[1]:.4f} {t[2]:.4f} {hue(t):.4f}  {h[0]:.4f} {h[1]:.4f} {h[2]:.4f} "
+              f"{hue(h):.4f}  {100 * errs[tilt]['heitz-neyret']:5.2f}%  {a[0]:.4f} {a[1]:.4f} {a[2]:.4f} "
+              f"{hue(a):.4f}  {100 * errs[tilt]['alpha']:5.2f}%")
+    # The truth's colour moves with the view (only the light bumps remain visible at grazing
+    # angles): the test means something only if it does.
+    shift = (rows[-1][1] / rows[-1][1].sum())[0] - (rows[0][1] / rows[0][1].sum())[0]
+    report("heightfield_truth_colour_shifts_with_view", shift > 0.005, f"hue shift {shift}")
+    worst60 = max(errs[t]["heitz-neyret"] for t in tilts if t <= 60)
+    report("heightfield_colour_within_2pc_up_to_60deg", worst60 <= 0.02, f"worst {worst60:.4f}")
+    report("heightfield_colour_within_5pc_at_75deg", errs[75]["heitz-neyret"] <= 0.05,
+           f"{errs[75]['heitz-neyret']:.4f}")
+    mean_hn = np.mean([errs[t]["heitz-neyret"] for t in tilts])
+    mean_alpha = np.mean([errs[t]["alpha"] for t in tilts])
+    report("heightfield_colour_closer_than_alpha", mean_hn < mean_alpha, f"{mean_hn} vs {mean_alpha}")
+
+
+colour_curve()
+
+
+# ---------------------------------------------------------------------------------------------
+# 3. Coverage at a sphere's silhouette.
+def sphere_ply(path, n_lat=96, n_lon=192):
+    verts = [(0.0, 1.0, 0.0)]
+    for i in range(1, n_lat):
+        th = math.pi * i / n_lat
+        for j in range(n_lon):
+            ph = 2 * math.pi * j / n_lon
+            verts.append((math.sin(th) * math.cos(ph), math.cos(th), math.sin(th) * math.sin(ph)))
+    verts.append((0.0, -1.0, 0.0))
+    faces = []
+    ring = lambda i, j: 1 + (i - 1) * n_lon + (j % n_lon)  # noqa: E731
+    for j in range(n_lon):
+        faces.append((0, ring(1, j + 1), ring(1, j)))
+    for i in range(1, n_lat - 1):
+        for j in range(n_lon):
+            faces.append((ring(i, j), ring(i, j + 1), ring(i + 1, j + 1), ring(i + 1, j)))
+    last = len(verts) - 1
+    for j in range(n_lon):
+        faces.append((last, ring(n_lat - 1, j), ring(n_lat - 1, j + 1)))
+    write_ply(path, verts, faces)
+
+
+def silhouette():
+    sphere_ply(os.path.join(TMP, "sphere.ply"))
+    cam = {"position": [0, 0, 6], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov_deg": 22}
+    sc = write_scene("silhouette", [{"ply": "sphere.ply", "material": "black"}],
+                     [{"type": "directional", "direction": [0, 1, 1], "irradiance": [1, 1, 1]}], cam,
+                     materials={"black": {"color": [0, 0, 0]}}, size=(48, 48), background=(1, 1, 1))
+    cov = {}
+    voxlab("truth", sc, "--spp", 1024, "-o", os.path.join(TMP, "sil_truth.exr"))
+    cov["truth"] = 1 - read_image(os.path.join(TMP, "sil_truth.exr"))[:, :, 0]
+    for m in ("heitz-neyret", "alpha"):
+        out = os.path.join(TMP, f"sil_{m}.exr")
+        render(sc, m, out, res=128)
+        cov[m] = 1 - read_image(out)[:, :, 0]
+    # The silhouette: pixels the truth covers partly, and their neighbours (a model that thickens
+    # or thins the silhouette errs there).
+    part = (cov["truth"] > 0.01) & (cov["truth"] < 0.99)
+    band = part.copy()
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            band |= np.roll(np.roll(part, dy, 0), dx, 1)
+    err = {m: float(np.abs(cov[m] - cov["truth"])[band].mean()) for m in ("heitz-neyret", "alpha")}
+    total = {m: float(cov[m].sum() / cov["truth"].sum()) for m in ("heitz-neyret", "alpha")}
+    print(f"# Silhouette coverage of a sphere ({band.sum()} pixels: partly covered in the truth, and neighbours; pixel "
+          f"about 3 voxels of 128^3): mean |coverage - truth|: heitz-neyret {err['heitz-neyret']:.4f}, "
+          f"alpha {err['alpha']:.4f}; total coverage / truth: heitz-neyret {total['heitz-neyret']:.4f}, "
+          f"alpha {total['alpha']:.4f}")
+    report("silhouette_coverage_closer_than_alpha", err["heitz-neyret"] < err["alpha"], f"{err}")
+    report("silhouette_coverage_error_below_0.1", err["heitz-neyret"] < 0.1, f"{err}")
+
+
+silhouette()
+
+
+# ---------------------------------------------------------------------------------------------
+# 4. Emboss to shading: highlight width.
+def highlight():
+    black_spec = {"surf": {"color": [1, 1, 1], "specular": 1.0, "roughness": 0.1}}
+    params = dict(HF_PARAMS, mean_color=[0, 0, 0], delta_color=[0, 0, 0])
+    flat = dict(params, sigma_h=1e-7)
+    lamp = [{"type": "point", "position": [0, 1.5, 0], "intensity": [20, 20, 20]}]
+    widths, imgs = {}, {}
+    for name, prm in (("bumpy", params), ("flat", flat)):
+        sc = heightfield_scene(f"hl_{name}", 40, params=prm, materials=black_spec, lights=lamp, effects=["specular"],
+                               size=(32, 32), pixel=0.2)
+        outs = {"truth": os.path.join(TMP, f"hl_{name}_truth.exr")}
+        voxlab("truth", sc, "--spp", 256, "-o", outs["truth"])
+        for m in ("heitz-neyret", "alpha"):
+            outs[m] = os.path.join(TMP, f"hl_{name}_{m}.exr")
+            render(sc, m, outs[m], res=128)
+        for k, p in outs.items():
+            img = read_image(p)[:, :, 0].astype(np.float64)
+            imgs[(name, k)] = img
+            y, x = np.mgrid[0:img.shape[0], 0:img.shape[1]]
+            w = np.maximum(img, 0)
+            cx, cy = (w * x).sum() / w.sum(), (w * y).sum() / w.sum()
+            widths[(name, k)] = math.sqrt((w * ((x - cx) ** 2 + (y - cy) ** 2)).sum() / w.sum())
+    print("# Highlight of a point light on the height field (specular 1, roughness 0.1), RMS radius in pixels:")
+    for name in ("bumpy", "flat"):
+        print(f"#   {name:5s}: truth {widths[(name, 'truth')]:.2f}  heitz-neyret {widths[(name, 'heitz-neyret')]:.2f}  "
+              f"alpha {widths[(name, 'alpha')]:.2f}  (peak: truth {imgs[(name, 'truth')].max():.3f}, "
+              f"heitz-neyret {imgs[(name, 'heitz-neyret')].max():.3f}, alpha {imgs[(name, 'alpha')].max():.3f})")
+    t, h, a = (widths[("bumpy", k)] for k in ("truth", "heitz-neyret", "alpha"))
+    report("bumps_widen_the_truth_highlight", t > 1.3 * widths[("flat", "truth")], f"{widths}")
+    report("emboss_to_shading_width_within_25pc", abs(h / t - 1) < 0.25, f"heitz-neyret {h}, truth {t}")
+    report("emboss_to_shading_closer_than_alpha", abs(h / t - 1) < abs(a / t - 1), f"hn {h}, alpha {a}, truth {t}")
+
+
+highlight()
+
+
+# ---------------------------------------------------------------------------------------------
+# 5. Depth of field: one widened cone per pixel vs the truth's lens sampling.
+def depth_of_field():
+    sphere_ply(os.path.join(TMP, "sphere.ply"))
+    objs = [{"ply": "sphere.ply", "material": "red", "transform": {"translate": [-1.2, 0, -2]}},
+            {"ply": "sphere.ply", "material": "blue", "transform": {"translate": [1.0, 0, 1.5]}}]
+    mats = {"red": {"color": [0.8, 0.2, 0.1]}, "blue": {"color": [0.2, 0.3, 0.8]}}
+    sun = [{"type": "directional", "direction": [0.3, 1, 0.5], "irradiance": [3, 3, 3]}]
+    res = {}
+    for name, cam_extra, eff in (("focused", {}, []), ("dof", {"aperture": 0.25, "focus_distance": 8.5}, ["dof"])):
+        cam = dict({"position": [0, 1, 9], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov_deg": 35}, **cam_extra)
+        sc = write_scene(f"dof_{name}", objs, sun, cam, effects=eff, materials=mats, size=(96, 96),
+                         background=(0.6, 0.7, 0.8))
+        t_out = os.path.join(TMP, f"dof_{name}_truth.exr")
+        t0 = time.time()
+        voxlab("truth", sc, "--spp", 256, "-o", t_out)
+        t_truth = time.time() - t0
+        vox = os.path.join(TMP, f"dof_{name}.vox")
+        voxlab("bake", sc, "--model", "heitz-neyret", "--res", 128, "-o", vox)
+        h_out = os.path.join(TMP, f"dof_{name}_hn.exr")
+        stats = os.path.join(TMP, f"dof_{name}_hn.json")
+        render(sc, "heitz-neyret", h_out, "--stats", stats, vox=vox)
+        with open(stats) as f:
+            st = json.load(f)
+        cmp = json.loads(voxlab("compare", t_out, h_out, "--json").stdout)
+        res[name] = (cmp, st["seconds"], t_truth, st)
+    for name, (cmp, secs, t_truth, st) in res.items():
+        print(f"# {name:7s}: heitz-neyret MSE {cmp['mse']:.5f} SSIM {cmp['ssim']:.4f}, render {secs:.3f} s "
+              f"({st['voxel_visits']} cone elements for {st['rays']} cones) vs truth 256 spp {t_truth:.2f} s")
+    # The blur must come from the cone, not from extra rays: one cone per pixel either way.
+    report("dof_one_cone_per_pixel", res["dof"][3]["rays"] == 96 * 96, f"{res['dof'][3]['rays']}")
+    report("dof_cone_not_slower_than_focused_x2", res["dof"][1] < 2 * res["focused"][1] + 0.05,
+           f"{res['dof'][1]} vs {res['focused'][1]}")
+    report("dof_error_comparable_to_focused", res["dof"][0]["mse"] < 2 * res["focused"][0]["mse"] + 1e-4,
+           f"{res['dof'][0]['mse']} vs {res['focused'][0]['mse']}")
+
+
+depth_of_field()
+
+finish()

@@ -1,0 +1,156 @@
+"""`render --backend opencl` (on PoCL in CI) against the C backend.
+
+For every registered model, on spheres and bunny (and a variant of spheres with specular, depth of
+field and a point light, which exercises the math library) at small sizes, the same baked grid is
+rendered by both backends: the images must agree to 1e-4 per pixel and give the same MSE and SSIM
+against the ground truth to 4 significant digits. A model that cannot run on OpenCL must say so
+(naming itself, exit status 1) instead of rendering. Also: no OpenCL platform
+(OCL_ICD_VENDORS=/nonexistent) and a kernel that fails to build (the test hook
+VOXLAB_OPENCL_BREAK_KERNEL=1 appends a syntax error to the program) are clear errors, the latter
+with the build log; the compile is cached (POCL_CACHE_DIR) and reported apart from the render time.
+"""
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from testlib import REPO, TMP, VOXLAB, finish, read_image, report, voxlab  # noqa: E402
+
+SIZE = "64x48"
+RES = 64
+
+
+def run(*args, env=None):
+    e = dict(os.environ)
+    e.update(env or {})
+    return subprocess.run([VOXLAB, *map(str, args)], capture_output=True, text=True, env=e)
+
+
+def models():
+    return [line.split()[0] for line in voxlab("models").stdout.splitlines() if line.strip()]
+
+
+def fx_scene():
+    """spheres with every effect the voxel shading reads: specular lobe, thin lens, a point light."""
+    with open(os.path.join(REPO, "scenes", "spheres.json")) as f:
+        s = json.load(f)
+    s["name"] = "spheres-fx"
+    s["effects"] = ["shadows", "textures", "specular", "dof"]
+    s["camera"]["aperture"] = 0.15
+    s["camera"]["focus_distance"] = 10.0
+    s["lights"].append({"type": "point", "position": [1.0, 3.0, 2.0], "intensity": [8, 8, 8]})
+    path = os.path.join(TMP, "spheres_fx.json")
+    with open(path, "w") as f:
+        json.dump(s, f)
+    return path
+
+
+def metrics(image, truth):
+    return json.loads(voxlab("compare", image, truth, "--json").stdout)
+
+
+def same_4_digits(a, b):
+    if a is None or b is None:
+        return a == b
+    # Equal when rounded to 4 significant digits; a pair straddling a rounding boundary is accepted
+    # when it is within half a unit of the 4th digit.
+    return f"{a:.4g}" == f"{b:.4g}" or abs(a - b) <= 5e-5 * max(abs(a), abs(b))
+
+
+scenes = {
+    "spheres": os.path.join(REPO, "scenes", "spheres.json"),
+    "bunny": os.path.join(REPO, "scenes", "bunny.json"),
+    "spheres-fx": fx_scene(),
+}
+names = models()
+report("models_listed", len(names) >= 2, f"{names}")
+
+# Ground truth once per scene.
+truth = {}
+for sname, spath in scenes.items():
+    truth[sname] = os.path.join(TMP, f"truth_{sname}.exr")
+    voxlab("truth", spath, "--spp", "64", "--size", SIZE, "-o", truth[sname])
+
+runnable = []
+for model in names:
+    for sname, spath in scenes.items():
+        vox = os.path.join(TMP, f"{sname}_{model}.vox")
+        voxlab("bake", spath, "--model", model, "--res", RES, "--rays", 64, "-o", vox)
+        out = {b: os.path.join(TMP, f"{sname}_{model}_{b}.exr") for b in ("c", "opencl")}
+        stats = os.path.join(TMP, f"{sname}_{model}_opencl.json")
+        voxlab("render", spath, "--vox", vox, "--size", SIZE, "-o", out["c"])
+        p = run("render", spath, "--vox", vox, "--size", SIZE, "--backend", "opencl", "-o", out["opencl"],
+                "--stats", stats)
+        if p.returncode != 0:
+            # Allowed only as a clear refusal: the model named, OpenCL said, no image left behind.
+            clear = (p.returncode == 1 and f"model {model} cannot run on OpenCL" in p.stderr
+                     and not os.path.exists(out["opencl"]))
+            report(f"{model}_{sname}_refused_clearly", clear, f"rc {p.returncode}: {p.stderr.strip()}")
+            break
+        if model not in runnable:
+            runnable.append(model)
+        a, b = read_image(out["c"]), read_image(out["opencl"])
+        diff = float(np.abs(a - b).max())
+        print(f"# {model} {sname}: max |opencl - c| = {diff:.3g}")
+        report(f"{model}_{sname}_per_pixel_agreement", diff <= 1e-4, f"max difference {diff}")
+        mc, mo = metrics(out["c"], truth[sname]), metrics(out["opencl"], truth[sname])
+        print(f"# {model} {sname}: C mse {mc['mse']:.6g} ssim {mc['ssim']:.6g}; "
+              f"OpenCL mse {mo['mse']:.6g} ssim {mo['ssim']:.6g}")
+        report(f"{model}_{sname}_metrics_4_digits",
+               same_4_digits(mc["mse"], mo["mse"]) and same_4_digits(mc["ssim"], mo["ssim"]), f"C {mc}, OpenCL {mo}")
+        with open(stats) as f:
+            st = json.load(f)
+        report(f"{model}_{sname}_stats", st.get("backend") == "opencl" and st.get("opencl_compile_seconds", -1) >= 0
+               and st["seconds"] > 0 and st["rays"] == 64 * 48 * 4 and st["voxel_visits"] > 0, f"{st}")
+report("binary_and_alpha_run_on_opencl", "binary" in runnable and "alpha" in runnable, f"runnable: {runnable}")
+
+# The options that change the tracer's work: no cache, no shadow skip, another spp and seed.
+if "alpha" in runnable:
+    vox = os.path.join(TMP, "spheres-fx_alpha.vox")
+    for opts in (["--no-cache"], ["--no-shadow-skip"], ["--spp", "7", "--seed", "5"]):
+        tag = "_".join(o.strip("-") for o in opts)
+        outs = []
+        for backend in ("c", "opencl"):
+            o = os.path.join(TMP, f"opt_{tag}_{backend}.exr")
+            voxlab("render", scenes["spheres-fx"], "--vox", vox, "--size", SIZE, "--backend", backend, *opts, "-o", o)
+            outs.append(read_image(o))
+        diff = float(np.abs(outs[0] - outs[1]).max())
+        report(f"alpha_spheres-fx_{tag}_agreement", diff <= 1e-4, f"max difference {diff}")
+
+# Failures are messages, not crashes.
+vox = os.path.join(TMP, "spheres_binary.vox")
+bad = os.path.join(TMP, "bad.exr")
+p = run("render", scenes["spheres"], "--vox", vox, "--size", SIZE, "--backend", "opencl", "-o", bad,
+        env={"OCL_ICD_VENDORS": "/nonexistent"})
+report("no_platform_is_a_clear_error", p.returncode == 1 and "no OpenCL platform" in p.stderr
+       and not os.path.exists(bad), f"rc {p.returncode}: {p.stderr.strip()}")
+p = run("render", scenes["spheres"], "--vox", vox, "--size", SIZE, "--backend", "opencl", "-o", bad,
+        env={"VOXLAB_OPENCL_BREAK_KERNEL": "1"})
+report("kernel_build_failure_shows_the_log", p.returncode == 1 and "failed to build" in p.stderr
+       and "build log" in p.stderr and "VOXLAB_OPENCL_BREAK_KERNEL" in p.stderr and not os.path.exists(bad),
+       f"rc {p.returncode}: {p.stderr.strip()}")
+p = run("render", scenes["spheres"], "--vox", vox, "--backend", "cuda", "-o", bad)
+report("unknown_backend_rejected", p.returncode == 1 and "--backend cuda" in p.stderr, p.stderr.strip())
+
+# The kernel cache: a fresh POCL_CACHE_DIR fills on the first run, and the second run compiles less.
+cache = os.path.join(TMP, "pocl-cache")
+shutil.rmtree(cache, ignore_errors=True)
+secs = []
+for i in range(2):
+    st = os.path.join(TMP, f"cache_{i}.json")
+    p = run("render", scenes["spheres"], "--vox", vox, "--size", SIZE, "--backend", "opencl", "-o", bad,
+            "--stats", st, env={"POCL_CACHE_DIR": cache})
+    if p.returncode != 0:
+        secs.append(None)
+        continue
+    with open(st) as f:
+        secs.append(json.load(f)["opencl_compile_seconds"])
+print(f"# compile seconds: cold {secs[0]}, cached {secs[1]}")
+report("kernel_cache_filled", os.path.isdir(cache) and len(os.listdir(cache)) > 0, f"{cache}")
+report("kernel_cache_reused", None not in secs and secs[1] < secs[0] / 3, f"compile seconds cold, warm: {secs}")
+
+finish()

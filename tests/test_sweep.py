@@ -1,0 +1,194 @@
+"""The experiment sweep end to end (experiments/voxlab_runner.py through experiments/table1.py) on a
+two-job sweep: spheres at 32^3 with the first two registered models. The table's MSE and SSIM must be
+exactly what `voxlab compare` gives on the same images; a second run must do no work (every job
+cached, no cache file touched); a declaration with a bad field must fail with a message naming the
+file and the field; a missing model or a failing voxlab job must be recorded in its row without
+stopping the sweep; and the cache keys must follow what the images depend on."""
+import csv
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from testlib import REPO, TMP, VOXLAB, finish, report, voxlab, voxlab_json  # noqa: E402
+
+EXP = os.path.join(REPO, "experiments")
+sys.path.insert(0, EXP)
+import voxlab_runner as vr  # noqa: E402
+
+PY = sys.executable
+
+
+def declare(name, **fields):
+    d = {"name": name, "truth_spp": 16, "scenes": ["spheres"],
+         "runs": [{"models": "all", "res": [32], "size": "res", "spp": [4], "rays": [150]}]}
+    d.update(fields)
+    path = os.path.join(TMP, name + ".json")
+    with open(path, "w") as f:
+        json.dump(d, f)
+    return path
+
+
+def run(script, decl, results, *extra):
+    return subprocess.run([PY, os.path.join(EXP, script), "--experiment", decl, "--results", results,
+                           "--voxlab", VOXLAB, "--jobs", "2", *extra], capture_output=True, text=True)
+
+
+def read_csv(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def cache_state(cache):
+    """Every file under the job cache with its modification time (the snapshot of the binary aside)."""
+    state = {}
+    for kind in ("truth", "bake", "render", "compare"):
+        for root, _, files in os.walk(os.path.join(cache, kind)):
+            for f in files:
+                p = os.path.join(root, f)
+                state[p] = os.stat(p).st_mtime_ns
+    return state
+
+
+def main():
+    models = [line.split()[0] for line in voxlab("models").stdout.splitlines() if line.strip()][:2]
+    results = os.path.join(TMP, "results")
+    cache = os.path.join(results, "cache")
+    decl = declare("two", runs=[{"models": models, "res": [32], "size": "res", "spp": [4], "rays": [150]}],
+                   history=True)
+    p = run("table1.py", decl, results)
+    report("two-job sweep exits 0", p.returncode == 0, p.stderr[-2000:])
+    if p.returncode != 0:
+        return
+    report("progress on stderr: done/total, elapsed, estimate",
+           "elapsed" in p.stderr and "[7/7]" in p.stderr and ("left" in p.stderr or "done" in p.stderr),
+           p.stderr[-800:])
+
+    out = os.path.join(results, "two")
+    rows = read_csv(os.path.join(out, "rows.csv"))
+    t1 = read_csv(os.path.join(out, "table1.csv"))
+    report("one table row per configuration", sorted(r["model"] for r in t1) == sorted(models) and len(rows) == 2,
+           f"table1.csv models {[r['model'] for r in t1]}, expected {models}")
+    by_model = {r["model"]: r for r in rows}
+    mses = {}
+    for t in t1:
+        r = by_model.get(t["model"])
+        if r is None:
+            report(f"{t['model']}: row exists", False, "missing from rows.csv")
+            continue
+        truth, image = os.path.join(results, r["truth_image"]), os.path.join(results, r["image"])
+        ok = os.path.isfile(truth) and os.path.isfile(image)
+        report(f"{t['model']}: images exist", ok, f"{truth}, {image}")
+        if not ok:
+            continue
+        ref = voxlab_json("compare", truth, image, "--json")  # by hand, on the very same files
+        mses[t["model"]] = ref["mse"]
+        report(f"{t['model']}: table MSE and SSIM equal voxlab compare",
+               float(t["mse"]) == ref["mse"] and float(t["ssim"]) == ref["ssim"],
+               f"table {t['mse']} {t['ssim']}, compare {ref['mse']!r} {ref['ssim']!r}")
+        report(f"{t['model']}: image size = resolution", ref["width"] == 32 and ref["height"] == 32, str(ref))
+    if len(mses) == 2:
+        best = min(mses, key=mses.get)
+        report("best MSE marked", [t["model"] for t in t1 if t["best_mse"] == "1"] == [best],
+               f"best_mse flags {[(t['model'], t['best_mse']) for t in t1]}, lowest {best}")
+    t2 = read_csv(os.path.join(out, "table2.csv"))
+    report("table 2 has triangles, bytes/voxel, MB, bake s, render ms",
+           len(t2) == 2 and all(int(float(r["triangles"])) > 0 and float(r["bytes_per_voxel"]) > 0 and
+                                float(r["mb"]) > 0 and float(r["bake_s"]) > 0 and float(r["render_ms"]) > 0
+                                for r in t2), str(t2))
+    with open(os.path.join(out, "table1.md")) as f:
+        md = f.read()
+    head = subprocess.run(["git", "-C", REPO, "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
+    wanted = ["date:", "machine:", f"git commit: {head or 'unknown'}", "truth 16 spp", "4 spp", "150 bake rays",
+              *[f"{float(t['mse']):.3e}" for t in t1]]
+    report("table1.md states machine, commit, date, settings and the numbers", all(w in md for w in wanted),
+           f"missing {[w for w in wanted if w not in md]}")
+    with open(os.path.join(out, "table1.tex")) as f:
+        tex = f.read()
+    report("table1.tex is a tabular with the numbers", "\\begin{tabular}" in tex and
+           all(f"{float(t['ssim']):.4f}" in tex for t in t1), tex[:300])
+    hist = read_csv(os.path.join(results, "history.csv"))
+    report("history.csv: one line per configuration with the commit",
+           len(hist) == 2 and all(h["commit"] == (head or "unknown") and h["run_id"] for h in hist), str(hist)[:500])
+    leftovers = [os.path.join(r, f) for r, ds, fs in os.walk(results) for f in fs + ds if ".tmp." in f]
+    report("no temporary files left", not leftovers, str(leftovers[:5]))
+
+    # The second run: everything from the cache, nothing rewritten.
+    before = cache_state(cache)
+    p2 = run("table1.py", decl, results)
+    after = cache_state(cache)
+    report("second run does no work", p2.returncode == 0 and "0 job(s) to run" in p2.stderr and before == after
+           and len(before) > 0, p2.stderr[-800:])
+    rows2 = read_csv(os.path.join(out, "rows.csv"))
+    report("second run reproduces the numbers", [(r["model"], r["mse"], r["ssim"]) for r in rows2] ==
+           [(r["model"], r["mse"], r["ssim"]) for r in rows], "")
+
+    # Declarations with a bad field: a clear error (status 2) naming the file and the field, no work done.
+    bad_cases = [
+        ("bad_res", {"runs": [{"models": "all", "res": [32, "big"]}]}, "runs[0].res[1]", "expected an integer"),
+        ("bad_field", {"runs": [{"models": "all", "resolution": [32]}]}, "runs[0].resolution", "unknown field"),
+        ("bad_scene", {"scenes": ["no_such_scene"]}, "scenes[0]", "no_such_scene"),
+        ("bad_spp", {"truth_spp": 0}, "truth_spp", "expected an integer"),
+    ]
+    for name, fields, where, what in bad_cases:
+        path = declare(name, **fields)
+        pb = run("table1.py", path, os.path.join(TMP, "bad_results"))
+        report(f"bad declaration {name}: clear error", pb.returncode == 2 and f"{name}.json" in pb.stderr and
+               where in pb.stderr and what in pb.stderr and "Traceback" not in pb.stderr, pb.stderr[-600:])
+    report("bad declarations did no work", not os.path.exists(os.path.join(TMP, "bad_results", "cache", "truth")), "")
+
+    # A model that is not registered and a voxlab job that fails are rows, not the end of the sweep.
+    path = declare("failing", scenes=["spheres"], runs=[
+        {"models": [models[0], "no-such-model"], "res": [16], "size": 16},
+        {"models": [models[0]], "res": [4096], "size": 16}])
+    pf = run("table1.py", path, results)
+    frows = {(r["model"], r["res"]): r for r in read_csv(os.path.join(results, "failing", "rows.csv"))} \
+        if pf.returncode == 0 else {}
+    ok_row = frows.get((models[0], "16"), {})
+    missing = frows.get(("no-such-model", "16"), {})
+    huge = frows.get((models[0], "4096"), {})
+    report("failures recorded, sweep completes", pf.returncode == 0 and ok_row.get("status") == "ok" and
+           missing.get("status") == "failed" and "not registered" in missing.get("error", "") and
+           huge.get("status") == "failed" and "voxlab bake" in huge.get("error", ""),
+           pf.stderr[-1000:] + str(frows)[:600])
+    with open(os.path.join(results, "failing", "table1.md")) as f:
+        fmd = f.read()
+    report("failures shown in the table", "failed[" in fmd and "not registered" in fmd, fmd[-600:])
+
+    # Cache keys: the scene's content and the files it references; the bake ignores camera and background.
+    spheres = os.path.join(REPO, "scenes", "spheres.json")
+    moved = vr.write_variant(spheres, "moved", {"camera.orbit.elevation_deg": 50, "background": [1, 1, 1]},
+                             os.path.join(TMP, "variants"))
+    shiny = vr.write_variant(spheres, "shiny", {"materials.red.roughness": 0.05}, os.path.join(TMP, "variants"))
+    report("scene key changes with the camera, the bake key does not",
+           vr.scene_fingerprint(moved) != vr.scene_fingerprint(spheres) and
+           vr.scene_fingerprint(moved, True) == vr.scene_fingerprint(spheres, True), moved)
+    report("bake key changes with a material", vr.scene_fingerprint(shiny, True) != vr.scene_fingerprint(spheres, True),
+           shiny)
+    mesh_dir = os.path.join(TMP, "meshscene")
+    os.makedirs(mesh_dir, exist_ok=True)
+    shutil.copy(os.path.join(REPO, "scenes", "bunny.json"), mesh_dir)
+    os.makedirs(os.path.join(mesh_dir, "meshes"), exist_ok=True)
+    shutil.copy(os.path.join(REPO, "scenes", "meshes", "plate.ply"), os.path.join(mesh_dir, "meshes"))
+    k1 = vr.scene_fingerprint(os.path.join(mesh_dir, "bunny.json"))
+    with open(os.path.join(mesh_dir, "meshes", "plate.ply"), "a") as f:
+        f.write("\n")
+    k2 = vr.scene_fingerprint(os.path.join(mesh_dir, "bunny.json"))
+    report("scene key changes when a referenced mesh changes", k1 != k2, "")
+
+    # The committed tolerances: a real accuracy regression fails, timing noise does not.
+    tol = vr.load_declaration(os.path.join(EXP, "regress.json"))["tolerances"]
+    cases = [("mse", 1.10e-3, 1.0e-3, "regression"), ("mse", 1.02e-3, 1.0e-3, "ok"),
+             ("mse", 0.80e-3, 1.0e-3, "improved"), ("ssim", 0.89, 0.90, "regression"),
+             ("ssim", 0.897, 0.90, "ok"), ("render_ms", 150.0, 100.0, "ok"), ("render_ms", 260.0, 100.0, "warning"),
+             ("bake_s", 1.9, 1.0, "ok")]
+    got = [(m, vr.verdict(m, cur, base, tol[m])[0]) for m, cur, base, _ in cases]
+    report("tolerances: MSE +10 % and SSIM -0.01 fail, 1.5x slower passes, 2.6x slower warns",
+           got == [(m, v) for m, _, _, v in cases], str(got))
+
+
+if __name__ == "__main__":
+    main()
+    finish()
