@@ -208,6 +208,16 @@ static void render_row(void *p, int64_t row, int thread)
     for (int px = 0; px < o->width; px++) {
         rng r = rng_seed(o->seed, (uint64_t)py * (uint64_t)o->width + (uint64_t)px);
         vec3 sum = v3(0, 0, 0);
+        float *dst = &j->out->data[3 * ((size_t)py * (size_t)o->width + (size_t)px)];
+        if (j->m->march == VX_MARCH_CONE) {
+            /* A cone covers the whole pixel footprint (and the lens, through its width): one cone
+             * per pixel, through the pixel's centre and the lens centre, whatever --spp says. */
+            vec3 org, dir;
+            camera_ray(&s->camera, o->width, o->height, (float)px + 0.5f, (float)py + 0.5f, 0.5f, 0.5f, 0, &org, &dir);
+            vec3 c = cone_trace_ray(j, org, dir, tc);
+            dst[0] = c.x, dst[1] = c.y, dst[2] = c.z;
+            continue;
+        }
         for (int i = 0; i < o->spp; i++) {
             float sx, sy, lu = 0, lv = 0;
             float r1 = rng_float(&r), r2 = rng_float(&r);
@@ -218,9 +228,8 @@ static void render_row(void *p, int64_t row, int thread)
             }
             vec3 org, dir;
             camera_ray(&s->camera, o->width, o->height, (float)px + sx, (float)py + sy, lu, lv, dof, &org, &dir);
-            sum = v3_add(sum, j->m->march == VX_MARCH_CONE ? cone_trace_ray(j, org, dir, tc) : trace_ray(j, org, dir, tc));
+            sum = v3_add(sum, trace_ray(j, org, dir, tc));
         }
-        float *dst = &j->out->data[3 * ((size_t)py * (size_t)o->width + (size_t)px)];
         dst[0] = sum.x / (float)o->spp;
         dst[1] = sum.y / (float)o->spp;
         dst[2] = sum.z / (float)o->spp;

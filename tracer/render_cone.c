@@ -312,38 +312,12 @@ static float light_transmittance(const render_job *j, vec3 p, float r, vec3 to_l
     return 1.0f - (float)comp.count / (float)FULL_MASK;
 }
 
-/* The cone's axis: the pinhole ray through the centre of the pixel that (org, dir) samples. The
- * render loop hands jittered (and, with depth of field, lens-sampled) rays; a cone covers the whole
- * pixel footprint and the whole lens by itself, so every sample of a pixel maps to the same cone
- * and no lens sampling is needed. */
-static void pixel_axis(const render_job *j, vec3 *org, vec3 *dir)
-{
-    const camera *cam = &j->s->camera;
-    vec3 d = *dir;
-    if ((j->s->effects & EFFECT_DOF) && cam->aperture_radius > 0.0f) {
-        /* Lens ray -> the point it aims at on the focus plane -> the ray from the lens centre. */
-        float df = v3_dot(d, cam->forward);
-        if (df > 1e-12f)
-            d = v3_sub(v3_madd(*org, d, cam->focus_distance / df), cam->position);
-    }
-    float df = v3_dot(d, cam->forward);
-    int w = j->o->width, h = j->o->height;
-    if (!(df > 1e-12f) || w < 1 || h < 1)
-        return;
-    float aspect = (float)w / (float)h;
-    float sx = v3_dot(d, cam->right) / df, sy = v3_dot(d, cam->up) / df;
-    float x = (sx / (cam->tan_half_fov_y * aspect) + 1.0f) * 0.5f * (float)w;
-    float y = (1.0f - sy / cam->tan_half_fov_y) * 0.5f * (float)h;
-    x = fminf(fmaxf(floorf(x), 0.0f), (float)(w - 1)) + 0.5f;
-    y = fminf(fmaxf(floorf(y), 0.0f), (float)(h - 1)) + 0.5f;
-    camera_ray(cam, w, h, x, y, 0.5f, 0.5f, 0, org, dir);
-}
-
 vec3 cone_trace_ray(const render_job *j, vec3 org, vec3 dir, thread_counts *tc)
 {
     const scene *s = j->s;
     tc->rays++;
-    pixel_axis(j, &org, &dir);
+    /* (org, dir) is the pixel's centre ray from the lens centre (render_row): the cone covers the
+     * pixel's footprint and, with depth of field, the lens by its width. */
     int dof = (s->effects & EFFECT_DOF) && s->camera.aperture_radius > 0.0f;
     /* spread is the pixel's half-width per unit distance; the cone gets the disk of the pixel's
      * area (radius 2/sqrt(pi) times that), which matches the ground truth's box filter best. */
