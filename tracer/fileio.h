@@ -8,7 +8,15 @@
 
 #include "error.h"
 
-/* Opens "<path>.tmp.<pid>" for writing; fill *tmp_path (size >= strlen(path) + 32). */
+/* Creates an empty, uniquely named file "<path>.tmp.<pid>.<n>" beside path (so the final rename
+ * stays within one file system) and puts its name in tmp. Fails with a message naming path and the
+ * reason (e.g. the directory is missing or not writable). For writers that open the file by name
+ * (the OpenEXR and OpenImageIO writers). */
+int fileio_temp_create(const char *path, char *tmp, size_t tmp_size, vx_err *e);
+/* Renames a finished temporary file to path; removes it when that fails. */
+int fileio_temp_commit(const char *tmp, const char *path, vx_err *e);
+
+/* fileio_temp_create, then opened for writing as a stdio stream. */
 FILE *fileio_open_temp(const char *path, char *tmp_path, size_t tmp_size, vx_err *e);
 /* Closes f and renames tmp_path to path; on any error removes tmp_path. */
 int fileio_commit(FILE *f, const char *tmp_path, const char *path, vx_err *e);

@@ -2,10 +2,10 @@
  * make every writer atomic (a crash or error never leaves a truncated image under the real name). */
 #include "image.h"
 
+#include "fileio.h"
+
 #include <errno.h>
-#include <fcntl.h>
 #include <math.h>
-#include <stdatomic.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -98,11 +98,11 @@ int image_write_png(const image *img, const char *path, vx_err *e)
         px[i] = is_alpha ? linear8(img->data[i]) : image_linear_to_srgb8(img->data[i]);
     }
     char tmp[4096];
-    int rc = image_tmp_create(path, tmp, sizeof tmp, e);
+    int rc = fileio_temp_create(path, tmp, sizeof tmp, e);
     if (rc == 0) {
         rc = image_write_png8_oiio(px, img->width, img->height, c, tmp, path, e);
         if (rc == 0)
-            rc = image_tmp_commit(tmp, path, e);
+            rc = fileio_temp_commit(tmp, path, e);
         else
             unlink(tmp);
     }
@@ -110,39 +110,3 @@ int image_write_png(const image *img, const char *path, vx_err *e)
     return rc;
 }
 
-int image_tmp_create(const char *path, char *tmp, size_t tmp_size, vx_err *e)
-{
-    /* pid + counter keeps concurrent writers (other processes, other threads) off each other's files. */
-    static atomic_uint counter;
-    unsigned n = atomic_fetch_add(&counter, 1u);
-    int len = snprintf(tmp, tmp_size, "%s.tmp.%ld.%u", path, (long)getpid(), n);
-    if (len < 0 || (size_t)len >= tmp_size)
-        return vx_fail(e, "%s: path too long", path);
-    /* O_EXCL: never clobber a file we did not create; creating it here (rather than letting the
-     * format library do it) gives us errno, hence a precise message for unwritable directories. */
-    int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-    if (fd < 0) {
-        int err = errno;
-        const char *slash = strrchr(path, '/');
-        const char *dir = ".";
-        int dirlen = 1;
-        if (slash) {
-            dir = slash == path ? "/" : path;
-            dirlen = slash == path ? 1 : (int)(slash - path);
-        }
-        return vx_fail(e, "cannot write %s: cannot create a file in directory '%.*s': %s", path, dirlen, dir,
-                       strerror(err));
-    }
-    close(fd);
-    return 0;
-}
-
-int image_tmp_commit(const char *tmp, const char *path, vx_err *e)
-{
-    if (rename(tmp, path) != 0) {
-        int err = errno;
-        unlink(tmp);
-        return vx_fail(e, "cannot write %s: rename from %s failed: %s", path, tmp, strerror(err));
-    }
-    return 0;
-}

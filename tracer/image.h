@@ -31,13 +31,6 @@ int image_read(const char *path, image *out, vx_err *e);
 /* Linear value -> 8-bit sRGB code: IEC 61966-2-1 curve, clamped to [0,1] (NaN -> 0), rounded. */
 unsigned char image_linear_to_srgb8(float linear);
 
-/* Creates an empty, uniquely named temporary file "<path>.tmp.<pid>.<n>" next to path (so the
- * final rename() stays within one file system) and puts its name in tmp. Fails with a message
- * naming path and the reason (e.g. the directory is missing or not writable). */
-int image_tmp_create(const char *path, char *tmp, size_t tmp_size, vx_err *e);
-/* Renames tmp onto path; on failure removes tmp. */
-int image_tmp_commit(const char *tmp, const char *path, vx_err *e);
-
 /* Writes already-encoded 8-bit samples as a PNG at exactly `path` through OpenImageIO, which
  * only stores them (no colour conversion, no alpha association). `what` names the file in errors. */
 int image_write_png8_oiio(const unsigned char *px, int width, int height, int channels, const char *path,

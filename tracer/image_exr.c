@@ -6,6 +6,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "fileio.h"
 #include "image.h"
 
 /* The library reports details through a callback; keep the first message for our error text
@@ -102,7 +103,7 @@ int image_write_exr(const image *img, const char *path, vx_err *e)
         return vx_fail(e, "%s: cannot write an empty image or one with %d channels as EXR (expected 1-4)", path,
                        img ? img->channels : 0);
     char tmp[4096];
-    if (image_tmp_create(path, tmp, sizeof tmp, e) != 0)
+    if (fileio_temp_create(path, tmp, sizeof tmp, e) != 0)
         return -1;
     exr_capture cap = {{0}};
     exr_result_t rv = write_file(img, tmp, &cap);
@@ -111,5 +112,5 @@ int image_write_exr(const image *img, const char *path, vx_err *e)
         return vx_fail(e, "cannot write %s: OpenEXR error: %s", path,
                        cap.msg[0] ? cap.msg : exr_get_default_error_message(rv));
     }
-    return image_tmp_commit(tmp, path, e);
+    return fileio_temp_commit(tmp, path, e);
 }
