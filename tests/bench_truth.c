@@ -8,6 +8,7 @@
 #include "camera.h"
 #include "parallel.h"
 #include "rng.h"
+#include "strata.h"
 #include "truth.h"
 
 typedef struct {

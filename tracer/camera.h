@@ -1,9 +1,18 @@
-/* Camera rays: pinhole, or thin lens when a scene declares "dof". Shared by the ground truth and the
- * voxel tracer so both see exactly the same rays. */
+/* The camera and its rays: pinhole, or thin lens when a scene declares "dof". Shared by the ground
+ * truth, the C voxel tracer and the OpenCL kernel (tracer/cl/render.cl includes this file; the host
+ * copies the scene's camera into its parameter block as it is) so all see exactly the same rays.
+ * Portable C: no libc beyond <math.h>, and a layout that C and OpenCL C define alike. */
 #ifndef VX_CAMERA_H
 #define VX_CAMERA_H
 
-#include "scene.h"
+#include "vec.h"
+
+typedef struct {
+    vec3 position, forward, right, up; /* orthonormal frame */
+    float tan_half_fov_y;
+    float aperture_radius; /* thin lens; used only with EFFECT_DOF */
+    float focus_distance;
+} camera;
 
 #define VX_CAMERA_PI 3.14159265358979323846f
 

@@ -435,10 +435,7 @@ size_t grid_bytes(const voxel_grid *g)
 
 void grid_cell_box(const voxel_grid *g, int level, int x, int y, int z, vec3 *lo, vec3 *hi)
 {
-    double s = ldexp(g->voxel_size_d, level);
-    const double *o = g->origin_d;
-    *lo = v3((float)(o[0] + x * s), (float)(o[1] + y * s), (float)(o[2] + z * s));
-    *hi = v3((float)(o[0] + (x + 1) * s), (float)(o[1] + (y + 1) * s), (float)(o[2] + (z + 1) * s));
+    grid_cell_corners(g, level, x, y, z, lo, hi);
 }
 
 vec3 grid_cell_center(const voxel_grid *g, int level, int x, int y, int z)

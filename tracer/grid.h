@@ -61,8 +61,8 @@ VX_INLINE void grid_to_lattice(const voxel_grid *g, vec3 p, double out[3])
     out[2] = ((double)p.z - g->origin_d[2]) / g->voxel_size_d;
 }
 
-/* World-space corners and centre of a cell of `level` (grid_cell_corners in grid_core.h is the
- * portable twin of grid_cell_box, for OpenCL). */
+/* World-space corners and centre of a cell of `level` (grid_cell_box is grid_core.h's
+ * grid_cell_corners, which the OpenCL kernel calls too). */
 void grid_cell_box(const voxel_grid *g, int level, int x, int y, int z, vec3 *lo, vec3 *hi);
 vec3 grid_cell_center(const voxel_grid *g, int level, int x, int y, int z);
 

@@ -73,8 +73,8 @@ VX_INLINE int grid_level_occupied(const grid_level *L, int x, int y, int z)
     return (int)((L->bits[w] >> ((unsigned)z & 63u)) & 1u);
 }
 
-/* World-space corners of a cell of `level`: the same arithmetic as grid_cell_box in grid.c (which
- * the C tracer calls), so both backends hand models bit-identical voxel corners. */
+/* World-space corners of a cell of `level`. grid.c's grid_cell_box (which the C tracer calls) is
+ * this function, so both backends hand models bit-identical voxel corners. */
 VX_INLINE void grid_cell_corners(const voxel_grid *g, int level, int x, int y, int z, vec3 *lo, vec3 *hi)
 {
     double s = ldexp(g->voxel_size_d, level);

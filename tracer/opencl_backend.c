@@ -1,7 +1,6 @@
 #include "opencl_backend.h"
 
 #include <limits.h>
-#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -12,15 +11,8 @@
 #include "opencl_program.h"
 #include "opencl_runtime.h"
 #include "parallel.h"
-#include "truth.h"
+#include "strata.h"
 
-/* The kernels call camera.h's camera_ray on a vx_cl_camera: it must be scene.h's camera exactly. */
-_Static_assert(sizeof(camera) == sizeof(vx_cl_camera), "vx_cl_camera must mirror scene.h's camera");
-_Static_assert(offsetof(camera, up) == offsetof(vx_cl_camera, up), "vx_cl_camera must mirror scene.h's camera");
-_Static_assert(offsetof(camera, tan_half_fov_y) == offsetof(vx_cl_camera, tan_half_fov_y), "camera layout");
-_Static_assert(offsetof(camera, aperture_radius) == offsetof(vx_cl_camera, aperture_radius), "camera layout");
-_Static_assert(offsetof(camera, focus_distance) == offsetof(vx_cl_camera, focus_distance), "camera layout");
-_Static_assert(LIGHT_DIRECTIONAL == 0 && LIGHT_POINT == 1, "render.cl's cl_light_at tests type == 0");
 _Static_assert((int)EFFECT_SHADOWS == (int)VX_EFFECT_SHADOWS && (int)EFFECT_DOF == (int)VX_EFFECT_DOF &&
                    (int)EFFECT_SPECULAR == (int)VX_EFFECT_SPECULAR && (int)EFFECT_TEXTURES == (int)VX_EFFECT_TEXTURES,
                "the kernels test scene effects with the VX_EFFECT_* bits");
@@ -98,15 +90,11 @@ static void fill_params(vx_cl_params *p, const scene *s, const voxel_grid *g, co
         p->origin_d[a] = g->origin_d[a];
     p->voxel_size_d = g->voxel_size_d;
     p->seed = o->seed;
-    memcpy(&p->cam, &s->camera, sizeof p->cam);
+    p->cam = s->camera;
     p->background = s->background;
     p->light_count = s->light_count < VX_MAX_LIGHTS ? s->light_count : VX_MAX_LIGHTS;
-    for (int i = 0; i < p->light_count; i++) {
-        p->lights[i].type = s->lights[i].type;
-        p->lights[i].direction = s->lights[i].direction;
-        p->lights[i].position = s->lights[i].position;
-        p->lights[i].radiance = s->lights[i].radiance;
-    }
+    for (int i = 0; i < p->light_count; i++)
+        p->lights[i] = s->lights[i];
     p->grid_origin = g->origin;
     p->voxel_size = g->voxel_size;
     p->spread = camera_pixel_spread(&s->camera, o->height);

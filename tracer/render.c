@@ -10,7 +10,7 @@
 #include "parallel.h"
 #include "render_internal.h"
 #include "rng.h"
-#include "truth.h"
+#include "strata.h"
 
 void render_default_options(render_options *o)
 {
@@ -70,7 +70,7 @@ void gather_lights(const render_job *j, vx_query *q, int64_t self, vec3 c, threa
     for (int li = 0; li < q->light_count; li++) {
         vec3 dir, irr;
         float dist;
-        rt_light_at(s, li, c, &dir, &irr, &dist);
+        light_at(&s->lights[li], c, &dir, &irr, &dist);
         if (s->effects & EFFECT_SHADOWS)
             irr = v3_scale(irr, shadow_transmittance(j, q, self, c, dir, dist, tc));
         q->to_light[li] = dir;

@@ -244,7 +244,7 @@ static void march(const render_job *j, const cone *c, float t, float t_end, int 
         if (shade) {
             q.light_count = s->light_count < VX_MAX_LIGHTS ? s->light_count : VX_MAX_LIGHTS;
             for (int li = 0; li < q.light_count; li++) {
-                rt_light_at(s, li, p, &q.to_light[li], &irr[li], &dist[li]);
+                light_at(&s->lights[li], p, &q.to_light[li], &irr[li], &dist[li]);
                 q.irradiance[li] = irr[li];
             }
         }

@@ -123,22 +123,6 @@ void rt_surface(const rt_scene *rt, unsigned prim, float u, float v, vec3 origin
     out->albedo = out->shaded ? albedo : v3(0, 0, 0);
 }
 
-void rt_light_at(const scene *s, int li, vec3 p, vec3 *to_light, vec3 *irradiance, float *distance)
-{
-    const light *L = &s->lights[li];
-    if (L->type == LIGHT_DIRECTIONAL) {
-        *to_light = L->direction;
-        *irradiance = L->radiance;
-        *distance = INFINITY;
-        return;
-    }
-    vec3 d = v3_sub(L->position, p);
-    float d2 = fmaxf(v3_dot(d, d), 1e-20f);
-    *distance = sqrtf(d2);
-    *to_light = v3_scale(d, 1.0f / *distance);
-    *irradiance = v3_scale(L->radiance, 1.0f / d2);
-}
-
 vec3 rt_shade_light(const scene *s, const surface_hit *h, vec3 to_viewer, vec3 to_light, vec3 irradiance)
 {
     if (!h->shaded)

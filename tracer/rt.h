@@ -45,10 +45,6 @@ void rt_free(rt_scene *rt);
 void rt_surface(const rt_scene *rt, unsigned prim, float u, float v, vec3 origin, vec3 dir, float t,
                 surface_hit *out);
 
-/* Unit direction and irradiance from light li at point p (irradiance on a surface facing the light;
- * the caller applies the cosine). *distance is the light's distance (INFINITY for directional). */
-void rt_light_at(const scene *s, int li, vec3 p, vec3 *to_light, vec3 *irradiance, float *distance);
-
 /* Outgoing radiance toward `to_viewer` from light li arriving along to_light with irradiance E:
  * Lambert plus, when the scene declares "specular", the Beckmann lobe. */
 vec3 rt_shade_light(const scene *s, const surface_hit *h, vec3 to_viewer, vec3 to_light, vec3 irradiance);

@@ -5,7 +5,9 @@
 
 #include <stdint.h>
 
+#include "camera.h"
 #include "error.h"
+#include "light.h"
 #include "mesh.h"
 #include "texture.h"
 #include "vec.h"
@@ -25,22 +27,6 @@ typedef struct {
     int double_sided; /* back faces are shaded like front faces; otherwise they are black occluders */
     int texture;      /* index into scene.textures, or -1 */
 } material;
-
-enum { LIGHT_DIRECTIONAL = 0, LIGHT_POINT = 1 };
-
-typedef struct {
-    int type;
-    vec3 direction; /* directional: unit vector from the scene toward the light */
-    vec3 position;  /* point light */
-    vec3 radiance;  /* directional: irradiance on a facing surface; point: intensity (W/sr) */
-} light;
-
-typedef struct {
-    vec3 position, forward, right, up; /* orthonormal frame */
-    float tan_half_fov_y;
-    float aperture_radius; /* thin lens; used only with EFFECT_DOF */
-    float focus_distance;
-} camera;
 
 typedef struct {
     char *path; /* the scene file, for messages */

@@ -7,6 +7,7 @@
 #include "camera.h"
 #include "parallel.h"
 #include "rng.h"
+#include "strata.h"
 
 #define PACKET 16
 
@@ -16,32 +17,6 @@ typedef struct {
     image *out;
     truth_counts *per_thread;
 } truth_job;
-
-void truth_strata(int n, int *sx, int *sy)
-{
-    *sx = (int)floor(sqrt((double)n));
-    if (*sx < 1)
-        *sx = 1;
-    *sy = n / *sx;
-}
-
-void truth_stratified_sample(int i, int n, float r1, float r2, float *x, float *y)
-{
-    int sx, sy;
-    truth_strata(n, &sx, &sy);
-    truth_strata_sample(i, sx, sy, r1, r2, x, y);
-}
-
-void truth_strata_sample(int i, int sx, int sy, float r1, float r2, float *x, float *y)
-{
-    if (i < sx * sy) {
-        *x = ((float)(i % sx) + r1) / (float)sx;
-        *y = ((float)(i / sx) + r2) / (float)sy;
-    } else {
-        *x = r1;
-        *y = r2;
-    }
-}
 
 static int gcd(int a, int b)
 {
@@ -128,7 +103,7 @@ static void trace_packet(const rt_scene *rt, const truth_options *o, int px, int
             if (k >= count || !hit[k] || !hits[k].shaded)
                 continue;
             float dist;
-            rt_light_at(s, li, hits[k].position, &to_light[k], &irr[k], &dist);
+            light_at(&s->lights[li], hits[k].position, &to_light[k], &irr[k], &dist);
             vec3 side = hits[k].front_facing ? hits[k].geometric_normal : v3_scale(hits[k].geometric_normal, -1.0f);
             if (v3_dot(side, to_light[k]) <= 0.0f || v3_dot(hits[k].normal, to_light[k]) <= 0.0f)
                 continue; /* faces away: no light, and no shadow ray needed */

@@ -1,5 +1,5 @@
 /* Ground truth: the scene's triangles rendered with Embree, box-filtered over each pixel with
- * stratified jittered samples. Computes exactly the declared effects. */
+ * stratified jittered samples (strata.h). Computes exactly the declared effects. */
 #ifndef VX_TRUTH_H
 #define VX_TRUTH_H
 
@@ -22,12 +22,5 @@ typedef struct {
 } truth_counts;
 
 int truth_render(const rt_scene *rt, const truth_options *o, image *out, truth_counts *counts, vx_err *e);
-
-/* The sample position in [0,1)^2 of sample i of n in a pixel: jittered in a sx * sy grid of strata
- * (sx = floor(sqrt(n)), sy = n / sx); samples beyond sx * sy are uniformly random. */
-void truth_stratified_sample(int i, int n, float r1, float r2, float *x, float *y);
-/* The same in two steps, for loops over many samples: the strata counts, then sample i. */
-void truth_strata(int n, int *sx, int *sy);
-void truth_strata_sample(int i, int sx, int sy, float r1, float r2, float *x, float *y);
 
 #endif

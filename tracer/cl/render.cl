@@ -5,10 +5,11 @@
  *   VX_CL_COMPOSITING           its VX_COMPOSITE_* rule (a constant, so each program keeps one rule)
  *   VX_CL_RECORD_BYTES          its voxel_bytes
  *   VX_CL_PARAMS_BYTES          sizeof(vx_cl_params) on the host
- * The traversal is grid_traverse_core.h, the rays camera.h's camera_ray, the random numbers rng.h,
- * the shading the model's own code: what is written here is only the tracer's control flow, which
- * mirrors render.c line for line (shadow_transmittance, gather_lights, evaluate, answer_for_voxel,
- * trace_ray, render_row) so that both backends give the same image.
+ * The traversal is grid_traverse_core.h, the rays camera.h's camera_ray, the pixel samples strata.h,
+ * the lights light.h's light_at, the random numbers rng.h, the shading the model's own code: what is
+ * written here is only the tracer's control flow, which mirrors render.c line for line
+ * (shadow_transmittance, gather_lights, evaluate, answer_for_voxel, trace_ray, render_row) so that both
+ * backends give the same image.
  *
  * The shading cache works as the C tracer's: the first ray to visit a voxel computes its answer for
  * the direction voxel -> camera and publishes it (state 0 empty, 1 being written, 2 ready); a ray
@@ -18,17 +19,14 @@
  * state = 2, and readers use volatile loads (served from coherent memory, not a stale per-core
  * cache line on GPUs) of the state first, then of the entry. */
 #define GT_ITER_INLINE static inline __attribute__((always_inline))
+#include "camera.h"
 #include "grid_traverse_core.h"
+#include "light.h"
 #include "model.h"
 #include "render_params.h"
 #include "rng.h"
 #include "shading.h"
-
-/* camera.h takes its `camera` type from scene.h, which is host-only (meshes, textures, files): mark
- * scene.h as included and give the name to vx_cl_camera, which declares the same fields. */
-#define VX_SCENE_H
-typedef vx_cl_camera camera;
-#include "camera.h"
+#include "strata.h"
 
 /* A mismatch between the host's and this compiler's layout would read garbage: refuse to build. */
 typedef char vx_cl_params_size_matches_host[sizeof(vx_cl_params) == VX_CL_PARAMS_BYTES ? 1 : -1];
@@ -74,34 +72,6 @@ static __global const void *cl_record(const cl_job *j, long index)
     return (__global const void *)(j->records + (size_t)index * VX_CL_RECORD_BYTES);
 }
 
-/* rt_light_at (tracer/rt.c), the same arithmetic. */
-static void cl_light_at(__global const vx_cl_light *L, vec3 p, vec3 *to_light, vec3 *irradiance, float *distance)
-{
-    if (L->type == 0) {
-        *to_light = L->direction;
-        *irradiance = L->radiance;
-        *distance = INFINITY;
-        return;
-    }
-    vec3 d = v3_sub(L->position, p);
-    float d2 = fmaxf(v3_dot(d, d), 1e-20f);
-    *distance = sqrtf(d2);
-    *to_light = v3_scale(d, 1.0f / *distance);
-    *irradiance = v3_scale(L->radiance, 1.0f / d2);
-}
-
-/* truth_strata_sample (tracer/truth.c): sample i of sx * sy strata, jittered by (r1, r2). */
-static void cl_strata_sample(int i, int sx, int sy, float r1, float r2, float *x, float *y)
-{
-    if (i < sx * sy) {
-        *x = ((float)(i % sx) + r1) / (float)sx;
-        *y = ((float)(i / sx) + r2) / (float)sy;
-    } else {
-        *x = r1;
-        *y = r2;
-    }
-}
-
 /* render.c's shadow_transmittance. */
 static float cl_shadow_transmittance(cl_job *j, const vx_query *q, long self, vec3 p, vec3 to_light, float distance)
 {
@@ -140,7 +110,8 @@ static void cl_gather_lights(cl_job *j, vx_query *q, long self, vec3 c)
     for (int li = 0; li < q->light_count; li++) {
         vec3 dir, irr;
         float dist;
-        cl_light_at(&P->lights[li], c, &dir, &irr, &dist);
+        light L = P->lights[li]; /* light_at takes a private pointer (OpenCL C 1.2: no generic one) */
+        light_at(&L, c, &dir, &irr, &dist);
         if (P->effects & VX_EFFECT_SHADOWS)
             irr = v3_scale(irr, cl_shadow_transmittance(j, q, self, c, dir, dist));
         q->to_light[li] = dir;
@@ -323,7 +294,7 @@ __kernel void vx_render(__global const vx_cl_params *P, __global ulong *cols, __
     for (int i = 0; i < spp; i++) {
         float sx, sy, lu = 0, lv = 0;
         float r1 = rng_float(&r), r2 = rng_float(&r);
-        cl_strata_sample(i, P->strata_x, P->strata_y, r1, r2, &sx, &sy);
+        truth_strata_sample(i, P->strata_x, P->strata_y, r1, r2, &sx, &sy);
         if (dof) {
             lu = rng_float(&r);
             lv = rng_float(&r);

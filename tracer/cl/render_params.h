@@ -1,27 +1,15 @@
 /* What the host hands the OpenCL tracer (tracer/opencl_backend.c -> tracer/cl/render.cl): one
  * parameter block and the cache entry, compiled on both sides so that the layouts agree. Only types
  * whose size and alignment C on x86-64 and OpenCL C define alike (double, 64/32-bit integers, float,
- * vec3 = three floats); the program checks sizeof against the host's (VX_CL_PARAMS_BYTES). */
+ * vec3 = three floats, and camera.h's camera and light.h's light, made of those); the program checks
+ * sizeof against the host's (VX_CL_PARAMS_BYTES). */
 #ifndef VX_CL_RENDER_PARAMS_H
 #define VX_CL_RENDER_PARAMS_H
 
+#include "camera.h"
 #include "grid_core.h"
+#include "light.h"
 #include "model.h"
-
-/* camera.h's camera, field for field as scene.h declares it (opencl_backend.c asserts the match):
- * the kernels call camera.h's camera_ray itself, so both backends shoot the same rays. */
-typedef struct {
-    vec3 position, forward, right, up;
-    float tan_half_fov_y;
-    float aperture_radius;
-    float focus_distance;
-} vx_cl_camera;
-
-/* A light as scene.h's light (type 0 directional, 1 point). */
-typedef struct {
-    int type;
-    vec3 direction, position, radiance;
-} vx_cl_light;
 
 typedef struct {
     double origin_d[3];       /* the grid mapping (grid_core.h) */
@@ -29,9 +17,9 @@ typedef struct {
     uint64_t seed;
     uint64_t level_cols[GRID_MAX_LEVELS];  /* where each level's column table starts in the cols buffer */
     uint64_t level_words[GRID_MAX_LEVELS]; /* where each level's words start in the bits and prefix buffers */
-    vx_cl_camera cam;
+    camera cam;               /* the scene's, as it is */
     vec3 background;
-    vx_cl_light lights[VX_MAX_LIGHTS];
+    light lights[VX_MAX_LIGHTS];
     vec3 grid_origin;
     float voxel_size;
     float spread;             /* footprint radius per unit distance (camera_pixel_spread) */
