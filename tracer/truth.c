@@ -125,6 +125,9 @@ static void trace_packet(const rt_scene *rt, const truth_options *o, int px, int
         if (nshadow) {
             struct RTCIntersectContext sctx;
             rtcInitIntersectContext(&sctx);
+            /* One pixel's shadow rays start within the pixel's footprint and head for the same
+             * light: a coherent packet, which Embree traverses together. */
+            sctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
             rtcOccluded16(svalid, rt->bvh, &sctx, &sr);
             counts->shadow_rays += (uint64_t)nshadow;
             for (int k = 0; k < count; k++)
