@@ -2,32 +2,13 @@
  * hit inside it on a front face; its colour and normal are the means over those hits; nearest
  * lookup, first-hit compositing. */
 #include "binary_eval.h" /* the record and its evaluation (portable C, shared with OpenCL) */
+#include "average_bake.h"
 
 static void binary_bake(const vx_voxel *v, const vx_sample *samples, int n, void *out)
 {
     (void)v;
     binary_record *r = out;
-    int hits = 0;
-    vec3 c = v3(0, 0, 0), nrm = v3(0, 0, 0);
-    float spec = 0, rough = 0;
-    for (int i = 0; i < n; i++)
-        if (samples[i].kind == VX_SAMPLE_INSIDE_FRONT) {
-            hits++;
-            c = v3_add(c, samples[i].albedo);
-            nrm = v3_add(nrm, samples[i].normal);
-            spec += samples[i].specular;
-            rough += samples[i].roughness;
-        }
-    r->opaque = hits > 0;
-    if (!hits)
-        return;
-    float inv = 1.0f / (float)hits;
-    c = v3_scale(c, inv);
-    nrm = v3_scale(nrm, inv);
-    r->color[0] = c.x, r->color[1] = c.y, r->color[2] = c.z;
-    r->normal[0] = nrm.x, r->normal[1] = nrm.y, r->normal[2] = nrm.z;
-    r->specular = spec * inv;
-    r->roughness = rough * inv;
+    r->opaque = average_front_hits(samples, n, r->color, r->normal, &r->specular, &r->roughness) > 0;
 }
 
 const vx_model model_binary = {

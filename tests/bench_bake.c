@@ -68,11 +68,7 @@ static void raw_item(void *p, int64_t item, int thread)
             for (int k = 0; k < PACKET; k++) {
                 const raw_ray *q = &r[first + k < RAYS ? first + k : first];
                 valid[k] = first + k < RAYS ? -1 : 0;
-                rh.ray.org_x[k] = q->ox, rh.ray.org_y[k] = q->oy, rh.ray.org_z[k] = q->oz;
-                rh.ray.dir_x[k] = q->dx, rh.ray.dir_y[k] = q->dy, rh.ray.dir_z[k] = q->dz;
-                rh.ray.tnear[k] = q->tnear, rh.ray.tfar[k] = INFINITY, rh.ray.time[k] = 0.0f;
-                rh.ray.mask[k] = 0xffffffffu, rh.ray.id[k] = (unsigned)k, rh.ray.flags[k] = 0;
-                rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+                rt_packet_rayhit(&rh, k, v3(q->ox, q->oy, q->oz), v3(q->dx, q->dy, q->dz), q->tnear, INFINITY);
             }
             struct RTCIntersectContext ctx;
             rtcInitIntersectContext(&ctx); /* incoherent, as in bake_trace */

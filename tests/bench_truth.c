@@ -38,11 +38,7 @@ static void raw_row(void *p, int64_t row, int thread)
                 vec3 o, d;
                 camera_ray(&s->camera, j->width, j->height, (float)px + sx, (float)py + sy, 0, 0, 0, &o, &d);
                 valid[k] = first + k < j->spp ? -1 : 0;
-                rh.ray.org_x[k] = o.x, rh.ray.org_y[k] = o.y, rh.ray.org_z[k] = o.z;
-                rh.ray.dir_x[k] = d.x, rh.ray.dir_y[k] = d.y, rh.ray.dir_z[k] = d.z;
-                rh.ray.tnear[k] = 0, rh.ray.tfar[k] = INFINITY, rh.ray.time[k] = 0;
-                rh.ray.mask[k] = ~0u, rh.ray.id[k] = 0, rh.ray.flags[k] = 0;
-                rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+                rt_packet_rayhit(&rh, k, o, d, 0.0f, INFINITY);
             }
             struct RTCIntersectContext ctx;
             rtcInitIntersectContext(&ctx);

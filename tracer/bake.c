@@ -89,15 +89,7 @@ void bake_trace(const rt_scene *rt, const voxel_grid *g, size_t index, vx_sample
         for (int k = 0; k < PACKET; k++) {
             const vx_sample *sp = &samples[first + (k < count ? k : 0)];
             valid[k] = k < count ? -1 : 0;
-            rh.ray.org_x[k] = sp->origin.x, rh.ray.org_y[k] = sp->origin.y, rh.ray.org_z[k] = sp->origin.z;
-            rh.ray.dir_x[k] = sp->dir.x, rh.ray.dir_y[k] = sp->dir.y, rh.ray.dir_z[k] = sp->dir.z;
-            rh.ray.tnear[k] = fmaxf(0.0f, sp->t_entry - slack);
-            rh.ray.tfar[k] = INFINITY;
-            rh.ray.time[k] = 0.0f;
-            rh.ray.mask[k] = 0xffffffffu;
-            rh.ray.id[k] = (unsigned)k;
-            rh.ray.flags[k] = 0;
-            rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+            rt_packet_rayhit(&rh, k, sp->origin, sp->dir, fmaxf(0.0f, sp->t_entry - slack), INFINITY);
         }
         struct RTCIntersectContext ctx;
         rtcInitIntersectContext(&ctx);

@@ -34,6 +34,26 @@ typedef struct {
     const material *material;
 } surface_hit;
 
+/* Lane k of an Embree ray packet: origin, direction and interval [tnear, tfar]; every other field
+ * at its neutral value. The ray of a RTCRayHit16 also gets an invalid hit. */
+static inline void rt_packet_ray(struct RTCRay16 *r, int k, vec3 org, vec3 dir, float tnear, float tfar)
+{
+    r->org_x[k] = org.x, r->org_y[k] = org.y, r->org_z[k] = org.z;
+    r->dir_x[k] = dir.x, r->dir_y[k] = dir.y, r->dir_z[k] = dir.z;
+    r->tnear[k] = tnear;
+    r->tfar[k] = tfar;
+    r->time[k] = 0.0f;
+    r->mask[k] = 0xffffffffu;
+    r->id[k] = (unsigned)k;
+    r->flags[k] = 0;
+}
+
+static inline void rt_packet_rayhit(struct RTCRayHit16 *rh, int k, vec3 org, vec3 dir, float tnear, float tfar)
+{
+    rt_packet_ray(&rh->ray, k, org, dir, tnear, tfar);
+    rh->hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+}
+
 #ifdef __cplusplus
 extern "C" {
 #endif

@@ -64,15 +64,7 @@ static void trace_packet(const rt_scene *rt, const truth_options *o, int px, int
         vec3 org, dir;
         camera_ray(&s->camera, o->width, o->height, (float)px + sx, (float)py + sy, lu, lv, dof, &org, &dir);
         dirs[k] = dir;
-        rh.ray.org_x[k] = org.x, rh.ray.org_y[k] = org.y, rh.ray.org_z[k] = org.z;
-        rh.ray.dir_x[k] = dir.x, rh.ray.dir_y[k] = dir.y, rh.ray.dir_z[k] = dir.z;
-        rh.ray.tnear[k] = 0.0f;
-        rh.ray.tfar[k] = INFINITY;
-        rh.ray.time[k] = 0.0f;
-        rh.ray.mask[k] = 0xffffffffu;
-        rh.ray.id[k] = (unsigned)k;
-        rh.ray.flags[k] = 0;
-        rh.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+        rt_packet_rayhit(&rh, k, org, dir, 0.0f, INFINITY);
     }
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
@@ -111,14 +103,7 @@ static void trace_packet(const rt_scene *rt, const truth_options *o, int px, int
             if (!shadows)
                 continue;
             vec3 org = v3_madd(hits[k].position, side, rt->epsilon);
-            sr.org_x[k] = org.x, sr.org_y[k] = org.y, sr.org_z[k] = org.z;
-            sr.dir_x[k] = to_light[k].x, sr.dir_y[k] = to_light[k].y, sr.dir_z[k] = to_light[k].z;
-            sr.tnear[k] = 0.0f;
-            sr.tfar[k] = isinf(dist) ? INFINITY : dist * (1.0f - 1e-5f);
-            sr.time[k] = 0.0f;
-            sr.mask[k] = 0xffffffffu;
-            sr.id[k] = (unsigned)k;
-            sr.flags[k] = 0;
+            rt_packet_ray(&sr, k, org, to_light[k], 0.0f, isinf(dist) ? INFINITY : dist * (1.0f - 1e-5f));
             svalid[k] = -1;
             nshadow++;
         }
