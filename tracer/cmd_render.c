@@ -185,12 +185,7 @@ int cmd_render(int argc, char **argv)
         cJSON_AddNumberToObject(j, "cache_hits", (double)rcnt.cache_hits);
         cJSON_AddBoolToObject(j, "cache", o.cache);
         cJSON_AddBoolToObject(j, "shadow_skip", o.shadow_skip);
-        cJSON_AddNumberToObject(j, "spp", o.spp);
-        cJSON_AddNumberToObject(j, "width", o.width);
-        cJSON_AddNumberToObject(j, "height", o.height);
-        cJSON_AddNumberToObject(j, "seed", (double)o.seed);
-        cJSON_AddNumberToObject(j, "threads", parallel_threads(o.threads));
-        cJSON_AddNumberToObject(j, "peak_rss_bytes", peak_rss_bytes());
+        stats_add_image(j, o.spp, o.width, o.height, o.seed, o.threads);
         int bad = stats_write(j, stats_path, "render");
         cJSON_Delete(j);
         if (bad) {

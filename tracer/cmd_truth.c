@@ -26,6 +26,16 @@ cJSON *stats_scene_fields(const scene *s)
     return j;
 }
 
+void stats_add_image(cJSON *j, int spp, int width, int height, uint64_t seed, int threads)
+{
+    cJSON_AddNumberToObject(j, "spp", spp);
+    cJSON_AddNumberToObject(j, "width", width);
+    cJSON_AddNumberToObject(j, "height", height);
+    cJSON_AddNumberToObject(j, "seed", (double)seed);
+    cJSON_AddNumberToObject(j, "threads", parallel_threads(threads));
+    cJSON_AddNumberToObject(j, "peak_rss_bytes", peak_rss_bytes());
+}
+
 int stats_write(cJSON *j, const char *path, const char *cmd)
 {
     char *text = cJSON_Print(j);
@@ -108,12 +118,7 @@ int cmd_truth(int argc, char **argv)
         cJSON_AddNumberToObject(j, "shadow_rays", (double)counts.shadow_rays);
         cJSON_AddNumberToObject(j, "voxels", 0);
         cJSON_AddNumberToObject(j, "bytes_per_voxel", 0);
-        cJSON_AddNumberToObject(j, "spp", o.spp);
-        cJSON_AddNumberToObject(j, "width", o.width);
-        cJSON_AddNumberToObject(j, "height", o.height);
-        cJSON_AddNumberToObject(j, "seed", (double)o.seed);
-        cJSON_AddNumberToObject(j, "threads", parallel_threads(o.threads));
-        cJSON_AddNumberToObject(j, "peak_rss_bytes", peak_rss_bytes());
+        stats_add_image(j, o.spp, o.width, o.height, o.seed, o.threads);
         int bad = stats_write(j, stats_path, "truth");
         cJSON_Delete(j);
         if (bad) {

@@ -3,6 +3,7 @@
 #define VX_COMMANDS_H
 
 #include <cjson/cJSON.h>
+#include <stdint.h>
 
 #include "bake.h"
 #include "scene.h"
@@ -16,6 +17,8 @@ int cmd_models(int argc, char **argv);
 /* --stats JSON helpers: the scene's fields, and writing the object atomically to path. */
 cJSON *stats_scene_fields(const scene *s);
 int stats_write(cJSON *j, const char *path, const char *cmd);
+/* The image fields of --stats: spp, width, height, seed, threads, peak_rss_bytes. */
+void stats_add_image(cJSON *j, int spp, int width, int height, uint64_t seed, int threads);
 /* The bake fields of --stats (model, res, voxels, bytes_per_voxel, bake seconds, ...). */
 void stats_add_bake(cJSON *j, const vx_model *m, const voxel_grid *g, const bake_counts *c, int rays,
                     double grid_seconds);
