@@ -13,6 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "bench.h"
 #include "bake.h"
 #include "metrics.h"
 #include "parallel.h"
@@ -80,18 +81,6 @@ static void raw_item(void *p, int64_t item, int thread)
     j->hits[thread][0] += hits;
 }
 
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double median(double *v, int n)
-{
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 static int die(const char *what, const vx_err *e)
 {
     fprintf(stderr, "bench_bake: %s: %s\n", what, e->msg);
@@ -147,9 +136,9 @@ static int bench_rays(const rt_scene *rt, const vx_model *alpha, int threads, in
         hits += j->hits[t][0];
     printf("bake   %-8s %d^3 %zu voxels x %d rays, %d threads: bake %.2f Mrays/s; raw rtcIntersect16 %.2f Mrays/s "
            "(%.0f%% hit); generation alone %.1f Mrays/s\n",
-           rt->scene->name, res, voxels, RAYS, threads, median(ours, RUNS) / 1e6, median(raw, RUNS) / 1e6,
+           rt->scene->name, res, voxels, RAYS, threads, bench_median(ours, RUNS) / 1e6, bench_median(raw, RUNS) / 1e6,
            100.0 * (double)hits / ((double)raw_rays * RUNS), gen_rate / 1e6);
-    printf("bake   ratio bake/raw-Embree rays/s: %.2f (target >= 0.5; median of %d)\n", median(ratio, RUNS), RUNS);
+    printf("bake   ratio bake/raw-Embree rays/s: %.2f (target >= 0.5; median of %d)\n", bench_median(ratio, RUNS), RUNS);
     for (int t = 0; t < threads; t++)
         free(scratch[t]);
     free(scratch);
@@ -184,9 +173,9 @@ static int bench_bake_time(const rt_scene *rt, const vx_model *alpha, int thread
         free(records);
         grid_free(&g);
     }
-    double t = median(total, RUNS);
+    double t = bench_median(total, RUNS);
     printf("bake   %-8s %d^3 alpha %d rays, %zu voxels, %d threads: %.2f s (grid %.3f s + sampling %.2f s; median of %d)\n",
-           rt->scene->name, res, RAYS, voxels, threads, t, median(grid_s, RUNS), median(bake_s, RUNS), RUNS);
+           rt->scene->name, res, RAYS, voxels, threads, t, bench_median(grid_s, RUNS), bench_median(bake_s, RUNS), RUNS);
     printf("bake   %d^3 time/target: %.2f (target %.0f s, <= 1 meets it); paper (single-threaded, %.0f s)/ours: %.1fx\n",
            res, t / target, target, paper, paper / t);
     return 0;
@@ -235,7 +224,7 @@ static int bench_cache(const rt_scene *rt, const char *model_name, int threads, 
     image_metrics mt;
     if (metrics_compare(&img[1], &img[0], &mt, &e))
         return die("compare", &e);
-    double on = median(secs[1], RUNS), off = median(secs[0], RUNS);
+    double on = bench_median(secs[1], RUNS), off = bench_median(secs[0], RUNS);
     printf("render %-8s %d^3 %-6s 128x128 4 spp: cache on %.1f ms, off %.1f ms (%llu cache hits); "
            "ratio on/off %.2f (speedup %.2fx; median of %d); cached vs uncached MSE %.3g, SSIM %.4f\n",
            s->name, res, m->name, 1e3 * on, 1e3 * off, (unsigned long long)hits, on / off, off / on, RUNS, mt.mse,

@@ -12,15 +12,10 @@
 #include <string.h>
 #include <time.h>
 
+#include "bench.h"
 #include "commands.h"
 #include "parallel.h"
 #include "render.h"
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return x < y ? -1 : x > y;
-}
 
 static double cpu_seconds(void)
 {
@@ -50,12 +45,6 @@ static double render_once(const scene *s, const voxel_grid *g, const vx_model *m
     double t = cpu_seconds() - t0;
     image_free(&img);
     return t;
-}
-
-static double median5(double *t)
-{
-    qsort(t, 5, sizeof t[0], cmp_double);
-    return t[2];
 }
 
 int main(int argc, char **argv)
@@ -89,7 +78,7 @@ int main(int argc, char **argv)
         for (int k = 0; k < 2; k++)
             t[k][i] = render_once(&s, &g[k], model_find(names[k]), records[k], spp[k], &rc[k]);
     for (int k = 0; k < 2; k++)
-        secs[k] = median5(t[k]);
+        secs[k] = bench_median(t[k], 5);
     double pixels = (double)s.width * s.height;
     printf("heitz-neyret render on %s at %d^3, %dx%d, 1 thread, CPU seconds (median of 5, interleaved):\n", s.name, res, s.width, s.height);
     printf("  alpha (4 rays/pixel, cache)   %.3f s  %.2f us/pixel/core\n", secs[0], 1e6 * secs[0] / pixels);
@@ -105,7 +94,7 @@ int main(int argc, char **argv)
     double td[5];
     for (int i = 0; i < 5; i++)
         td[i] = render_once(&s, &g[1], model_find("heitz-neyret"), records[1], 1, &rd);
-    double dof = median5(td);
+    double dof = bench_median(td, 5);
     printf("  with depth of field (aperture %.3f, focus %.2f): %.3f s, %.2fx the focused render "
            "(%.1f cone elements per pixel)\n",
            s.camera.aperture_radius, focus, dof, dof / secs[1], (double)rd.voxel_visits / pixels);

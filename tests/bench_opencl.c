@@ -14,24 +14,13 @@
 #include <string.h>
 #include <time.h>
 
+#include "bench.h"
 #include "commands.h"
 #include "opencl_backend.h"
 #include "parallel.h"
 #include "render.h"
 
 #define RUNS 5
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double median(double *v, int n)
-{
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 static double cpu_seconds(void)
 {
@@ -94,11 +83,11 @@ static int bench_model(const scene *s, const vx_model *m, int res, int size)
             compile = oc.compile_seconds;
     }
     if (!rc) {
-        double c = median(c_s, RUNS), cl = median(cl_s, RUNS);
-        double ccpu = median(c_cpu, RUNS), clcpu = median(cl_cpu, RUNS);
+        double c = bench_median(c_s, RUNS), cl = bench_median(cl_s, RUNS);
+        double ccpu = bench_median(c_cpu, RUNS), clcpu = bench_median(cl_cpu, RUNS);
         printf("opencl %-8s %d^3 %-12s %dx%d %d spp: C %.1f ms, OpenCL %.1f ms (kernel %.1f); CPU time C %.1f ms, "
                "OpenCL kernel %.1f ms; compile %.2f s first, %.2f s cached; max |OpenCL - C| %.2g\n",
-               s->name, res, m->name, size, size, o.spp, 1e3 * c, 1e3 * cl, 1e3 * median(kernel_s, RUNS), 1e3 * ccpu,
+               s->name, res, m->name, size, size, o.spp, 1e3 * c, 1e3 * cl, 1e3 * bench_median(kernel_s, RUNS), 1e3 * ccpu,
                1e3 * clcpu, first_compile, compile, max_difference(&img_c, &img_cl));
         printf("opencl %-8s %-12s ratio OpenCL-on-PoCL/C render time: %.2f (target <= 1; median of %d); CPU time "
                "ratio %.2f\n",

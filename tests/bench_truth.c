@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+#include "bench.h"
 #include "camera.h"
 #include "parallel.h"
 #include "rng.h"
@@ -51,12 +52,6 @@ static void raw_row(void *p, int64_t row, int thread)
     j->hits[thread] += hits;
 }
 
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
 int main(int argc, char **argv)
 {
     const char *path = argc > 1 ? argv[1] : "scenes/bunny.json";
@@ -89,14 +84,11 @@ int main(int argc, char **argv)
         ours[run] = (double)(c.primary_rays + c.shadow_rays) / c.seconds;
         ours_primary[run] = (double)c.primary_rays / c.seconds;
     }
-    qsort(raw, RUNS, sizeof(double), cmp_double);
-    qsort(ours, RUNS, sizeof(double), cmp_double);
-    qsort(ours_primary, RUNS, sizeof(double), cmp_double);
     printf("truth  %-10s %dx%d %4d spp %d threads: truth %.1f Mrays/s (primary+shadow), %.1f Mrays/s primary; "
            "raw rtcIntersect16 %.1f Mrays/s\n",
-           s.name, s.width, s.height, spp, threads, ours[RUNS / 2] / 1e6, ours_primary[RUNS / 2] / 1e6,
-           raw[RUNS / 2] / 1e6);
-    printf("truth  ratio truth/raw-Embree rays/s: %.2f (target >= 0.7; medians of %d)\n", ours[RUNS / 2] / raw[RUNS / 2],
+           s.name, s.width, s.height, spp, threads, bench_median(ours, RUNS) / 1e6, bench_median(ours_primary, RUNS) / 1e6,
+           bench_median(raw, RUNS) / 1e6);
+    printf("truth  ratio truth/raw-Embree rays/s: %.2f (target >= 0.7; medians of %d)\n", bench_median(ours, RUNS) / bench_median(raw, RUNS),
            RUNS);
     rt_free(&rt);
     scene_free(&s);

@@ -9,24 +9,13 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+#include "bench.h"
 #include "bake.h"
 #include "parallel.h"
 #include "render.h"
 
 #define RUNS 3
 #define RAYS 150
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double median(double *v, int n)
-{
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 static int die(const char *what, const vx_err *e)
 {
@@ -69,10 +58,10 @@ static int bench_bake(const rt_scene *rt, const vx_model *vm, const vx_model *al
             return 1;
         ratio[run] = v[run] / a[run];
     }
-    double t = median(v, RUNS);
+    double t = bench_median(v, RUNS);
     printf("vmesh  %-8s %d^3 bake %.2f s (alpha %.2f s; vmesh/alpha %.2f), %zu B/voxel, %d threads; time/target %.2f "
            "(target %.0f s, <= 1 meets it); paper (single-threaded, %.0f s)/ours %.1fx (median of %d)\n",
-           rt->scene->name, res, t, median(a, RUNS), median(ratio, RUNS), vm->voxel_bytes, threads, t / target, target,
+           rt->scene->name, res, t, bench_median(a, RUNS), bench_median(ratio, RUNS), vm->voxel_bytes, threads, t / target, target,
            paper, paper / t, RUNS);
     return 0;
 }
@@ -115,8 +104,8 @@ static int bench_render(const rt_scene *rt, const vx_model *vm, const vx_model *
         }
         printf("vmesh  %-8s %d^3 render 128x128 4 spp, cache %s: vmesh %.1f ms, alpha %.1f ms; vmesh/alpha %.2f "
                "(median of %d)\n",
-               rt->scene->name, res, cache ? "on " : "off", 1e3 * median(v, RUNS), 1e3 * median(a, RUNS),
-               median(ratio, RUNS), RUNS);
+               rt->scene->name, res, cache ? "on " : "off", 1e3 * bench_median(v, RUNS), 1e3 * bench_median(a, RUNS),
+               bench_median(ratio, RUNS), RUNS);
     }
     free(rv);
     free(ra);
