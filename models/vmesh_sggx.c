@@ -1,48 +1,9 @@
 /* `vmesh`: SGGX fit to a voxel's front-facing normals (Heitz et al. 2015 as the authors' code does
- * it; see vmesh_bake.h). Eigen-decomposition by cyclic Jacobi rotations in double: a 3x3 symmetric
- * matrix converges in a handful of sweeps and the method stays accurate for the repeated and zero
- * eigenvalues that planes, pairs of opposite normals and single normals produce. */
+ * it; see vmesh_bake.h), with the shared Jacobi eigen-decomposition (eigen_sym3.h). */
 #include <math.h>
 
+#include "eigen_sym3.h"
 #include "vmesh_bake.h"
-
-/* Diagonalises the symmetric a in place (its diagonal ends as the eigenvalues); the columns of v
- * are the eigenvectors. */
-static void jacobi3(double a[3][3], double v[3][3])
-{
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++)
-            v[i][j] = i == j;
-    for (int sweep = 0; sweep < 32; sweep++) {
-        double off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
-        if (off < 1e-30)
-            break;
-        for (int p = 0; p < 2; p++)
-            for (int q = p + 1; q < 3; q++) {
-                if (fabs(a[p][q]) < 1e-300)
-                    continue;
-                /* The rotation that zeroes a[p][q] (Numerical Recipes' stable form). */
-                double theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
-                double t = (theta >= 0 ? 1.0 : -1.0) / (fabs(theta) + sqrt(theta * theta + 1.0));
-                double c = 1.0 / sqrt(t * t + 1.0), s = t * c;
-                for (int k = 0; k < 3; k++) { /* columns p, q */
-                    double akp = a[k][p], akq = a[k][q];
-                    a[k][p] = c * akp - s * akq;
-                    a[k][q] = s * akp + c * akq;
-                }
-                for (int k = 0; k < 3; k++) { /* rows p, q */
-                    double apk = a[p][k], aqk = a[q][k];
-                    a[p][k] = c * apk - s * aqk;
-                    a[q][k] = s * apk + c * aqk;
-                }
-                for (int k = 0; k < 3; k++) {
-                    double vkp = v[k][p], vkq = v[k][q];
-                    v[k][p] = c * vkp - s * vkq;
-                    v[k][q] = s * vkp + c * vkq;
-                }
-            }
-    }
-}
 
 void vmesh_sggx_fit(const vec3 *normals, int n, vmesh_sggx *out)
 {
@@ -59,13 +20,13 @@ void vmesh_sggx_fit(const vec3 *normals, int n, vmesh_sggx *out)
             for (int c = 0; c < 3; c++)
                 e[r][c] += x[r] * x[c];
     }
-    double v[3][3];
-    jacobi3(e, v);
+    double w[3], v[3][3];
+    eigen_sym3(e, w, v);
     /* Decreasing eigenvalue: axis 0 is the dominant normal direction. */
     int order[3] = {0, 1, 2};
     for (int i = 0; i < 3; i++)
         for (int j = i + 1; j < 3; j++)
-            if (e[order[j]][order[j]] > e[order[i]][order[i]]) {
+            if (w[order[j]] > w[order[i]]) {
                 int t = order[i];
                 order[i] = order[j];
                 order[j] = t;
