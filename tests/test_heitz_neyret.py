@@ -12,6 +12,9 @@
    the highlight must be as wide as the truth's (the bumps become roughness), not narrow like a
    flat mirror's.
 5. Depth of field: one widened cone per pixel against the truth's lens sampling (error and time).
+6. The light cache (shadows through cached light cones per cell): it casts fewer light cones, it
+   costs no accuracy against the truth (on a par with --no-cache), and the image does not depend
+   on the thread count.
 """
 import json
 import math
@@ -21,7 +24,7 @@ import time
 
 import numpy as np
 
-from testlib import REPO, TMP, finish, read_image, report, voxlab, write_ply, write_scene
+from testlib import REPO, TMP, finish, read_image, report, voxlab, voxlab_json, write_ply, write_scene
 
 BUILD = os.environ.get("BUILD", "build")
 UNIT = os.path.join(REPO, BUILD, "tests", "unit_heitz_neyret")
@@ -271,6 +274,43 @@ def depth_of_field():
            f"{res['dof'][0]['mse']} vs {res['focused'][0]['mse']}")
 
 
+def light_cache():
+    sphere_ply(os.path.join(TMP, "sphere.ply"))
+    objs = [{"ply": "sphere.ply", "material": "red", "transform": {"translate": [0, 0.2, 0]}},
+            {"ply": "sphere.ply", "material": "grey", "transform": {"scale": [4, 0.05, 4], "translate": [0, -1.2, 0]}}]
+    mats = {"red": {"color": [0.8, 0.3, 0.2]}, "grey": {"color": [0.6, 0.6, 0.6]}}
+    sun = [{"type": "directional", "direction": [0.6, 1, 0.3], "irradiance": [3, 3, 3]},
+           {"type": "point", "position": [-2, 3, 2], "intensity": [6, 6, 6]}]
+    cam = {"position": [0, 2.5, 6], "look_at": [0, -0.3, 0], "up": [0, 1, 0], "fov_deg": 40}
+    sc = write_scene("light_cache", objs, sun, cam, effects=["shadows"], materials=mats, size=(96, 96),
+                     background=(0.6, 0.7, 0.8))
+    truth = os.path.join(TMP, "light_cache_truth.exr")
+    voxlab("truth", sc, "--spp", 256, "-o", truth)
+    vox = os.path.join(TMP, "light_cache.vox")
+    voxlab("bake", sc, "--model", "heitz-neyret", "--res", 96, "-o", vox)
+    res = {}
+    for name, extra in (("cache", ["--threads", "2"]), ("cache_1thread", ["--threads", "1"]),
+                        ("no_cache", ["--no-cache", "--threads", "2"])):
+        out = os.path.join(TMP, f"light_cache_{name}.exr")
+        stats = os.path.join(TMP, f"light_cache_{name}.json")
+        render(sc, "heitz-neyret", out, "--stats", stats, *extra, vox=vox)
+        with open(stats) as f:
+            st = json.load(f)
+        res[name] = (out, st, voxlab_json("compare", truth, out, "--json"))
+    (_, on, c_on), (_, off, c_off) = res["cache"], res["no_cache"]
+    print(f"# light cache: MSE {c_on['mse']:.6f} SSIM {c_on['ssim']:.4f}, {on['shadow_rays']} light cones "
+          f"({on['cache_hits']} cache hits); --no-cache MSE {c_off['mse']:.6f} SSIM {c_off['ssim']:.4f}, "
+          f"{off['shadow_rays']} light cones")
+    report("light_cache_hits", on["cache_hits"] > 0 and off["cache_hits"] == 0, f"{on['cache_hits']} {off['cache_hits']}")
+    report("light_cache_fewer_light_cones", on["shadow_rays"] < off["shadow_rays"],
+           f"{on['shadow_rays']} vs {off['shadow_rays']}")
+    report("light_cache_mse_on_par", c_on["mse"] <= 1.25 * c_off["mse"] + 1e-4, f"{c_on['mse']} vs {c_off['mse']}")
+    report("light_cache_ssim_on_par", c_on["ssim"] >= c_off["ssim"] - 0.01, f"{c_on['ssim']} vs {c_off['ssim']}")
+    same = np.array_equal(read_image(res["cache"][0]), read_image(res["cache_1thread"][0]))
+    report("light_cache_thread_independent", same, "1 and 2 threads differ")
+
+
+light_cache()
 depth_of_field()
 
 finish()

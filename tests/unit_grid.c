@@ -15,6 +15,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "cone_skip.h"
 #include "grid.h"
 #include "grid_traverse.h"
 #include "mesh.h"
@@ -960,6 +961,46 @@ static void test_bunny(void)
     mesh_free(&m);
 }
 
+/* The cone marcher's dilated occupancy (cone_skip.h) against a brute-force 3x3x3 search of the
+ * sparse grid, on every cell of every level and the one-cell border around it (sizes around the
+ * 64-cell word boundaries). */
+static void test_dilated(void)
+{
+    mesh m = {0};
+    add_icosphere(&m, v3(0.13f, -0.21f, 0.37f), 1.0f, 3);
+    int ns[] = {48, 64, 65, 100};
+    for (int i = 0; i < 4; i++) {
+        voxel_grid g;
+        vx_err e;
+        dilated_grid d;
+        if (grid_build(&g, &m, ns[i], &e) || dilated_build(&d, &g)) {
+            printf("not ok dilated build n=%d\n", ns[i]);
+            unit_failures++;
+            continue;
+        }
+        long wrong = 0, marked = 0;
+        for (int l = 0; l < g.levels; l++) {
+            int n = g.level[l].n;
+            for (int x = -1; x <= n; x++)
+                for (int y = -1; y <= n; y++)
+                    for (int z = -1; z <= n; z++) {
+                        int any = 0;
+                        for (int k = 0; k < 27 && !any; k++)
+                            any = grid_index(&g, l, x + k / 9 - 1, y + (k / 3) % 3 - 1, z + k % 3 - 1) >= 0;
+                        marked += any;
+                        wrong += any != dilated_any(&d, l, x, y, z);
+                    }
+            wrong += dilated_any(&d, l, -2, 0, 0) + dilated_any(&d, l, 0, n + 1, 0); /* beyond the border */
+        }
+        char name[96];
+        snprintf(name, sizeof name, "dilated occupancy n=%d matches a 3x3x3 search (%ld marked)", ns[i], marked);
+        CHECK(name, wrong == 0 && marked > 0);
+        dilated_free(&d);
+        grid_free(&g);
+    }
+    mesh_free(&m);
+}
+
 int main(void)
 {
     test_tribox();
@@ -969,6 +1010,7 @@ int main(void)
     test_sphere();
     test_degenerate();
     test_traversal();
+    test_dilated();
     test_bunny();
     return unit_exit();
 }

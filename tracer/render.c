@@ -248,12 +248,32 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
         return -1;
     int threads = parallel_threads(o->threads);
     render_job j = {s, g, m, records, o, out, NULL, calloc((size_t)threads, sizeof(thread_counts)),
-                    camera_pixel_spread(&s->camera, o->height)};
-    if (o->cache)
+                    camera_pixel_spread(&s->camera, o->height), NULL, NULL};
+    int cone = m->march == VX_MARCH_CONE;
+    if (o->cache && !cone)
         j.cache = calloc(grid_count(g, 0) ? grid_count(g, 0) : 1, sizeof(cache_entry));
-    if (!j.tc || (o->cache && !j.cache)) {
+    /* Cone marching caches the light cones instead (the cone's answers depend on its width). */
+    cone_light_cache lc;
+    int use_lc = o->cache && cone && (s->effects & EFFECT_SHADOWS) && s->light_count > 0;
+    int lc_failed = 0;
+    if (use_lc) {
+        size_t cells = 0;
+        for (int l = 0; l < g->levels; l++)
+            cells += grid_count(g, l);
+        lc_failed = cone_light_cache_init(&lc, cells, s->light_count < VX_MAX_LIGHTS ? s->light_count : VX_MAX_LIGHTS);
+        j.light_cache = lc_failed ? NULL : &lc;
+    }
+    dilated_grid skip;
+    int skip_failed = 0;
+    if (cone) {
+        skip_failed = dilated_build(&skip, g);
+        j.skip = &skip;
+    }
+    if (!j.tc || (o->cache && !cone && !j.cache) || lc_failed || skip_failed) {
         free(j.tc);
         free(j.cache);
+        if (j.light_cache)
+            cone_light_cache_free(j.light_cache);
         image_free(out);
         return vx_fail(e, "out of memory for the render");
     }
@@ -276,5 +296,9 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
     counts->traversal_seconds = counts->seconds - counts->model_seconds;
     free(j.tc);
     free(j.cache);
+    if (j.light_cache)
+        cone_light_cache_free(j.light_cache);
+    if (cone)
+        dilated_free(&skip);
     return 0;
 }

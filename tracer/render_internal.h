@@ -5,6 +5,8 @@
 
 #include <stdatomic.h>
 
+#include "cone_light_cache.h"
+#include "cone_skip.h"
 #include "parallel.h"
 #include "render.h"
 
@@ -40,6 +42,8 @@ typedef struct {
     cache_entry *cache;
     thread_counts *tc;
     float spread; /* footprint radius per unit distance */
+    cone_light_cache *light_cache; /* cone marching with shadows and the cache on; else NULL */
+    const dilated_grid *skip;      /* cone marching: the empty-space bitmaps; else NULL */
 } render_job;
 
 const void *record_of(const render_job *j, int64_t index);
