@@ -457,52 +457,6 @@ static int hn_bake_finish(const voxel_grid *g, void *records)
 
 /* ---- Evaluation glue ---------------------------------------------------------------------------- */
 
-void hn_fill_stencil(const voxel_grid *g, vec3 p, float level, hn_stencil *st)
-{
-    st->count = 0;
-    st->level_frac = 0.0f;
-    if (!g || g->levels < 1)
-        return;
-    float lv = fminf(fmaxf(level, 0.0f), (float)(g->levels - 1)); /* NaN -> 0 */
-    int L0 = (int)floorf(lv);
-    int L1 = L0 + 1 < g->levels ? L0 + 1 : L0;
-    st->level_frac = L1 > L0 ? lv - (float)L0 : 0.0f;
-    double lat[3];
-    grid_to_lattice(g, p, lat);
-    size_t off = 0;
-    for (int l = 0; l < L0; l++)
-        off += g->level[l].count;
-    for (int slot = 0; slot < (L1 > L0 ? 2 : 1); slot++) {
-        int L = slot ? L1 : L0;
-        if (slot)
-            off += g->level[L0].count; /* records of level L1 = L0 + 1 follow level L0's */
-        double scale = 1.0 / (double)(1u << L), size = g->voxel_size_d * (double)(1u << L);
-        int i0[3];
-        double f[3];
-        for (int a = 0; a < 3; a++) {
-            double u = lat[a] * scale - 0.5;
-            if (!(fabs(u) < 1e9))
-                return; /* far outside (or NaN): nothing there */
-            i0[a] = (int)floor(u);
-            f[a] = u - i0[a];
-        }
-        for (int k = 0; k < 8; k++) {
-            int d[3] = {k >> 2, (k >> 1) & 1, k & 1};
-            int64_t idx = grid_index(g, L, i0[0] + d[0], i0[1] + d[1], i0[2] + d[2]);
-            if (idx < 0)
-                continue;
-            int s = st->count++;
-            st->slot[s] = slot;
-            st->weight[s] = (float)((d[0] ? f[0] : 1 - f[0]) * (d[1] ? f[1] : 1 - f[1]) * (d[2] ? f[2] : 1 - f[2]));
-            st->centre[s] = v3((float)(g->origin_d[0] + (i0[0] + d[0] + 0.5) * size),
-                               (float)(g->origin_d[1] + (i0[1] + d[1] + 0.5) * size),
-                               (float)(g->origin_d[2] + (i0[2] + d[2] + 0.5) * size));
-            st->size[s] = (float)size;
-            st->index[s] = (long)(off + (size_t)idx);
-        }
-    }
-}
-
 static void answer_clear(vx_answer *a)
 {
     a->radiance = v3(0.0f, 0.0f, 0.0f);
@@ -510,30 +464,22 @@ static void answer_clear(vx_answer *a)
     hn_mask_set(a->mask, 0u);
 }
 
-/* One cone element: geometry and mask at the element's centre; for an element that shows and has
- * lights, the attributes at the foot of the centre on the blended plane (see hn_blend_attributes:
- * they describe the surface, wherever the element sits above or below it). */
+/* One cone element (hn_cone.h), the mask table from q->table, else this file's own. */
 static void hn_cone_element(const vx_query *q, vx_answer *a)
 {
-    answer_clear(a);
-    if (!q->grid || !q->records)
+    if (q->table) {
+        hn_cone_element_eval(q, a);
         return;
-    VX_GLOBAL const hn_record *records = (VX_GLOBAL const hn_record *)q->records;
-    hn_stencil st;
-    hn_fill_stencil(q->grid, q->position, q->level, &st);
-    hn_sample s;
-    if (!hn_blend_geometry(records, &st, q->position, &s))
-        return;
-    vec3 N = hn_mask_answer(hn_mask_table(), &s, q, fmaxf(q->footprint, 0.0f), a);
-    if (q->light_count <= 0 || !(a->opacity > 0.0f))
-        return;
-    vec3 nu = v3_normalize_or(s.n, N);
-    vec3 foot = v3_madd(q->position, nu, -s.D);
-    if (!(fabsf(s.D) < 1e30f))
-        foot = q->position;
-    hn_fill_stencil(q->grid, foot, q->level, &st);
-    hn_blend_attributes(records, &st, foot, nu, &s);
-    a->radiance = hn_radiance(&s, N, q);
+    }
+    vx_query qt = *q;
+    qt.table = hn_mask_table();
+    hn_cone_element_eval(&qt, a);
+}
+
+static const void *hn_table(size_t *bytes)
+{
+    *bytes = HN_TABLE_WORDS * sizeof(unsigned int);
+    return hn_mask_table();
 }
 
 /* Voxel-marching entry points (opacity for shadow rays and the hard-case tests, shade): the
@@ -600,4 +546,7 @@ const vx_model model_heitz_neyret = {
     .opacity = hn_opacity,
     .shade = hn_shade,
     .cone_element = hn_cone_element,
+    .cl_source = "hn_cone.h",
+    .cl_cone_element = "hn_cone_element_eval",
+    .table = hn_table,
 };

@@ -3,7 +3,7 @@
 #ifndef VX_HN_HOST_H
 #define VX_HN_HOST_H
 
-#include "hn_eval.h"
+#include "hn_cone.h"
 
 struct voxel_grid;
 
@@ -17,9 +17,5 @@ const unsigned int *hn_mask_table(void);
  * its inverse (how the bake turns normals' second moments into a slope variance). */
 double hn_m_of_sigma2(double sigma2);
 double hn_sigma2_of_m(double m);
-
-/* Fills the stencil of the cone element at p (world) and fractional level `level` of grid g:
- * the 8 cells around p on floor(level) and on the next level, with their trilinear weights. */
-void hn_fill_stencil(const struct voxel_grid *g, vec3 p, float level, hn_stencil *st);
 
 #endif

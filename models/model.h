@@ -63,6 +63,7 @@ typedef struct {
     float level;
     const struct voxel_grid *grid;
     VX_GLOBAL const void *records;
+    VX_GLOBAL const void *table; /* the model's constant table (vx_model.table), on either backend */
 } vx_query;
 
 /* A model's answer to a query. */
@@ -140,6 +141,14 @@ typedef struct vx_model {
     const char *cl_source;
     const char *cl_opacity;
     const char *cl_shade;
+    /* VX_MARCH_CONE models: cl_cone_element names the function in cl_source with cone_element's
+     * signature (the C model's cone_element calls the same function), which the OpenCL cone kernel
+     * (tracer/cl/render_cone.cl) calls; then cl_opacity and cl_shade may be NULL. */
+    const char *cl_cone_element;
+    /* Optional (may be NULL): a constant table the model's evaluation reads through q->table (e.g.
+     * precomputed masks), built once on the host; the tracer hands it to cone_element on the C
+     * backend and uploads it as a buffer on OpenCL. Returns the table and its size in bytes. */
+    const void *(*table)(size_t *bytes);
 } vx_model;
 
 /* The registry (models/registry.c). */

@@ -72,3 +72,9 @@ void dilated_free(dilated_grid *d)
         free(d->level[l].w);
     memset(d, 0, sizeof *d);
 }
+
+size_t dilated_words(const dilated_grid *d, int level)
+{
+    const dilated_level *D = &d->level[level];
+    return D->w ? (size_t)D->n * (size_t)D->n * (size_t)D->wpc : 0;
+}

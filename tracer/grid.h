@@ -33,7 +33,7 @@
 #include <stdint.h>
 
 #include "error.h"
-#include "grid_core.h" /* the types and the cell lookups, portable C shared with OpenCL */
+#include "grid_core.h" /* the types, the cell lookups and the lattice mapping, portable C shared with OpenCL */
 #include "mesh.h"
 #include "vec.h"
 
@@ -53,14 +53,6 @@ void grid_free(voxel_grid *g);
 /* Bytes allocated by the grid (all levels, tables, coordinates). */
 size_t grid_bytes(const voxel_grid *g);
 
-/* A world-space point in level-0 lattice units (double: exact enough far from the origin). */
-VX_INLINE void grid_to_lattice(const voxel_grid *g, vec3 p, double out[3])
-{
-    out[0] = ((double)p.x - g->origin_d[0]) / g->voxel_size_d;
-    out[1] = ((double)p.y - g->origin_d[1]) / g->voxel_size_d;
-    out[2] = ((double)p.z - g->origin_d[2]) / g->voxel_size_d;
-}
-
 /* World-space corners and centre of a cell of `level` (grid_cell_box is grid_core.h's
  * grid_cell_corners, which the OpenCL kernel calls too). */
 void grid_cell_box(const voxel_grid *g, int level, int x, int y, int z, vec3 *lo, vec3 *hi);
@@ -69,17 +61,6 @@ vec3 grid_cell_center(const voxel_grid *g, int level, int x, int y, int z);
 VX_INLINE size_t grid_count(const voxel_grid *g, int level)
 {
     return level >= 0 && level < g->levels ? g->level[level].count : 0;
-}
-
-/* Dense index of cell (x, y, z) of `level`, -1 when the cell is empty or outside the grid. */
-VX_INLINE int64_t grid_index(const voxel_grid *g, int level, int x, int y, int z)
-{
-    if (level < 0 || level >= g->levels)
-        return -1;
-    const grid_level *L = &g->level[level];
-    if ((unsigned)x >= (unsigned)L->n || (unsigned)y >= (unsigned)L->n || (unsigned)z >= (unsigned)L->n)
-        return -1;
-    return grid_level_index(L, x, y, z);
 }
 
 /* Coordinates of the non-empty cell with dense index `index` (< grid_count) of `level`. */

@@ -73,6 +73,25 @@ VX_INLINE int grid_level_occupied(const grid_level *L, int x, int y, int z)
     return (int)((L->bits[w] >> ((unsigned)z & 63u)) & 1u);
 }
 
+/* A world-space point in level-0 lattice units (double: exact enough far from the origin). */
+VX_INLINE void grid_to_lattice(const voxel_grid *g, vec3 p, double out[3])
+{
+    out[0] = ((double)p.x - g->origin_d[0]) / g->voxel_size_d;
+    out[1] = ((double)p.y - g->origin_d[1]) / g->voxel_size_d;
+    out[2] = ((double)p.z - g->origin_d[2]) / g->voxel_size_d;
+}
+
+/* Dense index of cell (x, y, z) of `level`, -1 when the cell is empty or outside the grid. */
+VX_INLINE int64_t grid_index(const voxel_grid *g, int level, int x, int y, int z)
+{
+    if (level < 0 || level >= g->levels)
+        return -1;
+    const grid_level *L = &g->level[level];
+    if ((unsigned)x >= (unsigned)L->n || (unsigned)y >= (unsigned)L->n || (unsigned)z >= (unsigned)L->n)
+        return -1;
+    return grid_level_index(L, x, y, z);
+}
+
 /* World-space corners of a cell of `level`. grid.c's grid_cell_box (which the C tracer calls) is
  * this function, so both backends hand models bit-identical voxel corners. */
 VX_INLINE void grid_cell_corners(const voxel_grid *g, int level, int x, int y, int z, vec3 *lo, vec3 *hi)

@@ -248,8 +248,10 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
         return -1;
     int threads = parallel_threads(o->threads);
     render_job j = {s, g, m, records, o, out, NULL, calloc((size_t)threads, sizeof(thread_counts)),
-                    camera_pixel_spread(&s->camera, o->height), NULL, NULL};
+                    camera_pixel_spread(&s->camera, o->height), NULL, NULL, NULL};
     int cone = m->march == VX_MARCH_CONE;
+    size_t table_bytes = 0;
+    j.model_table = m->table ? m->table(&table_bytes) : NULL;
     if (o->cache && !cone)
         j.cache = calloc(grid_count(g, 0) ? grid_count(g, 0) : 1, sizeof(cache_entry));
     /* Cone marching caches the light cones instead (the cone's answers depend on its width). */

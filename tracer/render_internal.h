@@ -44,6 +44,7 @@ typedef struct {
     float spread; /* footprint radius per unit distance */
     cone_light_cache *light_cache; /* cone marching with shadows and the cache on; else NULL */
     const dilated_grid *skip;      /* cone marching: the empty-space bitmaps; else NULL */
+    const void *model_table;       /* the model's constant table (vx_model.table) or NULL */
 } render_job;
 
 const void *record_of(const render_job *j, int64_t index);

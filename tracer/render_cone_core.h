@@ -1,0 +1,500 @@
+/* Cone marching for models that declare VX_MARCH_CONE (Heitz & Neyret 2012, §4-5), as portable C:
+ * the C tracer (render_cone.c) and the OpenCL cone kernel (cl/render_cone.cl) both run this code.
+ *
+ * One cone per pixel, split into cone elements whose length equals their diameter; each element's
+ * MIP level follows its width; the model answers each element (coverage mask + radiance) and the
+ * answers are composited A-buffer style:
+ *     L += L_d popcount(M_d & ~A) / 128,  A |= M_d,  stop when A is full.
+ * Shadows (when declared) march a light cone from each contributing element with the same
+ * elements; the light's transmittance is 1 - the covered fraction; with the light cache
+ * (cone_light_cache.h) the cones are cast once per cell. Depth of field (when declared) widens the
+ * cone with the thin lens instead of sampling the lens. Empty space is skipped with the grid's
+ * occupancy (cone_skip.h's dilated bitmaps where a level has one).
+ *
+ * The includer defines CONE_ELEMENT(ctx, q, a): the model's cone_element (a function pointer call
+ * in C, the model's portable function by name in OpenCL C, which has no function pointers).
+ * No recursion either: the shaded march calls the light cones' march, which shades nothing. */
+#ifndef VX_RENDER_CONE_CORE_H
+#define VX_RENDER_CONE_CORE_H
+
+#include "cone_light_cache.h"
+#include "cone_skip.h"
+#include "grid_core.h"
+#include "light.h"
+#include "model.h"
+
+#ifndef CONE_ELEMENT
+#error "define CONE_ELEMENT(ctx, q, a) before including render_cone_core.h"
+#endif
+
+#define CONE_MAX_ELEMENTS (1 << 20) /* a runaway guard; real cones use a few hundred at most */
+#define CONE_FULL_MASK (32 * VX_MASK_WORDS)
+
+#ifdef __OPENCL_VERSION__
+#define CONE_FLOAT_BITS(x) as_uint(x)
+#define CONE_BITS_FLOAT(i) as_float(i)
+#else
+#include <string.h>
+static inline uint32_t cone_float_bits(float x)
+{
+    uint32_t i;
+    memcpy(&i, &x, sizeof i);
+    return i;
+}
+static inline float cone_bits_float(uint32_t i)
+{
+    float x;
+    memcpy(&x, &i, sizeof x);
+    return x;
+}
+#define CONE_FLOAT_BITS(x) cone_float_bits(x)
+#define CONE_BITS_FLOAT(i) cone_bits_float(i)
+#endif
+
+/* What a cone march counts (render statistics). */
+typedef struct {
+    uint64_t elements, shadow_rays, evals, cache_hits;
+} cone_counts;
+
+/* Everything a march reads: the grid and its skipping bitmaps, the model's records and table, the
+ * light cache, the scene's lights and effects; and the counters it adds to. */
+typedef struct cone_ctx {
+    const voxel_grid *g;
+    const dilated_grid *skip;       /* NULL: ask the sparse grid */
+    VX_GLOBAL const void *records;
+    VX_GLOBAL const void *table;    /* the model's constant table (vx_model.table) or NULL */
+    const cone_light_cache *lcache; /* NULL: every element casts its own light cones */
+    light lights[VX_MAX_LIGHTS];
+    int light_count;
+    unsigned effects;               /* VX_EFFECT_* */
+    cone_counts counts;
+#ifndef __OPENCL_VERSION__
+    const struct vx_model *m;       /* for CONE_ELEMENT in C */
+    uint64_t model_cycles;
+#endif
+} cone_ctx;
+
+/* A cone: axis org + t dir (unit dir), radius(t) = sqrt((r0 + spread t)^2 + lens(t)^2), lens(t) the
+ * thin lens's circle of confusion, aperture |z - focus| / focus at depth z = t fwd_cos. The two
+ * blurs add in quadrature: the disk equivalent (same second moment) of two disks convolved. */
+typedef struct {
+    vec3 org, dir;
+    float r0, spread;
+    float aperture, focus, fwd_cos;
+    float r_min; /* a floor: a zero-width cone would step zero lengths */
+} cone;
+
+VX_INLINE float cone_radius(const cone *c, float t)
+{
+    float r = c->r0 + c->spread * t;
+    if (c->aperture > 0.0f) {
+        float lens = c->aperture * fabsf(t * c->fwd_cos - c->focus) / c->focus;
+        r = sqrtf(r * r + lens * lens);
+    }
+    return r > c->r_min ? r : c->r_min;
+}
+
+/* The ray's interval inside the grid's box; 0 when it misses. */
+VX_INLINE int cone_clip_to_grid(const voxel_grid *g, vec3 org, vec3 dir, float *t0, float *t1)
+{
+    float a = 0.0f, b = INFINITY;
+    for (int k = 0; k < 3; k++) {
+        float o = v3_get(org, k), d = v3_get(dir, k);
+        float lo = (float)g->origin_d[k], hi = (float)(g->origin_d[k] + g->n * g->voxel_size_d);
+        if (fabsf(d) < 1e-30f) {
+            if (o < lo || o > hi)
+                return 0;
+            continue;
+        }
+        float u = (lo - o) / d, v = (hi - o) / d;
+        if (u > v) {
+            float s = u;
+            u = v;
+            v = s;
+        }
+        a = fmaxf(a, u);
+        b = fminf(b, v);
+    }
+    *t0 = a;
+    *t1 = b;
+    return a < b;
+}
+
+/* Whether any cell of column (x, y) of L with z in [z0, z1] is non-empty (the range clipped to
+ * the level): the column's occupancy is stored as 64-cell words along z (grid.h), so a run of z
+ * costs one or two word tests instead of one lookup per cell. */
+VX_INLINE int cone_column_any(const grid_level *L, int x, int y, int z0, int z1)
+{
+    if (z0 < 0)
+        z0 = 0;
+    if (z1 > L->n - 1)
+        z1 = L->n - 1;
+    if (z0 > z1)
+        return 0;
+    uint64_t col = L->cols[(size_t)x * (size_t)L->n + (size_t)y];
+    uint32_t mask = (uint32_t)(col & 0xffffu);
+    if (!mask)
+        return 0;
+    for (int j = z0 >> 6; j <= z1 >> 6; j++) {
+        if (!((mask >> j) & 1u))
+            continue;
+        uint64_t bits = L->bits[(size_t)(col >> 16) + (size_t)VX_POPCOUNT32(mask & ((1u << j) - 1u))];
+        int lo = j == z0 >> 6 ? z0 & 63 : 0, hi = j == z1 >> 6 ? z1 & 63 : 63;
+        uint64_t m = bits >> lo;
+        if (hi - lo < 63)
+            m &= (((uint64_t)1) << (hi - lo + 1)) - 1u;
+        if (m)
+            return 1;
+    }
+    return 0;
+}
+
+/* Whether the 3x3x3 cells of `level` around cell c are all empty: then no element centred anywhere
+ * in cell c, at this level or any finer one, has a non-empty interpolation stencil (a stencil
+ * reaches less than one cell away). One bit of the dilated bitmap where the level has one; else
+ * the sparse grid's columns, the centre column first (near surfaces it answers). */
+VX_INLINE int cone_neighbourhood_empty(const cone_ctx *x, int level, const int c[3])
+{
+    if (x->skip && dilated_has(x->skip, level))
+        return !dilated_any(x->skip, level, c[0], c[1], c[2]);
+    const grid_level *L = &x->g->level[level];
+    unsigned n = (unsigned)L->n;
+    if ((unsigned)c[0] < n && (unsigned)c[1] < n && cone_column_any(L, c[0], c[1], c[2] - 1, c[2] + 1))
+        return 0;
+    for (int dx = -1; dx <= 1; dx++) {
+        int xx = c[0] + dx;
+        if ((unsigned)xx >= n)
+            continue;
+        for (int dy = -1; dy <= 1; dy++) {
+            int y = c[1] + dy;
+            if ((unsigned)y >= n || (dx == 0 && dy == 0))
+                continue;
+            if (cone_column_any(L, xx, y, c[2] - 1, c[2] + 1))
+                return 0;
+        }
+    }
+    return 1;
+}
+
+/* log2 to within 5e-3 (the level only picks cells and a blend weight): the float's exponent plus a
+ * quadratic in its mantissa. libm's log2f was 5 % of a render. */
+VX_INLINE float cone_fast_log2(float x)
+{
+    if (!(x > 1e-30f))
+        return -100.0f;
+    uint32_t i = CONE_FLOAT_BITS(x);
+    float e = (float)((int)((i >> 23) & 255u) - 128); /* the quadratic below is log2(m) + 1 */
+    float m = CONE_BITS_FLOAT((i & 0x007fffffu) | 0x3f800000u); /* in [1, 2) */
+    return e + (-0.34484843f * m + 2.02466578f) * m - 0.67487759f;
+}
+
+/* Distance along dir from the lattice point u (units of `level`) to the exit of its cell. */
+VX_INLINE double cone_cell_exit(const voxel_grid *g, int level, const double u[3], vec3 dir)
+{
+    double size = g->voxel_size_d * (double)(1u << level), best = INFINITY;
+    for (int a = 0; a < 3; a++) {
+        double d = v3_get(dir, a) / size;
+        if (fabs(d) < 1e-30)
+            continue;
+        double c = floor(u[a]);
+        double bound = d > 0.0 ? c + 1.0 : c;
+        double t = (bound - u[a]) / d;
+        best = t < best ? t : best; /* not fmin: a libm call on the hot path */
+    }
+    return best;
+}
+
+typedef struct {
+    unsigned int covered[VX_MASK_WORDS];
+    int count; /* bits set in covered */
+    vec3 color;
+} cone_composite;
+
+/* Where a march is: the next element's start t, and the empty-space skipping's memory. */
+typedef struct {
+    float t, t_end;
+    int known_K, known[3]; /* the last cell whose neighbourhood was non-empty */
+    int K_skip;            /* the level the last jump used */
+} cone_walk;
+
+VX_INLINE void cone_walk_start(cone_walk *w, float t, float t_end)
+{
+    w->t = t;
+    w->t_end = t_end;
+    w->known_K = -1;
+    w->known[0] = w->known[1] = w->known[2] = 0;
+    w->K_skip = 0;
+}
+
+/* Steps to the next element whose stencil may be non-empty: its centre p, radius r and fractional
+ * level; 0 when the march leaves [t, t_end] (or the element guard runs out). The caller sets
+ * w->t = centre + r after evaluating it. */
+VX_INLINE int cone_next_element(const cone_ctx *x, const cone *c, cone_walk *w, int *steps, vec3 *p_out,
+                                float *r_out, float *tc_out, float *level_out)
+{
+    const voxel_grid *g = x->g;
+    float vs = g->voxel_size;
+    int top = g->levels - 1;
+    for (; *steps < CONE_MAX_ELEMENTS && w->t < w->t_end; (*steps)++) {
+        float t = w->t;
+        float r = cone_radius(c, t + cone_radius(c, t));
+        float tc_ = t + r;
+        vec3 p = v3_madd(c->org, c->dir, tc_);
+        float level = cone_fast_log2(2.0f * r / vs);
+        level = level > 0.0f ? (level < (float)top ? level : (float)top) : 0.0f;
+        /* Empty-space skipping over the coarse levels with hysteresis (as grid_traverse's DDA):
+         * start at the level the last jump used, descend while the neighbourhood is occupied,
+         * climb while the coarser one is empty, jump out of the cell. K_min = the finest level
+         * whose emptiness proves the element's stencil (floor(level) + 1) empty. */
+        int K_min = (int)level + 1 <= top ? (int)level + 1 : top;
+        int K = w->K_skip > K_min ? w->K_skip : K_min;
+        double lat[3], u[3];
+        grid_to_lattice(g, p, lat);
+        int cell[3], empty = 0;
+        for (;;) {
+            double scale = 1.0 / (double)(1u << K);
+            for (int a = 0; a < 3; a++) {
+                u[a] = lat[a] * scale;
+                cell[a] = (int)floor(u[a]);
+            }
+            /* Consecutive elements mostly share a cell: a neighbourhood found occupied stays so. */
+            if (K == w->known_K && cell[0] == w->known[0] && cell[1] == w->known[1] && cell[2] == w->known[2])
+                break;
+            if (cone_neighbourhood_empty(x, K, cell)) {
+                empty = 1;
+                break;
+            }
+            if (K == K_min) {
+                w->known_K = K;
+                for (int a = 0; a < 3; a++)
+                    w->known[a] = cell[a];
+                break;
+            }
+            K--;
+        }
+        if (empty) {
+            while (K < top) {
+                int up[3] = {cell[0] >> 1, cell[1] >> 1, cell[2] >> 1};
+                if (!cone_neighbourhood_empty(x, K + 1, up))
+                    break;
+                K++;
+                for (int a = 0; a < 3; a++) {
+                    cell[a] = up[a];
+                    u[a] *= 0.5;
+                }
+            }
+            w->K_skip = K;
+            double exit = cone_cell_exit(g, K, u, c->dir);
+            if (!(exit < INFINITY))
+                return 0;
+            w->t = tc_ + (float)exit + 1e-4f * vs * (float)(1u << K);
+            continue;
+        }
+        w->K_skip = K_min;
+        (*steps)++;
+        *p_out = p;
+        *r_out = r;
+        *tc_out = tc_;
+        *level_out = level;
+        return 1;
+    }
+    return 0;
+}
+
+/* The query of an element (centre p, radius r, centre at tc_ along the cone) without lights. */
+VX_INLINE void cone_element_query(const cone_ctx *x, const cone *c, vec3 p, float r, float tc_, float level,
+                                  vx_query *q)
+{
+    vx_query zero = {0};
+    *q = zero;
+    q->ray_origin = c->org;
+    q->ray_dir = c->dir;
+    q->to_viewer = v3_scale(c->dir, -1.0f);
+    q->effects = x->effects;
+    q->grid = x->g;
+    q->records = x->records;
+    q->table = x->table;
+    q->position = p;
+    q->level = level;
+    q->footprint = r;
+    q->t0 = tc_ - r;
+    q->t1 = tc_ + r;
+    q->voxel_size = 2.0f * r;
+    q->voxel_lo = v3_sub(p, v3(r, r, r));
+}
+
+/* Bits of m not yet in comp. */
+VX_INLINE int cone_fresh(const cone_composite *comp, const unsigned int *m)
+{
+    int fresh = 0;
+    for (int w = 0; w < VX_MASK_WORDS; w++)
+        fresh += VX_POPCOUNT32(m[w] & ~comp->covered[w]);
+    return fresh;
+}
+
+VX_INLINE void cone_cover(cone_composite *comp, const unsigned int *m)
+{
+    comp->count = 0;
+    for (int w = 0; w < VX_MASK_WORDS; w++) {
+        comp->covered[w] |= m[w];
+        comp->count += VX_POPCOUNT32(comp->covered[w]);
+    }
+}
+
+/* Light cone from point p of an element of radius r: a cylinder of the element's width (the lights
+ * are points or directions), starting `start` past p (3 r: its first element centred 3 r away, as
+ * the voxel tracer skips 1.5 voxel sizes) so that the surface it leaves does not shadow itself.
+ * Only coverage accumulates. */
+VX_INLINE float cone_light_transmittance(cone_ctx *x, vec3 p, float r, float start, vec3 to_light, float distance)
+{
+    x->counts.shadow_rays++;
+    cone c = {p, to_light, r, 0.0f, 0.0f, 1.0f, 1.0f, 0.125f * x->g->voxel_size};
+    float t0, t1;
+    if (!cone_clip_to_grid(x->g, p, to_light, &t0, &t1))
+        return 1.0f;
+    cone_composite comp = {{0, 0, 0, 0}, 0, {0.0f, 0.0f, 0.0f}};
+    cone_walk w;
+    cone_walk_start(&w, fmaxf(t0, start), fminf(t1, distance));
+    int steps = 0;
+    vec3 p_e;
+    float r_e, tc_e, level_e;
+    while (comp.count < CONE_FULL_MASK && cone_next_element(x, &c, &w, &steps, &p_e, &r_e, &tc_e, &level_e)) {
+        x->counts.elements++;
+        vx_query q;
+        cone_element_query(x, &c, p_e, r_e, tc_e, level_e, &q);
+        vx_answer a;
+        CONE_ELEMENT(x, &q, &a);
+        x->counts.evals++;
+        if (cone_fresh(&comp, a.mask) > 0)
+            cone_cover(&comp, a.mask);
+        w.t = tc_e + r_e;
+    }
+    return 1.0f - (float)comp.count / (float)CONE_FULL_MASK;
+}
+
+/* Every light's transmittance for an element entering the scene's surface at p on MIP level
+ * `level`, through the light cache: the canonical light cones of the cell of level floor(level)
+ * that holds p, cast from the cell's centre with the radius of an element of level
+ * floor(level) + 1/2 (elements of that level are 1 to 2 cells wide). The centre is within half a
+ * cell's diagonal of p, inside the light cone's width, so its shadow is the element's own up to a
+ * fraction of its blur (MSE and SSIM against the ground truth move either way by a few per cent;
+ * without the cache every element casts its own cones). */
+VX_INLINE void cone_cached_transmittance(cone_ctx *x, vec3 p, float level, int lights, float *T)
+{
+    const voxel_grid *g = x->g;
+    int L = (int)level;
+    double lat[3];
+    grid_to_lattice(g, p, lat);
+    int cell[3];
+    for (int a = 0; a < 3; a++)
+        cell[a] = (int)floor(lat[a] / (double)(1u << L));
+    long slot = -1;
+    if (cell[0] >= 0 && cell[1] >= 0 && cell[2] >= 0) { /* p lies in the grid's box */
+        uint64_t key = cone_light_cache_key(L, cell[0] & 0xfffff, cell[1] & 0xfffff, cell[2] & 0xfffff);
+        slot = cone_light_cache_slot(x->lcache, key);
+        if (cone_light_cache_get(x->lcache, slot, T)) {
+            x->counts.cache_hits++;
+            return;
+        }
+    }
+    /* The cell's centre (grid_cell_center's arithmetic). */
+    double s = ldexp(g->voxel_size_d, L);
+    vec3 centre = v3((float)(g->origin_d[0] + (cell[0] + 0.5) * s), (float)(g->origin_d[1] + (cell[1] + 0.5) * s),
+                     (float)(g->origin_d[2] + (cell[2] + 0.5) * s));
+    /* The element's radius at level L + 1/2, and its start (3 r, as for an element's own cone)
+     * pushed out by half the cell's diagonal: the centre may lie that far below the surface that p
+     * enters from outside, and a cone starting inside the surface would shadow itself. */
+    float size = (float)s;
+    float r = 0.70710678f * size, start = 3.0f * r + 0.8660254f * size;
+    for (int li = 0; li < lights; li++) {
+        vec3 to_light, irr;
+        float dist;
+        light_at(&x->lights[li], centre, &to_light, &irr, &dist);
+        T[li] = cone_light_transmittance(x, centre, r, start, to_light, dist);
+    }
+    cone_light_cache_put(x->lcache, slot, T);
+}
+
+/* Marches camera cone c over [t, t_end], shading the elements that add coverage (lights with
+ * their light cones when shadows are declared). */
+VX_INLINE void cone_march_shaded(cone_ctx *x, const cone *c, float t, float t_end, cone_composite *comp)
+{
+    cone_walk w;
+    cone_walk_start(&w, t, t_end);
+    int steps = 0;
+    vec3 p;
+    float r, tc_, level;
+    while (comp->count < CONE_FULL_MASK && cone_next_element(x, c, &w, &steps, &p, &r, &tc_, &level)) {
+        x->counts.elements++;
+        vx_query q;
+        cone_element_query(x, c, p, r, tc_, level, &q);
+        /* Lights unshadowed at first: most elements show nothing, and shadow cones are cast only
+         * from those that add coverage. */
+        vec3 irr[VX_MAX_LIGHTS];
+        float dist[VX_MAX_LIGHTS];
+        q.light_count = x->light_count < VX_MAX_LIGHTS ? x->light_count : VX_MAX_LIGHTS;
+        for (int li = 0; li < q.light_count; li++) {
+            light_at(&x->lights[li], p, &q.to_light[li], &irr[li], &dist[li]);
+            q.irradiance[li] = irr[li];
+        }
+        vx_answer a;
+        CONE_ELEMENT(x, &q, &a);
+        x->counts.evals++;
+        int fresh = cone_fresh(comp, a.mask);
+        if (fresh > 0) {
+            if ((x->effects & VX_EFFECT_SHADOWS) && q.light_count > 0) {
+                float T[VX_MAX_LIGHTS];
+                int all_lit = 1;
+                /* From where the camera ray enters the element: the surface lies within the
+                 * element (it adds coverage) but not before it (the previous one did not), so the
+                 * entry is outside the surface and the light cone does not start inside it. */
+                vec3 entry = v3_madd(c->org, c->dir, tc_ - r);
+                if (x->lcache)
+                    cone_cached_transmittance(x, entry, level, q.light_count, T);
+                else
+                    for (int li = 0; li < q.light_count; li++)
+                        T[li] = cone_light_transmittance(x, entry, r, 3.0f * r, q.to_light[li], dist[li]);
+                for (int li = 0; li < q.light_count; li++)
+                    all_lit &= T[li] == 1.0f;
+                if (q.light_count == 1) {
+                    /* Radiance is linear in the one light's irradiance. */
+                    a.radiance = v3_scale(a.radiance, T[0]);
+                } else if (!all_lit) {
+                    for (int li = 0; li < q.light_count; li++)
+                        q.irradiance[li] = v3_scale(irr[li], T[li]);
+                    vx_answer b;
+                    CONE_ELEMENT(x, &q, &b);
+                    x->counts.evals++;
+                    a.radiance = b.radiance;
+                }
+            }
+            comp->color = v3_madd(comp->color, a.radiance, (float)fresh / (float)CONE_FULL_MASK);
+            cone_cover(comp, a.mask);
+        }
+        w.t = tc_ + r;
+    }
+}
+
+/* One pixel's cone: (org, dir) is the pixel's centre ray from the lens centre; spread the pixel's
+ * half-width per unit distance; aperture, focus and forward the thin lens (aperture 0: none). */
+VX_INLINE vec3 cone_trace(cone_ctx *x, vec3 org, vec3 dir, float spread, float aperture, float focus, vec3 forward,
+                          vec3 background)
+{
+    /* The cone gets the disk of the pixel's area (radius 2/sqrt(pi) times the half-width), which
+     * matches the ground truth's box filter best. */
+    cone c = {org,
+              dir,
+              0.0f,
+              spread * 1.12837917f,
+              aperture,
+              fmaxf(focus, 1e-6f),
+              v3_dot(dir, forward),
+              0.125f * x->g->voxel_size};
+    cone_composite comp = {{0, 0, 0, 0}, 0, {0.0f, 0.0f, 0.0f}};
+    float t0, t1;
+    if (cone_clip_to_grid(x->g, org, dir, &t0, &t1))
+        cone_march_shaded(x, &c, t0, t1, &comp);
+    return v3_madd(comp.color, background, 1.0f - (float)comp.count / (float)CONE_FULL_MASK);
+}
+
+#endif
