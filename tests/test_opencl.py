@@ -1,8 +1,8 @@
 """`render --backend opencl` (on PoCL in CI) against the C backend.
 
-For every registered model, on spheres and bunny (and a variant of spheres with specular, depth of
-field and a point light, which exercises the math library) at small sizes, the same baked grid is
-rendered by both backends: the images must agree to 1e-4 per pixel and give the same MSE and SSIM
+For every registered model (heitz-neyret by its cone kernel), on spheres and bunny (and a variant
+of spheres with specular, depth of field and a point light, which exercises the math library) at
+small sizes, the same baked grid is rendered by both backends: the images must agree to 1e-4 per pixel and give the same MSE and SSIM
 against the ground truth to 4 significant digits. A model that cannot run on OpenCL must say so
 (naming itself, exit status 1) instead of rendering. Also: no OpenCL platform
 (OCL_ICD_VENDORS=/nonexistent) and a kernel that fails to build (the test hook
@@ -82,7 +82,8 @@ for model in names:
         voxlab("bake", spath, "--model", model, "--res", RES, "--rays", 64, "-o", vox)
         out = {b: os.path.join(TMP, f"{sname}_{model}_{b}.exr") for b in ("c", "opencl")}
         stats = os.path.join(TMP, f"{sname}_{model}_opencl.json")
-        voxlab("render", spath, "--vox", vox, "--size", SIZE, "-o", out["c"])
+        c_stats = os.path.join(TMP, f"{sname}_{model}_c.json")
+        voxlab("render", spath, "--vox", vox, "--size", SIZE, "-o", out["c"], "--stats", c_stats)
         p = run("render", spath, "--vox", vox, "--size", SIZE, "--backend", "opencl", "-o", out["opencl"],
                 "--stats", stats)
         if p.returncode != 0:
@@ -104,9 +105,14 @@ for model in names:
                same_4_digits(mc["mse"], mo["mse"]) and same_4_digits(mc["ssim"], mo["ssim"]), f"C {mc}, OpenCL {mo}")
         with open(stats) as f:
             st = json.load(f)
+        with open(c_stats) as f:
+            cst = json.load(f)
+        # 4 rays per pixel, or one cone per pixel for a cone-marching model: as many as the C backend.
         report(f"{model}_{sname}_stats", st.get("backend") == "opencl" and st.get("opencl_compile_seconds", -1) >= 0
-               and st["seconds"] > 0 and st["rays"] == 64 * 48 * 4 and st["voxel_visits"] > 0, f"{st}")
+               and st["seconds"] > 0 and st["rays"] == cst["rays"] and st["rays"] in (64 * 48, 64 * 48 * 4)
+               and st["voxel_visits"] > 0, f"{st}")
 report("binary_and_alpha_run_on_opencl", "binary" in runnable and "alpha" in runnable, f"runnable: {runnable}")
+report("heitz_neyret_runs_on_opencl", "heitz-neyret" in runnable, f"runnable: {runnable}")
 
 # The options that change the tracer's work: no cache, no shadow skip, another spp and seed.
 if "alpha" in runnable:
@@ -120,6 +126,27 @@ if "alpha" in runnable:
             outs.append(read_image(o))
         diff = float(np.abs(outs[0] - outs[1]).max())
         report(f"alpha_spheres-fx_{tag}_agreement", diff <= 1e-4, f"max difference {diff}")
+
+# heitz-neyret (cone marching): without the light cache too; and the image is the same for any
+# number of PoCL threads and on every run (the light cache is filled in whatever order work-items run).
+if "heitz-neyret" in runnable:
+    vox = os.path.join(TMP, "spheres-fx_heitz-neyret.vox")
+    outs = []
+    for backend in ("c", "opencl"):
+        o = os.path.join(TMP, f"hn_nocache_{backend}.exr")
+        voxlab("render", scenes["spheres-fx"], "--vox", vox, "--size", SIZE, "--backend", backend, "--no-cache", "-o", o)
+        outs.append(read_image(o))
+    diff = float(np.abs(outs[0] - outs[1]).max())
+    report("heitz-neyret_spheres-fx_no-cache_agreement", diff <= 1e-4, f"max difference {diff}")
+    vox = os.path.join(TMP, "bunny_heitz-neyret.vox")
+    runs = []
+    for i, threads in enumerate((1, 2, 2)):
+        o = os.path.join(TMP, f"hn_det_{i}.exr")
+        voxlab("render", scenes["bunny"], "--vox", vox, "--size", SIZE, "--backend", "opencl", "--threads", threads,
+               "-o", o)
+        runs.append(read_image(o))
+    report("heitz-neyret_opencl_deterministic", all(np.array_equal(runs[0], r) for r in runs[1:]),
+           "runs with 1 and 2 threads differ")
 
 # Failures are messages, not crashes.
 vox = os.path.join(TMP, "spheres_binary.vox")

@@ -6,12 +6,18 @@
 
 #define LIGHT_CACHE_MAX_SLOTS ((size_t)1 << 23) /* 8 M slots: 64 MB of keys at most */
 
-int cone_light_cache_init(cone_light_cache *c, size_t cells, int lights)
+size_t cone_light_cache_slots(size_t cells)
 {
-    memset(c, 0, sizeof *c);
     size_t slots = 1024;
     while (slots < 2 * cells && slots < LIGHT_CACHE_MAX_SLOTS)
         slots *= 2;
+    return slots;
+}
+
+int cone_light_cache_init(cone_light_cache *c, size_t cells, int lights)
+{
+    memset(c, 0, sizeof *c);
+    size_t slots = cone_light_cache_slots(cells);
     c->keys = calloc(slots, sizeof *c->keys);
     c->state = calloc(slots, sizeof *c->state);
     c->T = calloc(slots * (size_t)(lights > 0 ? lights : 1), sizeof *c->T);

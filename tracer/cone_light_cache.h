@@ -129,6 +129,9 @@ VX_INLINE void cone_light_cache_put(const cone_light_cache *c, long slot, const 
 /* Room for about `cells` cells (the table gets twice that, a power of two, capped). Returns 0, or
  * -1 when out of memory (c is then zeroed). */
 int cone_light_cache_init(cone_light_cache *c, size_t cells, int lights);
+/* The table's slots for about `cells` cells (what cone_light_cache_init allocates; the OpenCL
+ * backend sizes its buffers alike). */
+size_t cone_light_cache_slots(size_t cells);
 void cone_light_cache_free(cone_light_cache *c);
 #endif
 

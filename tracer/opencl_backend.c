@@ -8,6 +8,7 @@
 
 #include "camera.h"
 #include "cl/render_params.h"
+#include "opencl_cone.h"
 #include "opencl_program.h"
 #include "opencl_runtime.h"
 #include "parallel.h"
@@ -326,10 +327,14 @@ static int render_on_device(cl_state *st, const scene *s, const voxel_grid *g, c
 
 int opencl_model_check(const vx_model *m, vx_err *e)
 {
-    if (m->march == VX_MARCH_CONE)
-        return vx_fail(e, "model %s cannot run on OpenCL: it marches cones (VX_MARCH_CONE), which the OpenCL "
-                          "backend does not do yet; use --backend c",
-                       m->name);
+    if (m->march == VX_MARCH_CONE) {
+        /* Cone marching runs in its own kernel (opencl_cone.c), from the model's cone element. */
+        if (!m->cl_source || !m->cl_cone_element)
+            return vx_fail(e, "model %s cannot run on OpenCL: it marches cones (VX_MARCH_CONE) without a portable "
+                              "cone element (cl_source, cl_cone_element in models/model.h); use --backend c",
+                           m->name);
+        return 0;
+    }
     if (!m->cl_source || !m->cl_opacity || !m->cl_shade)
         return vx_fail(e, "model %s cannot run on OpenCL: it declares no portable evaluation source (cl_source, "
                           "cl_opacity, cl_shade in models/model.h); use --backend c",
@@ -368,7 +373,9 @@ int render_image_opencl(const scene *s, const voxel_grid *g, const vx_model *m, 
         release(&st);
         return -1;
     }
-    int rc = render_on_device(&st, s, g, m, records, o, out, counts, oc, src_dir, build_dir, e);
+    int rc = m->march == VX_MARCH_CONE
+                 ? opencl_render_cone(&st.rt, s, g, m, records, o, out, counts, oc, src_dir, build_dir, e)
+                 : render_on_device(&st, s, g, m, records, o, out, counts, oc, src_dir, build_dir, e);
     release(&st);
     if (rc)
         image_free(out);

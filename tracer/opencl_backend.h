@@ -6,7 +6,8 @@
  *
  * Kernels are compiled once per model and kept by PoCL's cache (POCL_CACHE_DIR, by default
  * pocl-cache/ in the build directory); the compile time is reported apart from the render time.
- * Models that march cones (VX_MARCH_CONE) or declare no cl_source are refused with a message. */
+ * Models that march cones (VX_MARCH_CONE) run in their own kernel (opencl_cone.c, from their
+ * cl_cone_element); a model without portable evaluation code is refused with a message. */
 #ifndef VX_OPENCL_BACKEND_H
 #define VX_OPENCL_BACKEND_H
 

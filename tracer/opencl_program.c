@@ -250,6 +250,11 @@ char *opencl_program_text(const char *src_dir, const vx_model *m, size_t params_
         vx_fail(e, "model %s: its OpenCL source %s is missing", m->name, probe);
         return NULL;
     }
+    return opencl_program_expand(src_dir, root, e);
+}
+
+char *opencl_program_expand(const char *src_dir, const char *root, vx_err *e)
+{
     expander x = {.src = src_dir, .e = e};
     text out = {0};
     if (expand_text(&x, &out, root, "voxlab-program")) {

@@ -25,4 +25,9 @@ int opencl_source_dir(char *src, size_t src_size, char *build_dir, size_t build_
  * build-failure path can be tested (tests/test_opencl.py). */
 char *opencl_program_text(const char *src_dir, const vx_model *m, size_t params_bytes, vx_err *e);
 
+/* A program text from `root` (its #include "..." lines expanded from the source tree src_dir, the
+ * test hook above applied): what opencl_program_text does after writing its root, for kernels
+ * assembled elsewhere (tracer/opencl_cone.c). */
+char *opencl_program_expand(const char *src_dir, const char *root, vx_err *e);
+
 #endif
