@@ -252,7 +252,9 @@ static void render_row(void *p, int64_t row, int thread)
 {
     truth_job *j = p;
     const truth_options *o = j->o;
-    truth_counts *counts = &j->per_thread[thread];
+    /* Counted here and added to the thread's total once per row: the threads' totals share a
+     * cache line, and updating them per packet made the cores pass it back and forth. */
+    truth_counts counts = {0};
     vec3 background = j->rt->scene->background;
     int py = (int)row, m = j->strata_x * j->strata_y;
     for (int px = 0; px < o->width; px++) {
@@ -265,7 +267,7 @@ static void render_row(void *p, int64_t row, int thread)
         memset(&sums, 0, sizeof sums);
         for (int first = 0; first < o->spp; first += PACKET) {
             int n = o->spp - first < PACKET ? o->spp - first : PACKET;
-            trace_packet(j, px, py, lens_b, first, n, &r, &sums, counts);
+            trace_packet(j, px, py, lens_b, first, n, &r, &sums, &counts);
         }
         vec3 sum = v3_scale(background, (float)sums.misses);
         for (int k = 0; k < PACKET; k++)
@@ -275,6 +277,8 @@ static void render_row(void *p, int64_t row, int thread)
         dst[1] = sum.y / (float)o->spp;
         dst[2] = sum.z / (float)o->spp;
     }
+    j->per_thread[thread].primary_rays += counts.primary_rays;
+    j->per_thread[thread].shadow_rays += counts.shadow_rays;
 }
 
 int truth_render(const rt_scene *rt, const truth_options *o, image *out, truth_counts *counts, vx_err *e)
