@@ -60,61 +60,33 @@ static int gcd(int a, int b)
     return a;
 }
 
-/* The same surface description as rt_surface (rt.c), for lanes of a packet; the bake sampler keeps
- * using rt_surface. */
+/* Each lane's hit (rt_surface, as the bake sampler sees it) laid out for the per-light loops; misses
+ * are counted for the background. */
 static void describe_surfaces(const truth_job *j, const struct RTCRayHit16 *rh, int count, packet_surfaces *h,
                               pixel_sums *sums)
 {
     const rt_scene *rt = j->rt;
-    const scene *s = rt->scene;
-    const mesh *m = &s->mesh;
     memset(h, 0, sizeof *h);
     for (int k = 0; k < count; k++) {
         if (rh->hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) {
             sums->misses++;
             continue;
         }
-        unsigned prim = rh->hit.primID[k];
-        vec3 ng = rt->face_normals[prim];
-        const material *mat = &s->materials[m->materials[prim]];
+        vec3 org = v3(rh->ray.org_x[k], rh->ray.org_y[k], rh->ray.org_z[k]);
         vec3 dir = v3(rh->ray.dir_x[k], rh->ray.dir_y[k], rh->ray.dir_z[k]);
-        int front_facing = v3_dot(ng, dir) < 0.0f;
-        if (!front_facing && !mat->double_sided)
+        surface_hit sh;
+        rt_surface(rt, rh->hit.primID[k], rh->hit.u[k], rh->hit.v[k], org, dir, rh->ray.tfar[k], &sh);
+        if (!sh.shaded)
             continue;
-        const uint32_t *tri = &m->indices[3 * (size_t)prim];
-        const rt_vertex *v0 = &rt->vertices[tri[0]], *v1 = &rt->vertices[tri[1]], *v2 = &rt->vertices[tri[2]];
-        float u = rh->hit.u[k], v = rh->hit.v[k], w = 1.0f - u - v;
-        vec3 n = v3_normalize_or(v3(w * v0->normal[0] + u * v1->normal[0] + v * v2->normal[0],
-                                    w * v0->normal[1] + u * v1->normal[1] + v * v2->normal[1],
-                                    w * v0->normal[2] + u * v1->normal[2] + v * v2->normal[2]),
-                                 ng);
-        /* Keep the shading normal on the geometric side: interpolated normals can tip over at
-         * silhouettes, which would shade a visible point as if facing away. */
-        if (v3_dot(n, ng) < 0.0f)
-            n = ng;
-        if (!front_facing) { /* seen from behind (double-sided): both normals face the viewer */
-            n = v3_scale(n, -1.0f);
-            ng = v3_scale(ng, -1.0f);
-        }
-        vec3 albedo = v3_mul(mat->color, v3(w * v0->color[0] + u * v1->color[0] + v * v2->color[0],
-                                            w * v0->color[1] + u * v1->color[1] + v * v2->color[1],
-                                            w * v0->color[2] + u * v1->color[2] + v * v2->color[2]));
-        if (j->textures && mat->texture >= 0) {
-            float tu = w * v0->uv[0] + u * v1->uv[0] + v * v2->uv[0];
-            float tv = w * v0->uv[1] + u * v1->uv[1] + v * v2->uv[1];
-            albedo = v3_mul(albedo, texture_lookup(&s->textures[mat->texture], tu, tv));
-        }
-        float t = rh->ray.tfar[k];
-        h->px[k] = rh->ray.org_x[k] + dir.x * t;
-        h->py[k] = rh->ray.org_y[k] + dir.y * t;
-        h->pz[k] = rh->ray.org_z[k] + dir.z * t;
-        h->nx[k] = n.x, h->ny[k] = n.y, h->nz[k] = n.z;
-        h->gx[k] = ng.x, h->gy[k] = ng.y, h->gz[k] = ng.z;
-        h->fr[k] = albedo.x * (1.0f / VX_PI);
-        h->fg[k] = albedo.y * (1.0f / VX_PI);
-        h->fb[k] = albedo.z * (1.0f / VX_PI);
+        vec3 side = sh.front_facing ? sh.geometric_normal : v3_scale(sh.geometric_normal, -1.0f);
+        h->px[k] = sh.position.x, h->py[k] = sh.position.y, h->pz[k] = sh.position.z;
+        h->nx[k] = sh.normal.x, h->ny[k] = sh.normal.y, h->nz[k] = sh.normal.z;
+        h->gx[k] = side.x, h->gy[k] = side.y, h->gz[k] = side.z;
+        h->fr[k] = sh.albedo.x * (1.0f / VX_PI);
+        h->fg[k] = sh.albedo.y * (1.0f / VX_PI);
+        h->fb[k] = sh.albedo.z * (1.0f / VX_PI);
+        h->material[k] = sh.material;
         h->shaded[k] = 1;
-        h->material[k] = mat;
     }
 }
 
