@@ -19,7 +19,7 @@ typedef struct {
     image *out;
     truth_counts *per_thread;
     int strata_x, strata_y;
-    int dof, shadows, specular, textures;
+    int dof, shadows, specular;
     int lens_a; /* multiplier of the lens strata permutation, coprime to the strata count */
 } truth_job;
 
@@ -267,7 +267,6 @@ int truth_render(const rt_scene *rt, const truth_options *o, image *out, truth_c
     j.dof = (s->effects & EFFECT_DOF) != 0;
     j.shadows = (s->effects & EFFECT_SHADOWS) != 0;
     j.specular = (s->effects & EFFECT_SPECULAR) != 0;
-    j.textures = (s->effects & EFFECT_TEXTURES) != 0;
     int m = j.strata_x * j.strata_y;
     j.lens_a = m / 2 + 1;
     while (gcd(j.lens_a, m) != 1)
