@@ -191,23 +191,33 @@ static void trace_packet(const truth_job *j, int px, int py, int lens_b, int fir
     int strata_x = j->strata_x, strata_y = j->strata_y, m = strata_x * strata_y;
     struct RTCRayHit16 rh;
     int valid[PACKET] __attribute__((aligned(64)));
-    for (int k = 0; k < PACKET; k++) {
-        valid[k] = k < count ? -1 : 0;
-        float sx = 0, sy = 0, lu = 0, lv = 0;
-        if (k < count) {
+    /* Every lane gets a ray, as in the raw Embree benchmark: lanes beyond count exist only in a
+     * pixel's last packet, so the random numbers they draw are never seen. The pinhole loop has
+     * no lens branch to take. */
+    if (j->dof) {
+        for (int k = 0; k < PACKET; k++) {
+            float sx, sy, lu, lv;
+            float r1 = rng_float(r), r2 = rng_float(r), r3 = rng_float(r), r4 = rng_float(r);
+            int i = first + k;
+            truth_strata_sample(i, strata_x, strata_y, r1, r2, &sx, &sy);
+            truth_strata_sample(i < m ? (int)(((int64_t)j->lens_a * i + lens_b) % m) : i, strata_x, strata_y, r3,
+                                r4, &lu, &lv);
+            vec3 org, dir;
+            camera_ray(&s->camera, o->width, o->height, (float)px + sx, (float)py + sy, lu, lv, 1, &org, &dir);
+            rt_packet_rayhit(&rh, k, org, dir, 0.0f, INFINITY);
+        }
+    } else {
+        for (int k = 0; k < PACKET; k++) {
+            float sx, sy;
             float r1 = rng_float(r), r2 = rng_float(r);
             truth_strata_sample(first + k, strata_x, strata_y, r1, r2, &sx, &sy);
-            if (j->dof) {
-                float r3 = rng_float(r), r4 = rng_float(r);
-                int i = first + k;
-                truth_strata_sample(i < m ? (int)(((int64_t)j->lens_a * i + lens_b) % m) : i, strata_x, strata_y,
-                                    r3, r4, &lu, &lv);
-            }
+            vec3 org, dir;
+            camera_ray(&s->camera, o->width, o->height, (float)px + sx, (float)py + sy, 0, 0, 0, &org, &dir);
+            rt_packet_rayhit(&rh, k, org, dir, 0.0f, INFINITY);
         }
-        vec3 org, dir;
-        camera_ray(&s->camera, o->width, o->height, (float)px + sx, (float)py + sy, lu, lv, j->dof, &org, &dir);
-        rt_packet_rayhit(&rh, k, org, dir, 0.0f, INFINITY);
     }
+    for (int k = 0; k < PACKET; k++)
+        valid[k] = k < count ? -1 : 0;
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
