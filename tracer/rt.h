@@ -54,20 +54,51 @@ static inline void rt_packet_rayhit(struct RTCRayHit16 *rh, int k, vec3 org, vec
     rh->hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
 }
 
+/* Describes the hit of a ray with direction dir on triangle prim at barycentrics (u, v). Inline:
+ * the ground truth calls it for every sample and lets the compiler keep the result in registers. */
+static inline void rt_surface(const rt_scene *rt, unsigned prim, float u, float v, vec3 origin, vec3 dir,
+                              float t, surface_hit *out)
+{
+    const scene *s = rt->scene;
+    const mesh *m = &s->mesh;
+    const uint32_t *tri = &m->indices[3 * (size_t)prim];
+    const rt_vertex *v0 = &rt->vertices[tri[0]], *v1 = &rt->vertices[tri[1]], *v2 = &rt->vertices[tri[2]];
+    float w = 1.0f - u - v;
+    vec3 ng = rt->face_normals[prim];
+    const material *mat = &s->materials[m->materials[prim]];
+    out->position = v3_madd(origin, dir, t);
+    out->geometric_normal = ng;
+    out->front_facing = v3_dot(ng, dir) < 0.0f;
+    out->material = mat;
+    out->shaded = out->front_facing || mat->double_sided;
+    vec3 n = v3_normalize_or(v3(w * v0->normal[0] + u * v1->normal[0] + v * v2->normal[0],
+                                w * v0->normal[1] + u * v1->normal[1] + v * v2->normal[1],
+                                w * v0->normal[2] + u * v1->normal[2] + v * v2->normal[2]),
+                             ng);
+    /* Keep the shading normal on the geometric side: interpolated normals can tip over at
+     * silhouettes, which would shade a visible point as if facing away. */
+    if (v3_dot(n, ng) < 0.0f)
+        n = ng;
+    if (!out->front_facing) /* seen from behind (double-sided): both normals face the viewer */
+        n = v3_scale(n, -1.0f);
+    out->normal = n;
+    vec3 vc = v3(w * v0->color[0] + u * v1->color[0] + v * v2->color[0],
+                 w * v0->color[1] + u * v1->color[1] + v * v2->color[1],
+                 w * v0->color[2] + u * v1->color[2] + v * v2->color[2]);
+    vec3 albedo = v3_mul(mat->color, vc);
+    if ((s->effects & EFFECT_TEXTURES) && mat->texture >= 0) {
+        float tu = w * v0->uv[0] + u * v1->uv[0] + v * v2->uv[0], tv = w * v0->uv[1] + u * v1->uv[1] + v * v2->uv[1];
+        albedo = v3_mul(albedo, texture_lookup(&s->textures[mat->texture], tu, tv));
+    }
+    out->albedo = out->shaded ? albedo : v3(0, 0, 0);
+}
+
 #ifdef __cplusplus
 extern "C" {
 #endif
 
 int rt_build(rt_scene *rt, const scene *s, vx_err *e);
 void rt_free(rt_scene *rt);
-
-/* Describes the hit of a ray with direction dir on triangle prim at barycentrics (u, v). */
-void rt_surface(const rt_scene *rt, unsigned prim, float u, float v, vec3 origin, vec3 dir, float t,
-                surface_hit *out);
-
-/* Outgoing radiance toward `to_viewer` from light li arriving along to_light with irradiance E:
- * Lambert plus, when the scene declares "specular", the Beckmann lobe. */
-vec3 rt_shade_light(const scene *s, const surface_hit *h, vec3 to_viewer, vec3 to_light, vec3 irradiance);
 
 #ifdef __cplusplus
 }

@@ -7,16 +7,48 @@
 #include "camera.h"
 #include "parallel.h"
 #include "rng.h"
+#include "shading.h"
 #include "strata.h"
 
 #define PACKET 16
 
+/* What a render keeps fixed: worked out once instead of per packet. */
 typedef struct {
     const rt_scene *rt;
     const truth_options *o;
     image *out;
     truth_counts *per_thread;
+    int strata_x, strata_y;
+    int dof, shadows, specular;
+    int lens_a; /* multiplier of the lens strata permutation, coprime to the strata count */
 } truth_job;
+
+/* One pixel's running sums, kept per packet lane so the shading loops add lane by lane without a
+ * float reduction (which the compiler may not vectorise without reordering); summed once at the
+ * end in a fixed order. Misses are counted and the background added once. */
+typedef struct {
+    float r[PACKET], g[PACKET], b[PACKET];
+    int misses;
+} pixel_sums;
+
+/* The surfaces a packet hit, as a structure of arrays so the per-light loops run over all lanes
+ * at once. A lane that missed, is beyond the packet's count or hit the back of a single-sided
+ * surface (a black occluder) has shaded = 0 and zeros elsewhere: it never gets light. */
+typedef struct {
+    float px[PACKET], py[PACKET], pz[PACKET]; /* hit point */
+    float nx[PACKET], ny[PACKET], nz[PACKET]; /* unit shading normal, on the viewer's side */
+    float gx[PACKET], gy[PACKET], gz[PACKET]; /* unit geometric normal, on the viewer's side */
+    float fr[PACKET], fg[PACKET], fb[PACKET]; /* Lambert BRDF: albedo / pi */
+    int shaded[PACKET];
+    const material *material[PACKET];
+} packet_surfaces;
+
+/* One light as seen from each lane's hit point. */
+typedef struct {
+    float lx[PACKET], ly[PACKET], lz[PACKET]; /* unit direction toward the light */
+    float er[PACKET], eg[PACKET], eb[PACKET]; /* irradiance on a facing surface */
+    float tfar[PACKET];                       /* where a shadow ray stops short of the light */
+} packet_light;
 
 static int gcd(int a, int b)
 {
@@ -28,121 +60,207 @@ static int gcd(int a, int b)
     return a;
 }
 
-/* Traces up to 16 samples of one pixel and adds their radiance to sum. */
-static void trace_packet(const rt_scene *rt, const truth_options *o, int px, int py, int first, int count, rng *r,
-                         vec3 *sum, truth_counts *counts)
+/* Each lane's hit (rt_surface, as the bake sampler sees it) laid out for the per-light loops; misses
+ * are counted for the background. */
+static void describe_surfaces(const truth_job *j, const struct RTCRayHit16 *rh, int count, packet_surfaces *h,
+                              pixel_sums *sums)
 {
-    int strata_x, strata_y;
-    truth_strata(o->spp, &strata_x, &strata_y);
-    const scene *s = rt->scene;
-    int dof = (s->effects & EFFECT_DOF) != 0;
-    /* The lens is stratified too, with its strata visited in a different order than the pixel's
-     * (an affine permutation i -> (a i + b) mod m with a coprime to m and b per pixel), so pixel
-     * and lens positions stay decorrelated. */
-    int m = strata_x * strata_y, lens_a = m / 2 + 1, lens_b = 0;
-    if (dof) {
-        while (gcd(lens_a, m) != 1)
-            lens_a++;
-        lens_b = (int)(rng_mix64((uint64_t)py * 0x9e3779b97f4a7c15ULL + (uint64_t)px) % (uint64_t)m);
-    }
-    struct RTCRayHit16 rh;
-    int valid[PACKET] __attribute__((aligned(64)));
-    vec3 dirs[PACKET];
-    for (int k = 0; k < PACKET; k++) {
-        valid[k] = k < count ? -1 : 0;
-        float sx = 0, sy = 0, lu = 0, lv = 0;
-        if (k < count) {
-            float r1 = rng_float(r), r2 = rng_float(r);
-            truth_strata_sample(first + k, strata_x, strata_y, r1, r2, &sx, &sy);
-            if (dof) {
-                float r3 = rng_float(r), r4 = rng_float(r);
-                int i = first + k;
-                truth_strata_sample(i < m ? (int)(((int64_t)lens_a * i + lens_b) % m) : i, strata_x, strata_y, r3,
-                                    r4, &lu, &lv);
-            }
-        }
-        vec3 org, dir;
-        camera_ray(&s->camera, o->width, o->height, (float)px + sx, (float)py + sy, lu, lv, dof, &org, &dir);
-        dirs[k] = dir;
-        rt_packet_rayhit(&rh, k, org, dir, 0.0f, INFINITY);
-    }
-    struct RTCIntersectContext ctx;
-    rtcInitIntersectContext(&ctx);
-    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-    rtcIntersect16(valid, rt->bvh, &ctx, &rh);
-    counts->primary_rays += (uint64_t)count;
-
-    surface_hit hits[PACKET];
-    int hit[PACKET];
+    const rt_scene *rt = j->rt;
+    memset(h, 0, sizeof *h);
     for (int k = 0; k < count; k++) {
-        hit[k] = rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID;
-        if (hit[k])
-            rt_surface(rt, rh.hit.primID[k], rh.hit.u[k], rh.hit.v[k],
-                       v3(rh.ray.org_x[k], rh.ray.org_y[k], rh.ray.org_z[k]), dirs[k], rh.ray.tfar[k], &hits[k]);
-        else
-            sum[0] = v3_add(sum[0], s->background);
+        if (rh->hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) {
+            sums->misses++;
+            continue;
+        }
+        vec3 org = v3(rh->ray.org_x[k], rh->ray.org_y[k], rh->ray.org_z[k]);
+        vec3 dir = v3(rh->ray.dir_x[k], rh->ray.dir_y[k], rh->ray.dir_z[k]);
+        surface_hit sh;
+        rt_surface(rt, rh->hit.primID[k], rh->hit.u[k], rh->hit.v[k], org, dir, rh->ray.tfar[k], &sh);
+        if (!sh.shaded)
+            continue;
+        vec3 side = sh.front_facing ? sh.geometric_normal : v3_scale(sh.geometric_normal, -1.0f);
+        h->px[k] = sh.position.x, h->py[k] = sh.position.y, h->pz[k] = sh.position.z;
+        h->nx[k] = sh.normal.x, h->ny[k] = sh.normal.y, h->nz[k] = sh.normal.z;
+        h->gx[k] = side.x, h->gy[k] = side.y, h->gz[k] = side.z;
+        h->fr[k] = sh.albedo.x * (1.0f / VX_PI);
+        h->fg[k] = sh.albedo.y * (1.0f / VX_PI);
+        h->fb[k] = sh.albedo.z * (1.0f / VX_PI);
+        h->material[k] = sh.material;
+        h->shaded[k] = 1;
     }
-    int shadows = (s->effects & EFFECT_SHADOWS) != 0;
-    for (int li = 0; li < s->light_count; li++) {
-        vec3 to_light[PACKET], irr[PACKET];
-        int lit[PACKET];
+}
+
+/* Direction, irradiance and shadow-ray extent of light L at every lane's hit point. A directional
+ * light's are the same everywhere. */
+static void light_lanes(const light *L, const packet_surfaces *h, packet_light *pl)
+{
+    if (L->type == LIGHT_DIRECTIONAL) {
+        for (int k = 0; k < PACKET; k++) {
+            pl->lx[k] = L->direction.x, pl->ly[k] = L->direction.y, pl->lz[k] = L->direction.z;
+            pl->er[k] = L->radiance.x, pl->eg[k] = L->radiance.y, pl->eb[k] = L->radiance.z;
+            pl->tfar[k] = INFINITY;
+        }
+        return;
+    }
+    for (int k = 0; k < PACKET; k++) {
+        vec3 to_light, irradiance;
+        float dist;
+        light_at(L, v3(h->px[k], h->py[k], h->pz[k]), &to_light, &irradiance, &dist);
+        pl->lx[k] = to_light.x, pl->ly[k] = to_light.y, pl->lz[k] = to_light.z;
+        pl->er[k] = irradiance.x, pl->eg[k] = irradiance.y, pl->eb[k] = irradiance.z;
+        pl->tfar[k] = dist * (1.0f - 1e-5f);
+    }
+}
+
+/* Adds one light's contribution to every lane: Lambert plus, when declared, the Beckmann lobe;
+ * shadow rays (when declared) only for lanes the light faces. */
+static void shade_light(const truth_job *j, const light *L, const struct RTCRayHit16 *rh, const packet_surfaces *h,
+                        pixel_sums *sums, truth_counts *counts)
+{
+    packet_light pl;
+    light_lanes(L, h, &pl);
+    float cos_l[PACKET];
+    int lit[PACKET];
+    for (int k = 0; k < PACKET; k++) {
+        /* A light below the geometric surface cannot reach it, whatever the shading normal says. */
+        float side = h->gx[k] * pl.lx[k] + h->gy[k] * pl.ly[k] + h->gz[k] * pl.lz[k];
+        cos_l[k] = h->nx[k] * pl.lx[k] + h->ny[k] * pl.ly[k] + h->nz[k] * pl.lz[k];
+        lit[k] = h->shaded[k] & (side > 0.0f) & (cos_l[k] > 0.0f);
+    }
+    if (j->shadows) {
         struct RTCRay16 sr;
         int svalid[PACKET] __attribute__((aligned(64)));
         int nshadow = 0;
+        float eps = j->rt->epsilon;
         for (int k = 0; k < PACKET; k++) {
-            svalid[k] = 0;
-            lit[k] = 0;
-            if (k >= count || !hit[k] || !hits[k].shaded)
-                continue;
-            float dist;
-            light_at(&s->lights[li], hits[k].position, &to_light[k], &irr[k], &dist);
-            vec3 side = hits[k].front_facing ? hits[k].geometric_normal : v3_scale(hits[k].geometric_normal, -1.0f);
-            if (v3_dot(side, to_light[k]) <= 0.0f || v3_dot(hits[k].normal, to_light[k]) <= 0.0f)
-                continue; /* faces away: no light, and no shadow ray needed */
-            lit[k] = 1;
-            if (!shadows)
-                continue;
-            vec3 org = v3_madd(hits[k].position, side, rt->epsilon);
-            rt_packet_ray(&sr, k, org, to_light[k], 0.0f, isinf(dist) ? INFINITY : dist * (1.0f - 1e-5f));
-            svalid[k] = -1;
-            nshadow++;
+            sr.org_x[k] = h->px[k] + h->gx[k] * eps;
+            sr.org_y[k] = h->py[k] + h->gy[k] * eps;
+            sr.org_z[k] = h->pz[k] + h->gz[k] * eps;
+            sr.dir_x[k] = pl.lx[k], sr.dir_y[k] = pl.ly[k], sr.dir_z[k] = pl.lz[k];
+            sr.tnear[k] = 0.0f;
+            sr.tfar[k] = pl.tfar[k];
+            sr.time[k] = 0.0f;
+            sr.mask[k] = 0xffffffffu;
+            sr.id[k] = (unsigned)k;
+            sr.flags[k] = 0;
+            svalid[k] = -lit[k];
+            nshadow += lit[k];
         }
         if (nshadow) {
-            struct RTCIntersectContext sctx;
-            rtcInitIntersectContext(&sctx);
+            struct RTCIntersectContext ctx;
+            rtcInitIntersectContext(&ctx);
             /* One pixel's shadow rays start within the pixel's footprint and head for the same
              * light: a coherent packet, which Embree traverses together. */
-            sctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-            rtcOccluded16(svalid, rt->bvh, &sctx, &sr);
+            ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+            rtcOccluded16(svalid, j->rt->bvh, &ctx, &sr);
             counts->shadow_rays += (uint64_t)nshadow;
-            for (int k = 0; k < count; k++)
-                if (svalid[k] && sr.tfar[k] < 0.0f) /* Embree sets tfar = -inf for occluded rays */
-                    lit[k] = 0;
+            for (int k = 0; k < PACKET; k++)
+                lit[k] &= !(sr.tfar[k] < 0.0f); /* Embree sets tfar = -inf for occluded rays */
         }
-        for (int k = 0; k < count; k++)
-            if (lit[k])
-                sum[0] = v3_add(sum[0], rt_shade_light(s, &hits[k], v3_scale(dirs[k], -1.0f), to_light[k], irr[k]));
     }
+    float weight[PACKET], fr[PACKET], fg[PACKET], fb[PACKET];
+    for (int k = 0; k < PACKET; k++) {
+        weight[k] = lit[k] ? cos_l[k] : 0.0f;
+        fr[k] = h->fr[k], fg[k] = h->fg[k], fb[k] = h->fb[k];
+    }
+    if (j->specular) {
+        for (int k = 0; k < PACKET; k++) {
+            if (!lit[k])
+                continue;
+            const material *mat = h->material[k];
+            float spec = shading_specular_brdf(v3(h->nx[k], h->ny[k], h->nz[k]),
+                                               v3(-rh->ray.dir_x[k], -rh->ray.dir_y[k], -rh->ray.dir_z[k]),
+                                               v3(pl.lx[k], pl.ly[k], pl.lz[k]), mat->specular, mat->roughness);
+            fr[k] += spec, fg[k] += spec, fb[k] += spec;
+        }
+    }
+    for (int k = 0; k < PACKET; k++) {
+        sums->r[k] += fr[k] * pl.er[k] * weight[k];
+        sums->g[k] += fg[k] * pl.eg[k] * weight[k];
+        sums->b[k] += fb[k] * pl.eb[k] * weight[k];
+    }
+}
+
+/* Traces up to 16 samples of pixel (px, py) and adds their radiance to sums. lens_b: the pixel's
+ * offset of the lens strata permutation. */
+static void trace_packet(const truth_job *j, int px, int py, int lens_b, int first, int count, rng *r,
+                         pixel_sums *sums, truth_counts *counts)
+{
+    const scene *s = j->rt->scene;
+    const truth_options *o = j->o;
+    int strata_x = j->strata_x, strata_y = j->strata_y, m = strata_x * strata_y;
+    struct RTCRayHit16 rh;
+    int valid[PACKET] __attribute__((aligned(64)));
+    /* Every lane gets a ray, as in the raw Embree benchmark: lanes beyond count exist only in a
+     * pixel's last packet, so the random numbers they draw are never seen. The pinhole loop has
+     * no lens branch to take. */
+    if (j->dof) {
+        for (int k = 0; k < PACKET; k++) {
+            float sx, sy, lu, lv;
+            float r1 = rng_float(r), r2 = rng_float(r), r3 = rng_float(r), r4 = rng_float(r);
+            int i = first + k;
+            truth_strata_sample(i, strata_x, strata_y, r1, r2, &sx, &sy);
+            truth_strata_sample(i < m ? (int)(((int64_t)j->lens_a * i + lens_b) % m) : i, strata_x, strata_y, r3,
+                                r4, &lu, &lv);
+            vec3 org, dir;
+            camera_ray(&s->camera, o->width, o->height, (float)px + sx, (float)py + sy, lu, lv, 1, &org, &dir);
+            rt_packet_rayhit(&rh, k, org, dir, 0.0f, INFINITY);
+        }
+    } else {
+        for (int k = 0; k < PACKET; k++) {
+            float sx, sy;
+            float r1 = rng_float(r), r2 = rng_float(r);
+            truth_strata_sample(first + k, strata_x, strata_y, r1, r2, &sx, &sy);
+            vec3 org, dir;
+            camera_ray(&s->camera, o->width, o->height, (float)px + sx, (float)py + sy, 0, 0, 0, &org, &dir);
+            rt_packet_rayhit(&rh, k, org, dir, 0.0f, INFINITY);
+        }
+    }
+    for (int k = 0; k < PACKET; k++)
+        valid[k] = k < count ? -1 : 0;
+    struct RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    rtcIntersect16(valid, j->rt->bvh, &ctx, &rh);
+    counts->primary_rays += (uint64_t)count;
+
+    packet_surfaces h;
+    describe_surfaces(j, &rh, count, &h, sums);
+    for (int li = 0; li < s->light_count; li++)
+        shade_light(j, &s->lights[li], &rh, &h, sums, counts);
 }
 
 static void render_row(void *p, int64_t row, int thread)
 {
     truth_job *j = p;
     const truth_options *o = j->o;
-    truth_counts *counts = &j->per_thread[thread];
-    int py = (int)row;
+    /* Counted here and added to the thread's total once per row: the threads' totals share a
+     * cache line, and updating them per packet made the cores pass it back and forth. */
+    truth_counts counts = {0};
+    vec3 background = j->rt->scene->background;
+    int py = (int)row, m = j->strata_x * j->strata_y;
     for (int px = 0; px < o->width; px++) {
         rng r = rng_seed(o->seed, (uint64_t)py * (uint64_t)o->width + (uint64_t)px);
-        vec3 sum = v3(0, 0, 0);
+        /* The lens is stratified too, with its strata visited in a different order than the
+         * pixel's (an affine permutation i -> (a i + b) mod m with a coprime to m and b per pixel),
+         * so pixel and lens positions stay decorrelated. */
+        int lens_b = j->dof ? (int)(rng_mix64((uint64_t)py * 0x9e3779b97f4a7c15ULL + (uint64_t)px) % (uint64_t)m) : 0;
+        pixel_sums sums;
+        memset(&sums, 0, sizeof sums);
         for (int first = 0; first < o->spp; first += PACKET) {
             int n = o->spp - first < PACKET ? o->spp - first : PACKET;
-            trace_packet(j->rt, o, px, py, first, n, &r, &sum, counts);
+            trace_packet(j, px, py, lens_b, first, n, &r, &sums, &counts);
         }
+        vec3 sum = v3_scale(background, (float)sums.misses);
+        for (int k = 0; k < PACKET; k++)
+            sum = v3_add(sum, v3(sums.r[k], sums.g[k], sums.b[k]));
         float *dst = &j->out->data[3 * ((size_t)py * (size_t)o->width + (size_t)px)];
         dst[0] = sum.x / (float)o->spp;
         dst[1] = sum.y / (float)o->spp;
         dst[2] = sum.z / (float)o->spp;
     }
+    j->per_thread[thread].primary_rays += counts.primary_rays;
+    j->per_thread[thread].shadow_rays += counts.shadow_rays;
 }
 
 int truth_render(const rt_scene *rt, const truth_options *o, image *out, truth_counts *counts, vx_err *e)
@@ -153,7 +271,16 @@ int truth_render(const rt_scene *rt, const truth_options *o, image *out, truth_c
         return -1;
     int threads = parallel_threads(o->threads);
     truth_counts *per_thread = calloc((size_t)threads, sizeof(truth_counts));
-    truth_job j = {rt, o, out, per_thread};
+    const scene *s = rt->scene;
+    truth_job j = {.rt = rt, .o = o, .out = out, .per_thread = per_thread};
+    truth_strata(o->spp, &j.strata_x, &j.strata_y);
+    j.dof = (s->effects & EFFECT_DOF) != 0;
+    j.shadows = (s->effects & EFFECT_SHADOWS) != 0;
+    j.specular = (s->effects & EFFECT_SPECULAR) != 0;
+    int m = j.strata_x * j.strata_y;
+    j.lens_a = m / 2 + 1;
+    while (gcd(j.lens_a, m) != 1)
+        j.lens_a++;
     double t0 = now_seconds();
     parallel_for(o->height, threads, render_row, &j, o->progress ? "truth" : NULL);
     memset(counts, 0, sizeof *counts);
