@@ -271,6 +271,10 @@ int truth_render(const rt_scene *rt, const truth_options *o, image *out, truth_c
         return -1;
     int threads = parallel_threads(o->threads);
     truth_counts *per_thread = calloc((size_t)threads, sizeof(truth_counts));
+    if (!per_thread) {
+        image_free(out);
+        return vx_fail(e, "out of memory for %d threads' ray counters", threads);
+    }
     const scene *s = rt->scene;
     truth_job j = {.rt = rt, .o = o, .out = out, .per_thread = per_thread};
     truth_strata(o->spp, &j.strata_x, &j.strata_y);
