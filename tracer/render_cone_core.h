@@ -19,6 +19,7 @@
 
 #include "cone_light_cache.h"
 #include "cone_skip.h"
+#include "floor_int.h"
 #include "grid_core.h"
 #include "light.h"
 #include "model.h"
@@ -196,7 +197,7 @@ VX_INLINE double cone_cell_exit(const voxel_grid *g, int level, const double u[3
         double d = v3_get(dir, a) / size;
         if (fabs(d) < 1e-30)
             continue;
-        double c = floor(u[a]);
+        double c = (double)vx_floor_int(u[a]);
         double bound = d > 0.0 ? c + 1.0 : c;
         double t = (bound - u[a]) / d;
         best = t < best ? t : best; /* not fmin: a libm call on the hot path */
@@ -252,10 +253,10 @@ VX_INLINE int cone_next_element(const cone_ctx *x, const cone *c, cone_walk *w, 
         grid_to_lattice(g, p, lat);
         int cell[3], empty = 0;
         for (;;) {
-            double scale = 1.0 / (double)(1u << K);
+            double scale = vx_inv_pow2(K);
             for (int a = 0; a < 3; a++) {
                 u[a] = lat[a] * scale;
-                cell[a] = (int)floor(u[a]);
+                cell[a] = vx_floor_int(u[a]); /* u lies in the grid's box, cells 0..n */
             }
             /* Consecutive elements mostly share a cell: a neighbourhood found occupied stays so. */
             if (K == w->known_K && cell[0] == w->known[0] && cell[1] == w->known[1] && cell[2] == w->known[2])
