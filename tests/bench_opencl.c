@@ -2,10 +2,10 @@
  * time (median of RUNS, alternating backends so that drift hits both alike) of OpenCL over C on the
  * same baked grid, same options (default 4 spp, or one cone per pixel for a cone marcher; cache on)
  * and the same cores; the OpenCL time excludes the kernel compile, which is reported apart (the
- * first call's, and a cached one's). The CPU time of both (process CPU time over the render; for OpenCL over the kernel, PoCL's worker
- * threads being in the process) is printed too: on a shared machine it is steadier than the wall
- * clock, which depends on what else runs. The images are compared too (max per-pixel difference)
- * so that a fast but wrong kernel shows.
+ * first call's, and a cached one's). The CPU time of both (process CPU time over the render; for
+ * OpenCL over the kernel, PoCL's worker threads being in the process) is printed too: on a shared
+ * machine it is steadier than the wall clock, which depends on what else runs. The images are
+ * compared too (max per-pixel difference) so that a fast but wrong kernel shows.
  * Models that cannot run on OpenCL are listed with the backend's reason.
  * usage: bench_opencl [SCENE [RES [SIZE]]]   (defaults: scenes/bunny.json 128 256) */
 #include <math.h>
