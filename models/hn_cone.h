@@ -6,6 +6,7 @@
 #ifndef VX_HN_CONE_H
 #define VX_HN_CONE_H
 
+#include "floor_int.h"
 #include "grid_core.h"
 #include "hn_eval.h"
 
@@ -31,14 +32,14 @@ VX_INLINE void hn_fill_stencil(const voxel_grid *g, vec3 p, float level, hn_sten
         int L = slot ? L1 : L0;
         if (slot)
             off += g->level[L0].count; /* records of level L1 = L0 + 1 follow level L0's */
-        double scale = 1.0 / (double)(1u << L), size = g->voxel_size_d * (double)(1u << L);
+        double scale = vx_inv_pow2(L), size = g->voxel_size_d * (double)(1u << L);
         int i0[3];
         double f[3];
         for (int a = 0; a < 3; a++) {
             double u = lat[a] * scale - 0.5;
             if (!(fabs(u) < 1e9))
                 return; /* far outside (or NaN): nothing there */
-            i0[a] = (int)floor(u);
+            i0[a] = vx_floor_int(u);
             f[a] = u - i0[a];
         }
         for (int k = 0; k < 8; k++) {

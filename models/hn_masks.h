@@ -11,6 +11,7 @@
 #ifndef VX_HN_MASKS_H
 #define VX_HN_MASKS_H
 
+#include "hn_fastmath.h"
 #include "model.h"
 
 #define HN_MASK_SAMPLES 128
@@ -77,7 +78,7 @@ VX_INLINE void hn_plane_mask(VX_GLOBAL const unsigned int *table, float nx, floa
         hn_mask_set(out, num >= 0.0f ? 0xffffffffu : 0u);
         return;
     }
-    hn_mask_lookup(table, atan2f(ny, nx), num / den, out);
+    hn_mask_lookup(table, hn_atan2f(ny, nx), num / den, out);
 }
 
 /* Slab mask for a two-sided sheet of half-thickness tau: the rays through the element that cross
@@ -94,7 +95,7 @@ VX_INLINE void hn_slab_mask(VX_GLOBAL const unsigned int *table, float nx, float
         hn_mask_set(out, fabsf(D) <= reach ? 0xffffffffu : 0u);
         return;
     }
-    float t = atan2f(ny, nx);
+    float t = hn_atan2f(ny, nx);
     unsigned int lo[VX_MASK_WORDS];
     hn_mask_lookup(table, t, (reach - D) / den, out);
     hn_mask_lookup(table, t, (-reach - D) / den, lo);

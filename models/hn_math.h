@@ -8,6 +8,7 @@
 #ifndef VX_HN_MATH_H
 #define VX_HN_MATH_H
 
+#include "hn_fastmath.h"
 #include "shading.h"
 
 #define HN_SQRT_PI 1.77245385090551602730f
@@ -33,12 +34,12 @@ VX_INLINE float hn_sqrtpi_erfcx(float y)
 {
     y = fmaxf(y, 0.0f);
     if (y < 2.0f)
-        return HN_SQRT_PI * expf(y * y) * erfcf(y);
+        return HN_SQRT_PI * hn_erfcxf(y);
     return 1.0f / (y + hn_erfc_cf_tail(y));
 }
 
 /* Standard normal CDF and density. */
-VX_INLINE float hn_phi_cdf(float x) { return 0.5f * erfcf(-x / HN_SQRT2); }
+VX_INLINE float hn_phi_cdf(float x) { return 0.5f * hn_erfcf(-x / HN_SQRT2); }
 VX_INLINE float hn_phi_pdf(float x) { return 0.39894228040143267794f * expf(-0.5f * x * x); }
 
 /* cot(theta) from cos(theta), clamped to [1e-6, 1e6]: grazing views stay finite, normal incidence
@@ -65,7 +66,7 @@ VX_INLINE float hn_lambda_mu(float mu, float sigma)
     if (!(x < 9.5f))
         return 0.0f; /* e^(-x^2) < 1e-39: below float */
     if (x < 2.0f)
-        return fmaxf(0.0f, 0.5f * (expf(-x * x) / (x * HN_SQRT_PI) - erfcf(x)));
+        return fmaxf(0.0f, 0.5f * (expf(-x * x) / (x * HN_SQRT_PI) - hn_erfcf(x)));
     float k = hn_erfc_cf_tail(x);
     return 0.5f * (expf(-x * x) / HN_SQRT_PI) * k / (x * (x + k));
 }
@@ -81,7 +82,7 @@ VX_INLINE float hn_g(float h, float sigma_h)
 {
     if (!(sigma_h > 0.0f))
         return h > 0.0f ? 1.0f : (h < 0.0f ? 0.0f : 0.5f);
-    return 1.0f - 0.5f * erfcf(h / (HN_SQRT2 * sigma_h));
+    return 1.0f - 0.5f * hn_erfcf(h / (HN_SQRT2 * sigma_h));
 }
 
 /* View- and light-dependent mean visible attribute (2012 paper eq. 17):
@@ -97,7 +98,7 @@ VX_INLINE float hn_attribute(float a_mean, float a_s, float lambda_v, float lamb
  * the fitted form (within 14 %) of the integral of h V(v,h) P(h). */
 VX_INLINE float hn_visible_depth_offset(float sigma_h, float lambda_v)
 {
-    return 0.39f * sigma_h * logf(1.0f + 4.75f * fminf(fmaxf(lambda_v, 0.0f), 1e30f));
+    return 0.39f * sigma_h * hn_logf(1.0f + 4.75f * fminf(fmaxf(lambda_v, 0.0f), 1e30f));
 }
 
 /* Mean of n.N over the projected area of Gaussian slopes, E[1/sqrt(1 + p^2 + q^2)]

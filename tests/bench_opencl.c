@@ -1,11 +1,11 @@
 /* Benchmark of `render --backend opencl` against the C backend, for every registered model: render
  * time (median of RUNS, alternating backends so that drift hits both alike) of OpenCL over C on the
- * same baked grid, same options (default 4 spp, cache on) and the same cores; the OpenCL time
- * excludes the kernel compile, which is reported apart (the first call's, and a cached one's). The
- * CPU time of both (process CPU time over the render; for OpenCL over the kernel, PoCL's worker
- * threads being in the process) is printed too: on a shared machine it is steadier than the wall
- * clock, which depends on what else runs. The images are compared too (max per-pixel difference)
- * so that a fast but wrong kernel shows.
+ * same baked grid, same options (default 4 spp, or one cone per pixel for a cone marcher; cache on)
+ * and the same cores; the OpenCL time excludes the kernel compile, which is reported apart (the
+ * first call's, and a cached one's). The CPU time of both (process CPU time over the render; for
+ * OpenCL over the kernel, PoCL's worker threads being in the process) is printed too: on a shared
+ * machine it is steadier than the wall clock, which depends on what else runs. The images are
+ * compared too (max per-pixel difference) so that a fast but wrong kernel shows.
  * Models that cannot run on OpenCL are listed with the backend's reason.
  * usage: bench_opencl [SCENE [RES [SIZE]]]   (defaults: scenes/bunny.json 128 256) */
 #include <math.h>
@@ -85,9 +85,15 @@ static int bench_model(const scene *s, const vx_model *m, int res, int size)
     if (!rc) {
         double c = bench_median(c_s, RUNS), cl = bench_median(cl_s, RUNS);
         double ccpu = bench_median(c_cpu, RUNS), clcpu = bench_median(cl_cpu, RUNS);
-        printf("opencl %-8s %d^3 %-12s %dx%d %d spp: C %.1f ms, OpenCL %.1f ms (kernel %.1f); CPU time C %.1f ms, "
+        /* A cone-marching model traces one cone per pixel whatever the spp option says. */
+        char rays[32];
+        if (m->march == VX_MARCH_CONE)
+            snprintf(rays, sizeof rays, "1 cone/pixel");
+        else
+            snprintf(rays, sizeof rays, "%d spp", o.spp);
+        printf("opencl %-8s %d^3 %-12s %dx%d %s: C %.1f ms, OpenCL %.1f ms (kernel %.1f); CPU time C %.1f ms, "
                "OpenCL kernel %.1f ms; compile %.2f s first, %.2f s cached; max |OpenCL - C| %.2g\n",
-               s->name, res, m->name, size, size, o.spp, 1e3 * c, 1e3 * cl, 1e3 * bench_median(kernel_s, RUNS), 1e3 * ccpu,
+               s->name, res, m->name, size, size, rays, 1e3 * c, 1e3 * cl, 1e3 * bench_median(kernel_s, RUNS), 1e3 * ccpu,
                1e3 * clcpu, first_compile, compile, max_difference(&img_c, &img_cl));
         printf("opencl %-8s %-12s ratio OpenCL-on-PoCL/C render time: %.2f (target <= 1; median of %d); CPU time "
                "ratio %.2f\n",

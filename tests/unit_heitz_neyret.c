@@ -455,12 +455,51 @@ static int print_lambda(int argc, char **argv)
     return 0;
 }
 
+/* The portable atan2, log and erfc (hn_fastmath.h) against double precision, over their ranges. */
+static void fastmath(void)
+{
+    double worst_atan = 0, worst_log = 0, worst_erfc = 0, worst_erfcx = 0;
+    for (int i = 0; i < 4000; i++) {
+        double t = 2.0 * M_PI * i / 4000.0;
+        for (int k = 0; k < 3; k++) {
+            double r = k == 0 ? 1e-3 : (k == 1 ? 1.0 : 1e4);
+            float y = (float)(r * sin(t)), x = (float)(r * cos(t));
+            double d = fabs(hn_atan2f(y, x) - atan2((double)y, (double)x));
+            worst_atan = fmax(worst_atan, fmin(d, fabs(d - 2.0 * M_PI))); /* -pi and pi are one angle */
+        }
+    }
+    for (int i = 0; i <= 4000; i++) {
+        float x = (float)pow(10.0, -37.0 + 75.0 * i / 4000.0);
+        worst_log = fmax(worst_log, fabs(hn_logf(x) - log((double)x)) / fmax(1.0, fabs(log((double)x))));
+        float z = (float)(-4.0 + 14.0 * i / 4000.0); /* erfc from 2 down to 1e-44 */
+        double want = erfc((double)z);
+        /* The float exponent -z^2 carries a relative error of 6e-8 z^2 into the result: below 2e-6
+         * up to z = 4 (Lambda uses erfc below 2), 1e-5 at z = 10 (erfc 2e-45, for g(h)'s tail). */
+        if (want > 1e-37)
+            worst_erfc = fmax(worst_erfc, fabs(hn_erfcf(z) - want) / want / (z > 4.0f ? 5.0 : 1.0));
+        float y = (float)(20.0 * i / 4000.0);
+        double wx = y < 25.0 ? exp((double)y * y) * erfc((double)y) : 0.0;
+        worst_erfcx = fmax(worst_erfcx, fabs(hn_erfcxf(y) - wx) / wx);
+    }
+    printf("# fastmath worst: atan2 %.3g rad, log %.3g, erfc %.3g rel, erfcx %.3g rel\n", worst_atan, worst_log,
+           worst_erfc, worst_erfcx);
+    CHECK("portable atan2 within 5e-7 rad", worst_atan < 5e-7);
+    CHECK("portable log within 3e-7 relative", worst_log < 3e-7);
+    CHECK("portable erfc within 2e-6 relative to z = 4, 1e-5 beyond", worst_erfc < 2e-6);
+    CHECK("portable erfcx within 2e-6 relative", worst_erfcx < 2e-6);
+    CHECK("portable atan2 at the origin and on the axes",
+          hn_atan2f(0.0f, 0.0f) == 0.0f && fabsf(hn_atan2f(1.0f, 0.0f) - 1.5707963f) < 2e-7f &&
+              fabsf(hn_atan2f(0.0f, -1.0f) - 3.1415927f) < 3e-7f && hn_atan2f(0.0f, 1.0f) == 0.0f);
+    CHECK("portable erfc at the ends", hn_erfcf(INFINITY) == 0.0f && hn_erfcf(-INFINITY) == 2.0f && isnan(hn_erfcf(NAN)));
+}
+
 int main(int argc, char **argv)
 {
     if (argc > 1 && strcmp(argv[1], "--lambda") == 0)
         return print_lambda(argc, argv);
     element_table();
     scalar_table();
+    fastmath();
     masks();
     bake();
     grid_cases();

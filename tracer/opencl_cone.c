@@ -1,7 +1,8 @@
 /* The OpenCL backend for cone-marching models (VX_MARCH_CONE): builds the program from the model's
  * cl_source and tracer/cl/render_cone.cl (which runs tracer/render_cone_core.h, the C backend's
  * marcher), uploads the grid, the records of every level, the model's table, the dilated
- * occupancy bitmaps and an empty light cache, and runs vx_render_cone, one work-item per pixel.
+ * occupancy bitmaps and an empty light cache, and runs vx_render_cone, one work-group per compute
+ * unit whose work-items take tiles of pixels from a shared counter.
  * opencl_backend.c opens the device and hands cone models here. */
 #include "opencl_cone.h"
 
@@ -18,12 +19,14 @@
 #include "opencl_program.h"
 #include "parallel.h"
 
-/* Work-group size: strips of 64 consecutive pixels, as vx_render's. */
+/* Work-group size: a size every device accepts. vx_render_cone's work-items are persistent (they
+ * take tiles of pixels from a shared counter until the image is done) and the host launches one
+ * group per compute unit: on a CPU device one thread per group, as many as the C backend's. */
 #define CONE_LOCAL_SIZE 64
 
 /* vx_render_cone's buffer arguments, in order (render_cone.cl), then the pixel count. */
 enum { C_PARAMS, C_COLS, C_BITS, C_PREFIX, C_RECORDS, C_TABLE, C_DILATED, C_LC_KEYS, C_LC_STATE, C_LC_T, C_IMAGE,
-       C_COUNTS, C_N };
+       C_COUNTS, C_NEXT_TILE, C_N };
 
 typedef struct {
     const opencl_runtime *rt;
@@ -107,26 +110,6 @@ static int compile(cone_state *st, const vx_model *m, const char *src_dir, const
     return st->kernel ? 0 : check(err, "creating kernel vx_render_cone", e);
 }
 
-static size_t gcd(size_t a, size_t b)
-{
-    while (b) {
-        size_t t = a % b;
-        a = b;
-        b = t;
-    }
-    return a;
-}
-
-/* Coprime with the group count and near groups / golden ratio (opencl_backend.c's group_stride):
- * any run of consecutive work-groups samples the whole image. */
-static int group_stride(size_t groups)
-{
-    size_t k = (size_t)((double)groups * 0.6180339887) | 1;
-    while (k > 1 && gcd(k, groups) != 1)
-        k++;
-    return groups > 1 && k < groups ? (int)k : 1;
-}
-
 static void fill_params(vx_cl_cone_params *p, const scene *s, const voxel_grid *g, const dilated_grid *d,
                         const render_options *o, size_t lc_slots)
 {
@@ -204,8 +187,12 @@ static int upload_grid(cone_state *st, const voxel_grid *g, vx_err *e)
     return 0;
 }
 
-static int run(cone_state *st, size_t pixels, int n, const char *what, vx_err *e)
+/* Runs vx_render_cone over n pixels as `groups` work-groups (the tile counter reset first) and
+ * waits for it. */
+static int run(cone_state *st, size_t groups, int n, const char *what, vx_err *e)
 {
+    if (zero_buffer(st, C_NEXT_TILE, sizeof(cl_int), e))
+        return -1;
     cl_int err = CL_SUCCESS;
     for (int i = 0; i < C_N && err == CL_SUCCESS; i++)
         err = clSetKernelArg(st->kernel, (cl_uint)i, sizeof(cl_mem), &st->buf[i]);
@@ -216,7 +203,7 @@ static int run(cone_state *st, size_t pixels, int n, const char *what, vx_err *e
             CL_SUCCESS &&
         max > 0 && max < local)
         local = max;
-    size_t global = (pixels + local - 1) / local * local;
+    size_t global = groups * local;
     if (err == CL_SUCCESS)
         err = clEnqueueNDRangeKernel(st->rt->queue, st->kernel, 1, NULL, &global, &local, 0, NULL, NULL);
     if (err == CL_SUCCESS)
@@ -242,14 +229,13 @@ static int render_cone(cone_state *st, const scene *s, const voxel_grid *g, cons
     double t_compiled = now_seconds();
     if (dilated_build(&st->skip, g))
         return vx_fail(e, "out of memory for the cone marcher's occupancy bitmaps");
-    size_t groups = (pixels + CONE_LOCAL_SIZE - 1) / CONE_LOCAL_SIZE, slot_bytes = 2 * VX_CONE_COUNTERS * sizeof(uint32_t);
-    st->counts = calloc(groups ? groups : 1, slot_bytes);
+    size_t groups = st->rt->compute_units ? st->rt->compute_units : 1, slot_bytes = 2 * VX_CONE_COUNTERS * sizeof(uint32_t);
+    st->counts = calloc(groups, slot_bytes);
     if (!st->counts)
         return vx_fail(e, "out of memory for the render's counters");
     size_t lc_slots = cone_light_cache_slots(grid_count(g, 0));
     vx_cl_cone_params params;
     fill_params(&params, s, g, &st->skip, o, lc_slots);
-    params.group_stride = group_stride(groups);
     size_t lc = params.use_light_cache ? lc_slots : 0, lights = params.light_count > 0 ? (size_t)params.light_count : 1;
     size_t record_count = 0;
     for (int l = 0; l < (m->uses_levels ? g->levels : 1); l++)
@@ -264,17 +250,18 @@ static int render_cone(cone_state *st, const scene *s, const voxel_grid *g, cons
         buffer(st, C_LC_STATE, RW, lc * sizeof(cl_int), NULL, e) ||
         buffer(st, C_LC_T, RW, lc * lights * sizeof(float), NULL, e) ||
         buffer(st, C_IMAGE, CL_MEM_WRITE_ONLY, pixels * 3 * sizeof(float), NULL, e) ||
-        buffer(st, C_COUNTS, RW, groups * slot_bytes, st->counts, e))
+        buffer(st, C_COUNTS, RW, groups * slot_bytes, st->counts, e) ||
+        buffer(st, C_NEXT_TILE, RW, sizeof(cl_int), NULL, e))
         return -1;
     if (lc && (zero_buffer(st, C_LC_KEYS, lc * sizeof(uint64_t), e) || zero_buffer(st, C_LC_STATE, lc * sizeof(cl_int), e)))
         return -1;
     double t_bound = now_seconds();
     /* A launch with nothing to do: PoCL compiles the work-group function at the first launch, and
      * that belongs to the compile time, not to the render. */
-    if (run(st, pixels, 0, "preparing vx_render_cone", e))
+    if (run(st, groups, 0, "preparing vx_render_cone", e))
         return -1;
     double t_warm = now_seconds(), cpu_warm = cpu_seconds();
-    if (run(st, pixels, (int)pixels, "running vx_render_cone", e))
+    if (run(st, groups, (int)pixels, "running vx_render_cone", e))
         return -1;
     double t_traced = now_seconds();
     oc->kernel_cpu_seconds = cpu_seconds() - cpu_warm;

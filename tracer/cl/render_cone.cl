@@ -1,5 +1,5 @@
 /* The OpenCL cone tracer: tracer/render_cone_core.h (the C backend's cone marcher, the same file)
- * as one kernel, one work-item per pixel. tracer/opencl_cone.c assembles the program:
+ * as one kernel, persistent work-items taking tiles of pixels. tracer/opencl_cone.c assembles the program:
  * tracer/cl/prelude.h, the model's cl_source header, then this file, with
  *   VX_CL_CONE_ELEMENT   the model's cl_cone_element function
  *   VX_CL_PARAMS_BYTES   sizeof(vx_cl_cone_params) on the host
@@ -56,15 +56,21 @@ static void cone_cl_flush_counts(__global uint *counts, const cone_counts *c)
     }
 }
 
+/* Persistent work-items: each takes the next tile of VX_CONE_TILE_PIXELS consecutive pixels from
+ * the shared counter *next_tile until none is left, so the work goes to whoever is free, as the C
+ * tracer's threads take rows (parallel_for). A fixed split (one work-item per pixel, the runtime
+ * handing each thread its share of the work-groups up front: PoCL gives each of 2 threads half of
+ * them) leaves one core idle at the end whenever the shares cost unlike amounts. The host launches
+ * one work-group per compute unit; on a CPU device a group runs its work-items one after the other
+ * on one thread, so the first takes tiles until the image is done and the rest find none. Which
+ * work-item renders a pixel changes nothing in it (the light cache's values depend only on their
+ * cell). counts: one slot per work-group. */
 __kernel void vx_render_cone(__global const vx_cl_cone_params *P, __global ulong *cols, __global ulong *bits,
                              __global uint *prefix, __global const uchar *records, __global const uint *table,
                              __global ulong *dilated, __global ulong *lc_keys, __global int *lc_state,
-                             __global float *lc_T, __global float *image, __global uint *counts, int pixels)
+                             __global float *lc_T, __global float *image, __global uint *counts,
+                             volatile __global int *next_tile, int pixels)
 {
-    size_t strip = ((size_t)get_group_id(0) * (size_t)P->group_stride) % get_num_groups(0);
-    int pix = (int)(strip * get_local_size(0) + get_local_id(0));
-    if (pix >= pixels)
-        return;
     voxel_grid g;
     cone_cl_grid(&g, P, cols, bits, prefix);
     dilated_grid d;
@@ -92,17 +98,25 @@ __kernel void vx_render_cone(__global const vx_cl_cone_params *P, __global ulong
     x.effects = P->effects;
     x.counts.elements = x.counts.shadow_rays = x.counts.evals = x.counts.cache_hits = 0;
     int width = P->width, height = P->height;
-    int px = pix % width, py = pix / width;
-    camera cam = P->cam;
-    /* The pixel's centre ray from the lens centre (render.c's render_row for cone models). */
-    vec3 org, dir;
-    camera_ray(&cam, width, height, (float)px + 0.5f, (float)py + 0.5f, 0.5f, 0.5f, 0, &org, &dir);
+    camera cam = P->cam; /* camera_ray takes a private pointer */
     int dof = (P->effects & VX_EFFECT_DOF) && cam.aperture_radius > 0.0f;
-    vec3 c = cone_trace(&x, org, dir, P->spread, dof ? cam.aperture_radius : 0.0f, cam.focus_distance, cam.forward,
-                        P->background);
-    __global float *dst = &image[3 * (size_t)pix];
-    dst[0] = c.x;
-    dst[1] = c.y;
-    dst[2] = c.z;
+    float spread = P->spread;
+    vec3 background = P->background;
+    int tiles = (pixels + VX_CONE_TILE_PIXELS - 1) / VX_CONE_TILE_PIXELS;
+    for (int tile = atomic_inc(next_tile); tile < tiles; tile = atomic_inc(next_tile)) {
+        int end = min(pixels, (tile + 1) * VX_CONE_TILE_PIXELS);
+        for (int pix = tile * VX_CONE_TILE_PIXELS; pix < end; pix++) {
+            int px = pix % width, py = pix / width;
+            /* The pixel's centre ray from the lens centre (render.c's render_row for cone models). */
+            vec3 org, dir;
+            camera_ray(&cam, width, height, (float)px + 0.5f, (float)py + 0.5f, 0.5f, 0.5f, 0, &org, &dir);
+            vec3 c = cone_trace(&x, org, dir, spread, dof ? cam.aperture_radius : 0.0f, cam.focus_distance,
+                                cam.forward, background);
+            __global float *dst = &image[3 * (size_t)pix];
+            dst[0] = c.x;
+            dst[1] = c.y;
+            dst[2] = c.z;
+        }
+    }
     cone_cl_flush_counts(counts, &x.counts);
 }

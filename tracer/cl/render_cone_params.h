@@ -32,8 +32,12 @@ typedef struct {
     int light_count;
     unsigned effects;                       /* VX_EFFECT_* */
     int use_light_cache;
-    int group_stride;                       /* as vx_render's: work-groups scattered over the image */
 } vx_cl_cone_params;
+
+/* Pixels a work-item takes at a time from the shared tile counter (see vx_render_cone): small
+ * enough that the last tiles even out the threads' finishing times, large enough that the counter
+ * is rarely touched. */
+#define VX_CONE_TILE_PIXELS 16
 
 /* A work-item's counters, summed per work-group as 64-bit (low, high) pairs of 32-bit words. */
 enum { VX_CONE_ELEMENTS = 0, VX_CONE_SHADOW_RAYS = 1, VX_CONE_EVALS = 2, VX_CONE_CACHE_HITS = 3, VX_CONE_COUNTERS = 4 };
