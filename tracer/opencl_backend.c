@@ -17,12 +17,13 @@ _Static_assert((int)EFFECT_SHADOWS == (int)VX_EFFECT_SHADOWS && (int)EFFECT_DOF 
                    (int)EFFECT_SPECULAR == (int)VX_EFFECT_SPECULAR && (int)EFFECT_TEXTURES == (int)VX_EFFECT_TEXTURES,
                "the kernels test scene effects with the VX_EFFECT_* bits");
 
-/* Work-group size: a group is a strip of 64 consecutive pixels (coherent rays; PoCL's per-group cost
- * spread over 64 work-items), a size every device accepts. */
+/* Work-group size: a size every device accepts. vx_render's work-items are persistent (they take
+ * tiles of pixels from a shared counter until the image is done), and the host launches one group
+ * per compute unit: on a CPU device one thread per group, as many as the C backend's threads. */
 #define LOCAL_SIZE 64
 
 /* vx_render's arguments, in order (render.cl), then the pixel count. */
-enum { B_PARAMS, B_COLS, B_BITS, B_PREFIX, B_RECORDS, B_CACHE, B_STATE, B_IMAGE, B_COUNTS, B_N };
+enum { B_PARAMS, B_COLS, B_BITS, B_PREFIX, B_RECORDS, B_CACHE, B_STATE, B_IMAGE, B_COUNTS, B_NEXT_TILE, B_N };
 
 typedef struct {
     opencl_runtime rt;
@@ -118,27 +119,6 @@ static double cpu_seconds(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-static size_t gcd(size_t a, size_t b)
-{
-    while (b) {
-        size_t t = a % b;
-        a = b;
-        b = t;
-    }
-    return a;
-}
-
-/* The stride by which vx_render scatters work-groups over the image: coprime with the group count
- * (so that it is a permutation) and near groups / golden ratio (so that consecutive groups land far
- * apart and any run of them covers the image evenly). */
-static int group_stride(size_t groups)
-{
-    size_t k = (size_t)((double)groups * 0.6180339887) | 1;
-    while (k > 1 && gcd(k, groups) != 1)
-        k++;
-    return groups > 1 && k < groups ? (int)k : 1;
-}
-
 /* The grid's level tables, concatenated level after level (offsets in vx_cl_params). */
 static int upload_grid(cl_state *st, const voxel_grid *g, vx_err *e)
 {
@@ -173,17 +153,10 @@ static int upload_grid(cl_state *st, const voxel_grid *g, vx_err *e)
     return 0;
 }
 
-static size_t round_up(size_t items, size_t local)
+/* Runs kernel k as `groups` work-groups of `local` work-items and waits for it. */
+static int run(cl_state *st, cl_kernel k, size_t local, size_t groups, const char *what, vx_err *e)
 {
-    size_t global = (items + local - 1) / local * local;
-    return global ? global : local;
-}
-
-/* Runs kernel k over `items` work-items (rounded up to whole work-groups; the kernel ignores the
- * extra ones) and waits for it. */
-static int run(cl_state *st, cl_kernel k, size_t local, size_t items, const char *what, vx_err *e)
-{
-    size_t global = round_up(items, local);
+    size_t global = groups * local;
     cl_int err = clEnqueueNDRangeKernel(st->rt.queue, k, 1, NULL, &global, &local, 0, NULL, NULL);
     if (err == CL_SUCCESS)
         err = clFinish(st->rt.queue);
@@ -228,13 +201,24 @@ static int bind(cl_state *st, int pixels, vx_err *e)
     return cl_check(err, "setting the arguments of vx_render", e);
 }
 
-/* Launches the kernel once over the real size with nothing to do (0 pixels: every work-item returns
- * at once). PoCL compiles a kernel's work-group function at its first launch, specialised for the
+/* Sets the tile counter to 0 before a launch: vx_render's work-items start from the first tile. */
+static int reset_tiles(cl_state *st, vx_err *e)
+{
+    cl_int zero = 0;
+    return cl_check(clEnqueueFillBuffer(st->rt.queue, st->buf[B_NEXT_TILE], &zero, sizeof zero, 0, sizeof zero, 0,
+                                        NULL, NULL),
+                    "resetting the tile counter", e);
+}
+
+/* Launches the kernel once over the real size with nothing to do (0 pixels: every work-item finds
+ * no tile). PoCL compiles a kernel's work-group function at its first launch, specialised for the
  * local size and for whether the grid is small, so the real size is needed; that compile belongs
  * to the compile time, not to the render. */
-static int warm_up(cl_state *st, size_t pixels, vx_err *e)
+static int warm_up(cl_state *st, size_t groups, vx_err *e)
 {
-    return bind(st, 0, e) || run(st, st->render, st->local, pixels, "preparing vx_render", e) ? -1 : 0;
+    return reset_tiles(st, e) || bind(st, 0, e) || run(st, st->render, st->local, groups, "preparing vx_render", e)
+               ? -1
+               : 0;
 }
 
 /* Sums the per-work-group counter slots (cl_flush_counts) of `groups` groups into sums. */
@@ -271,14 +255,13 @@ static int render_on_device(cl_state *st, const scene *s, const voxel_grid *g, c
     if (compile(st, m, src_dir, build_dir, e))
         return -1;
     double t_compiled = now_seconds();
-    size_t groups = round_up(pixels, st->local) / st->local;
+    size_t groups = st->rt.compute_units ? st->rt.compute_units : 1;
     size_t slot_bytes = 2 * VX_CL_COUNTERS * sizeof(uint32_t);
     st->counts = calloc(groups, slot_bytes);
     if (!st->counts)
         return vx_fail(e, "out of memory for the render's counters");
     vx_cl_params params;
     fill_params(&params, s, g, o);
-    params.group_stride = group_stride(groups);
     size_t cached = o->cache ? voxels : 0;
     const cl_mem_flags RO = CL_MEM_READ_ONLY, RW = CL_MEM_READ_WRITE;
     /* The kernel only reads the records and only writes the image: both used in place. */
@@ -287,7 +270,8 @@ static int render_on_device(cl_state *st, const scene *s, const voxel_grid *g, c
         make_buffer(st, B_CACHE, RW, cached * sizeof(vx_cl_cache), NULL, e) ||
         make_buffer(st, B_STATE, RW, cached * sizeof(cl_int), NULL, e) ||
         make_buffer(st, B_IMAGE, CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR, pixels * 3 * sizeof(float), out->data, e) ||
-        make_buffer(st, B_COUNTS, RW, groups * slot_bytes, st->counts, e))
+        make_buffer(st, B_COUNTS, RW, groups * slot_bytes, st->counts, e) ||
+        make_buffer(st, B_NEXT_TILE, RW, sizeof(cl_int), NULL, e))
         return -1;
     cl_int zero = 0, err = CL_SUCCESS;
     if (cached)
@@ -296,10 +280,10 @@ static int render_on_device(cl_state *st, const scene *s, const voxel_grid *g, c
     if (cl_check(err, "clearing the shading cache", e))
         return -1;
     double t_bound = now_seconds();
-    if (warm_up(st, pixels, e) || bind(st, (int)pixels, e))
+    if (warm_up(st, groups, e))
         return -1;
     double t_warm = now_seconds(), cpu_warm = cpu_seconds();
-    if (run(st, st->render, st->local, pixels, "running vx_render", e))
+    if (reset_tiles(st, e) || bind(st, (int)pixels, e) || run(st, st->render, st->local, groups, "running vx_render", e))
         return -1;
     double t_traced = now_seconds();
     oc->kernel_cpu_seconds = cpu_seconds() - cpu_warm;
