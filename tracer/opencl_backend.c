@@ -342,6 +342,14 @@ int render_image_opencl(const scene *s, const voxel_grid *g, const vx_model *m, 
         snprintf(n, sizeof n, "%d", o->threads);
         setenv("POCL_CPU_MAX_CU_NUM", n, 0);
     }
+    /* PoCL's worker threads sleep between kernels and are woken together by the host thread; the
+     * kernel scheduler then tends to start them on the waker's core, where they share it for the
+     * first milliseconds of the render (measured: the kernel's wall time exceeded its CPU time / 2
+     * by ~8 % on a 2-core machine). Pinned, worker i runs on core i from the start, as the C
+     * backend's freshly created threads are spread at once; the tiles (render.cl) still go to
+     * whichever thread is free, so a core slowed by another process just takes fewer of them.
+     * PoCL's own variable wins when set. */
+    setenv("POCL_AFFINITY", "1", 0);
     cl_state st;
     memset(&st, 0, sizeof st);
     if (opencl_open(&st.rt, cache_dir, e))
