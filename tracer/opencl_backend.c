@@ -308,6 +308,29 @@ static int render_on_device(cl_state *st, const scene *s, const voxel_grid *g, c
     return 0;
 }
 
+/* How PoCL's CPU device should run vx_render, set before the first OpenCL call loads PoCL (which
+ * reads them then); a PoCL variable the user has set wins. Other platforms ignore them. */
+static void pocl_settings(const render_options *o)
+{
+    /* --threads: PoCL's worker threads, as many as the C backend's. */
+    if (o->threads > 0 && !getenv("POCL_CPU_MAX_CU_NUM")) {
+        char n[16];
+        snprintf(n, sizeof n, "%d", o->threads);
+        setenv("POCL_CPU_MAX_CU_NUM", n, 0);
+    }
+    /* The worker threads sleep between kernels and are woken together by the host thread; the
+     * kernel scheduler then tends to start them on the waker's core, where they share it for the
+     * first milliseconds of the render (measured: the kernel's wall time exceeded its CPU time / 2
+     * by ~8 % on a 2-core machine). Pinned, worker i runs on core i from the start, as the C
+     * backend's freshly created threads are spread at once; the tiles (render.cl) still go to
+     * whichever thread is free, so a core slowed by another process just takes fewer of them. */
+    setenv("POCL_AFFINITY", "1", 0);
+    /* The work-group function as a plain loop over the work-items: PoCL's default (loopvec) tries
+     * to vectorise across them, which vx_render's persistent, divergent work-items never allow,
+     * and its code came out ~2 % slower (CPU time, medians of 11 alternating runs). */
+    setenv("POCL_WORK_GROUP_METHOD", "loops", 0);
+}
+
 int opencl_model_check(const vx_model *m, vx_err *e)
 {
     if (m->march == VX_MARCH_CONE)
@@ -336,20 +359,7 @@ int render_image_opencl(const scene *s, const voxel_grid *g, const vx_model *m, 
     if (opencl_source_dir(src_dir, sizeof src_dir, build_dir, sizeof build_dir, e))
         return -1;
     snprintf(cache_dir, sizeof cache_dir, "%s/pocl-cache", build_dir);
-    /* --threads for PoCL's CPU device (its own variable wins when set). */
-    if (o->threads > 0 && !getenv("POCL_CPU_MAX_CU_NUM")) {
-        char n[16];
-        snprintf(n, sizeof n, "%d", o->threads);
-        setenv("POCL_CPU_MAX_CU_NUM", n, 0);
-    }
-    /* PoCL's worker threads sleep between kernels and are woken together by the host thread; the
-     * kernel scheduler then tends to start them on the waker's core, where they share it for the
-     * first milliseconds of the render (measured: the kernel's wall time exceeded its CPU time / 2
-     * by ~8 % on a 2-core machine). Pinned, worker i runs on core i from the start, as the C
-     * backend's freshly created threads are spread at once; the tiles (render.cl) still go to
-     * whichever thread is free, so a core slowed by another process just takes fewer of them.
-     * PoCL's own variable wins when set. */
-    setenv("POCL_AFFINITY", "1", 0);
+    pocl_settings(o);
     cl_state st;
     memset(&st, 0, sizeof st);
     if (opencl_open(&st.rt, cache_dir, e))
