@@ -119,18 +119,31 @@ static double cpu_seconds(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-/* The grid's level tables, concatenated level after level (offsets in vx_cl_params). */
-static int upload_grid(cl_state *st, const voxel_grid *g, vx_err *e)
+/* The grid's level tables, concatenated level after level (offsets in vx_cl_params): the buffers. */
+static size_t grid_totals(const voxel_grid *g, size_t *words)
 {
-    size_t cols = 0, words = 0;
+    size_t cols = 0;
+    *words = 0;
     for (int l = 0; l < g->levels; l++) {
         cols += (size_t)g->level[l].n * (size_t)g->level[l].n;
-        words += g->level[l].words;
+        *words += g->level[l].words;
     }
-    if (make_buffer(st, B_COLS, CL_MEM_READ_ONLY, cols * sizeof(uint64_t), NULL, e) ||
-        make_buffer(st, B_BITS, CL_MEM_READ_ONLY, words * sizeof(uint64_t), NULL, e) ||
-        make_buffer(st, B_PREFIX, CL_MEM_READ_ONLY, words * sizeof(uint32_t), NULL, e))
-        return -1;
+    return cols;
+}
+
+static int make_grid_buffers(cl_state *st, const voxel_grid *g, vx_err *e)
+{
+    size_t words, cols = grid_totals(g, &words);
+    return make_buffer(st, B_COLS, CL_MEM_READ_ONLY, cols * sizeof(uint64_t), NULL, e) ||
+                   make_buffer(st, B_BITS, CL_MEM_READ_ONLY, words * sizeof(uint64_t), NULL, e) ||
+                   make_buffer(st, B_PREFIX, CL_MEM_READ_ONLY, words * sizeof(uint32_t), NULL, e)
+               ? -1
+               : 0;
+}
+
+/* ... and their contents, enqueued without waiting. */
+static int upload_grid(cl_state *st, const voxel_grid *g, vx_err *e)
+{
     cl_command_queue q = st->rt.queue;
     size_t c = 0, w = 0;
     for (int l = 0; l < g->levels; l++) {
@@ -266,7 +279,7 @@ static int render_on_device(cl_state *st, const scene *s, const voxel_grid *g, c
     size_t cached = o->cache ? voxels : 0;
     const cl_mem_flags RO = CL_MEM_READ_ONLY, RW = CL_MEM_READ_WRITE;
     /* The kernel only reads the records and only writes the image: both used in place. */
-    if (make_buffer(st, B_PARAMS, RO, sizeof params, &params, e) || upload_grid(st, g, e) ||
+    if (make_buffer(st, B_PARAMS, RO, sizeof params, &params, e) || make_grid_buffers(st, g, e) ||
         make_buffer(st, B_RECORDS, RO | CL_MEM_USE_HOST_PTR, voxels * m->voxel_bytes, records, e) ||
         make_buffer(st, B_CACHE, RW, cached * sizeof(vx_cl_cache), NULL, e) ||
         make_buffer(st, B_STATE, RW, cached * sizeof(cl_int), NULL, e) ||
@@ -274,21 +287,19 @@ static int render_on_device(cl_state *st, const scene *s, const voxel_grid *g, c
         make_buffer(st, B_COUNTS, RW, groups * slot_bytes, st->counts, e) ||
         make_buffer(st, B_NEXT_TILE, RW, sizeof(cl_int), NULL, e))
         return -1;
+    double t_bound = now_seconds();
+    /* The warm-up reads none of the grid, the cache or the image: it runs on the empty buffers. */
+    if (warm_up(st, groups, e))
+        return -1;
+    double t_warm = now_seconds(), cpu_warm = cpu_seconds();
+    /* The uploads, the clearing of the cache and the render, enqueued together: one wait, inside the
+     * render's time (each wait costs a wake-up of PoCL's threads). */
     cl_int zero = 0, err = CL_SUCCESS;
     if (cached)
         err = clEnqueueFillBuffer(st->rt.queue, st->buf[B_STATE], &zero, sizeof zero, 0, cached * sizeof(cl_int), 0,
                                   NULL, NULL);
-    /* The uploads and the clearing are enqueued without waiting: wait for them here, so that they
-     * count in the render's time and not in the warm-up's (compile) time. */
-    if (err == CL_SUCCESS)
-        err = clFinish(st->rt.queue);
-    if (cl_check(err, "clearing the shading cache", e))
-        return -1;
-    double t_bound = now_seconds();
-    if (warm_up(st, groups, e))
-        return -1;
-    double t_warm = now_seconds(), cpu_warm = cpu_seconds();
-    if (reset_tiles(st, e) || bind(st, (int)pixels, e) || run(st, st->render, st->local, groups, "running vx_render", e))
+    if (cl_check(err, "clearing the shading cache", e) || upload_grid(st, g, e) || reset_tiles(st, e) ||
+        bind(st, (int)pixels, e) || run(st, st->render, st->local, groups, "running vx_render", e))
         return -1;
     double t_traced = now_seconds();
     oc->kernel_cpu_seconds = cpu_seconds() - cpu_warm;
