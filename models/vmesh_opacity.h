@@ -17,6 +17,7 @@
 #ifndef VX_VMESH_OPACITY_H
 #define VX_VMESH_OPACITY_H
 
+#include "portable_acos.h"
 #include "shading.h"
 #include "vmesh_record.h"
 
@@ -39,7 +40,9 @@ VX_INLINE float vmesh_disk_overlap(float r1, float r2, float d)
     float x1 = (d * d + r1 * r1 - r2 * r2) / (2.0f * d * r1), x2 = (d * d + r2 * r2 - r1 * r1) / (2.0f * d * r2);
     x1 = x1 < -1.0f ? -1.0f : (x1 > 1.0f ? 1.0f : x1);
     x2 = x2 < -1.0f ? -1.0f : (x2 > 1.0f ? 1.0f : x2);
-    float a = r1 * r1 * (acosf(x1) - x1 * sqrtf(1.0f - x1 * x1)) + r2 * r2 * (acosf(x2) - x2 * sqrtf(1.0f - x2 * x2));
+    /* vx_acosf, not acosf: this is the render's hottest libm call (see portable_acos.h). */
+    float a = r1 * r1 * (vx_acosf(x1) - x1 * sqrtf(1.0f - x1 * x1)) +
+              r2 * r2 * (vx_acosf(x2) - x2 * sqrtf(1.0f - x2 * x2));
     float small = VX_PI * rmin * rmin;
     return a < small ? a : small;
 }

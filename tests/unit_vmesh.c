@@ -162,6 +162,28 @@ static double overlap_numeric(double r1, double r2, double d)
     return sum * h * h;
 }
 
+/* vx_acosf (tracer/portable_acos.h, used by the disk overlap): within 2 ulp of double acos on a
+ * fine sweep of [-1, 1], exact at the ends, and never decreasing the wrong way. */
+static void test_portable_acos(void)
+{
+    double worst_ulp = 0.0;
+    int monotone = 1;
+    float prev = vx_acosf(-1.0f);
+    for (int i = 0; i <= 2000000; i++) {
+        float x = -1.0f + 2.0f * (float)i / 2000000.0f;
+        double want = acos((double)x);
+        float got = vx_acosf(x);
+        double ulp = (double)nextafterf((float)want, INFINITY) - (double)(float)want;
+        worst_ulp = fmax(worst_ulp, fabs((double)got - want) / ulp);
+        monotone &= got <= prev;
+        prev = got;
+    }
+    CHECK_NEAR("portable acos: within 2 ulp of acos on [-1, 1]", worst_ulp, 0.0, 2.0);
+    CHECK("portable acos: non-increasing on [-1, 1]", monotone);
+    CHECK("portable acos: acos(1) = 0, acos(-1) = pi, acos(0) = pi/2",
+          vx_acosf(1.0f) == 0.0f && vx_acosf(-1.0f) == (float)PI && vx_acosf(0.0f) == (float)(PI / 2));
+}
+
 static void test_overlap(void)
 {
     const struct {
@@ -845,6 +867,7 @@ int main(void)
 {
     CHECK("record: 139 bytes, no padding", sizeof(vmesh_record) == 139 && model_vmesh.voxel_bytes == 139);
     test_sggx();
+    test_portable_acos();
     test_overlap();
     test_traversal();
     test_opacity();

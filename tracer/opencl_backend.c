@@ -18,12 +18,13 @@ _Static_assert((int)EFFECT_SHADOWS == (int)VX_EFFECT_SHADOWS && (int)EFFECT_DOF 
                    (int)EFFECT_SPECULAR == (int)VX_EFFECT_SPECULAR && (int)EFFECT_TEXTURES == (int)VX_EFFECT_TEXTURES,
                "the kernels test scene effects with the VX_EFFECT_* bits");
 
-/* Work-group size: a group is a strip of 64 consecutive pixels (coherent rays; PoCL's per-group cost
- * spread over 64 work-items), a size every device accepts. */
+/* Work-group size: a size every device accepts. vx_render's work-items are persistent (they take
+ * tiles of pixels from a shared counter until the image is done), and the host launches one group
+ * per compute unit: on a CPU device one thread per group, as many as the C backend's threads. */
 #define LOCAL_SIZE 64
 
 /* vx_render's arguments, in order (render.cl), then the pixel count. */
-enum { B_PARAMS, B_COLS, B_BITS, B_PREFIX, B_RECORDS, B_CACHE, B_STATE, B_IMAGE, B_COUNTS, B_N };
+enum { B_PARAMS, B_COLS, B_BITS, B_PREFIX, B_RECORDS, B_CACHE, B_STATE, B_IMAGE, B_COUNTS, B_NEXT_TILE, B_N };
 
 typedef struct {
     opencl_runtime rt;
@@ -119,39 +120,31 @@ static double cpu_seconds(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-static size_t gcd(size_t a, size_t b)
+/* The grid's level tables, concatenated level after level (offsets in vx_cl_params): the buffers. */
+static size_t grid_totals(const voxel_grid *g, size_t *words)
 {
-    while (b) {
-        size_t t = a % b;
-        a = b;
-        b = t;
-    }
-    return a;
-}
-
-/* The stride by which vx_render scatters work-groups over the image: coprime with the group count
- * (so that it is a permutation) and near groups / golden ratio (so that consecutive groups land far
- * apart and any run of them covers the image evenly). */
-static int group_stride(size_t groups)
-{
-    size_t k = (size_t)((double)groups * 0.6180339887) | 1;
-    while (k > 1 && gcd(k, groups) != 1)
-        k++;
-    return groups > 1 && k < groups ? (int)k : 1;
-}
-
-/* The grid's level tables, concatenated level after level (offsets in vx_cl_params). */
-static int upload_grid(cl_state *st, const voxel_grid *g, vx_err *e)
-{
-    size_t cols = 0, words = 0;
+    size_t cols = 0;
+    *words = 0;
     for (int l = 0; l < g->levels; l++) {
         cols += (size_t)g->level[l].n * (size_t)g->level[l].n;
-        words += g->level[l].words;
+        *words += g->level[l].words;
     }
-    if (make_buffer(st, B_COLS, CL_MEM_READ_ONLY, cols * sizeof(uint64_t), NULL, e) ||
-        make_buffer(st, B_BITS, CL_MEM_READ_ONLY, words * sizeof(uint64_t), NULL, e) ||
-        make_buffer(st, B_PREFIX, CL_MEM_READ_ONLY, words * sizeof(uint32_t), NULL, e))
-        return -1;
+    return cols;
+}
+
+static int make_grid_buffers(cl_state *st, const voxel_grid *g, vx_err *e)
+{
+    size_t words, cols = grid_totals(g, &words);
+    return make_buffer(st, B_COLS, CL_MEM_READ_ONLY, cols * sizeof(uint64_t), NULL, e) ||
+                   make_buffer(st, B_BITS, CL_MEM_READ_ONLY, words * sizeof(uint64_t), NULL, e) ||
+                   make_buffer(st, B_PREFIX, CL_MEM_READ_ONLY, words * sizeof(uint32_t), NULL, e)
+               ? -1
+               : 0;
+}
+
+/* ... and their contents, enqueued without waiting. */
+static int upload_grid(cl_state *st, const voxel_grid *g, vx_err *e)
+{
     cl_command_queue q = st->rt.queue;
     size_t c = 0, w = 0;
     for (int l = 0; l < g->levels; l++) {
@@ -174,17 +167,10 @@ static int upload_grid(cl_state *st, const voxel_grid *g, vx_err *e)
     return 0;
 }
 
-static size_t round_up(size_t items, size_t local)
+/* Runs kernel k as `groups` work-groups of `local` work-items and waits for it. */
+static int run(cl_state *st, cl_kernel k, size_t local, size_t groups, const char *what, vx_err *e)
 {
-    size_t global = (items + local - 1) / local * local;
-    return global ? global : local;
-}
-
-/* Runs kernel k over `items` work-items (rounded up to whole work-groups; the kernel ignores the
- * extra ones) and waits for it. */
-static int run(cl_state *st, cl_kernel k, size_t local, size_t items, const char *what, vx_err *e)
-{
-    size_t global = round_up(items, local);
+    size_t global = groups * local;
     cl_int err = clEnqueueNDRangeKernel(st->rt.queue, k, 1, NULL, &global, &local, 0, NULL, NULL);
     if (err == CL_SUCCESS)
         err = clFinish(st->rt.queue);
@@ -229,13 +215,24 @@ static int bind(cl_state *st, int pixels, vx_err *e)
     return cl_check(err, "setting the arguments of vx_render", e);
 }
 
-/* Launches the kernel once over the real size with nothing to do (0 pixels: every work-item returns
- * at once). PoCL compiles a kernel's work-group function at its first launch, specialised for the
+/* Sets the tile counter to 0 before a launch: vx_render's work-items start from the first tile. */
+static int reset_tiles(cl_state *st, vx_err *e)
+{
+    cl_int zero = 0;
+    return cl_check(clEnqueueFillBuffer(st->rt.queue, st->buf[B_NEXT_TILE], &zero, sizeof zero, 0, sizeof zero, 0,
+                                        NULL, NULL),
+                    "resetting the tile counter", e);
+}
+
+/* Launches the kernel once over the real size with nothing to do (0 pixels: every work-item finds
+ * no tile). PoCL compiles a kernel's work-group function at its first launch, specialised for the
  * local size and for whether the grid is small, so the real size is needed; that compile belongs
  * to the compile time, not to the render. */
-static int warm_up(cl_state *st, size_t pixels, vx_err *e)
+static int warm_up(cl_state *st, size_t groups, vx_err *e)
 {
-    return bind(st, 0, e) || run(st, st->render, st->local, pixels, "preparing vx_render", e) ? -1 : 0;
+    return reset_tiles(st, e) || bind(st, 0, e) || run(st, st->render, st->local, groups, "preparing vx_render", e)
+               ? -1
+               : 0;
 }
 
 /* Sums the per-work-group counter slots (cl_flush_counts) of `groups` groups into sums. */
@@ -248,19 +245,20 @@ static void add_counts(const uint32_t *slots, size_t groups, uint64_t sums[VX_CL
         }
 }
 
-/* Reads the image: mapped, since with CL_MEM_USE_HOST_PTR on a CPU device it already is out->data. */
-static int read_image(cl_state *st, image *out, size_t bytes, vx_err *e)
+/* Reads the image and the counters back in one round trip: both reads enqueued, then one wait (each
+ * blocking call costs a wake-up of PoCL's threads, ~0.1 ms, ~1 % of a small render). The image
+ * buffer uses out->data as its memory (CL_MEM_USE_HOST_PTR), so on a CPU device its read is a copy
+ * onto itself or nothing; the spec allows it here, the kernel having finished and nothing else
+ * using the buffer. */
+static int read_results(cl_state *st, image *out, size_t image_bytes, size_t count_bytes, vx_err *e)
 {
-    cl_int err;
-    void *p = clEnqueueMapBuffer(st->rt.queue, st->buf[B_IMAGE], CL_TRUE, CL_MAP_READ, 0, bytes, 0, NULL, NULL, &err);
-    if (!p)
-        return cl_check(err, "reading the image back", e);
-    if (p != (void *)out->data)
-        memcpy(out->data, p, bytes);
-    err = clEnqueueUnmapMemObject(st->rt.queue, st->buf[B_IMAGE], p, 0, NULL, NULL);
+    cl_command_queue q = st->rt.queue;
+    cl_int err = clEnqueueReadBuffer(q, st->buf[B_IMAGE], CL_FALSE, 0, image_bytes, out->data, 0, NULL, NULL);
     if (err == CL_SUCCESS)
-        err = clFinish(st->rt.queue);
-    return cl_check(err, "reading the image back", e);
+        err = clEnqueueReadBuffer(q, st->buf[B_COUNTS], CL_FALSE, 0, count_bytes, st->counts, 0, NULL, NULL);
+    if (err == CL_SUCCESS)
+        err = clFinish(q);
+    return cl_check(err, "reading the image and the counters back", e);
 }
 
 static int render_on_device(cl_state *st, const scene *s, const voxel_grid *g, const vx_model *m, const void *records,
@@ -272,42 +270,41 @@ static int render_on_device(cl_state *st, const scene *s, const voxel_grid *g, c
     if (compile(st, m, src_dir, build_dir, e))
         return -1;
     double t_compiled = now_seconds();
-    size_t groups = round_up(pixels, st->local) / st->local;
+    size_t groups = st->rt.compute_units ? st->rt.compute_units : 1;
     size_t slot_bytes = 2 * VX_CL_COUNTERS * sizeof(uint32_t);
     st->counts = calloc(groups, slot_bytes);
     if (!st->counts)
         return vx_fail(e, "out of memory for the render's counters");
     vx_cl_params params;
     fill_params(&params, s, g, o);
-    params.group_stride = group_stride(groups);
     size_t cached = o->cache ? voxels : 0;
     const cl_mem_flags RO = CL_MEM_READ_ONLY, RW = CL_MEM_READ_WRITE;
     /* The kernel only reads the records and only writes the image: both used in place. */
-    if (make_buffer(st, B_PARAMS, RO, sizeof params, &params, e) || upload_grid(st, g, e) ||
+    if (make_buffer(st, B_PARAMS, RO, sizeof params, &params, e) || make_grid_buffers(st, g, e) ||
         make_buffer(st, B_RECORDS, RO | CL_MEM_USE_HOST_PTR, voxels * m->voxel_bytes, records, e) ||
         make_buffer(st, B_CACHE, RW, cached * sizeof(vx_cl_cache), NULL, e) ||
         make_buffer(st, B_STATE, RW, cached * sizeof(cl_int), NULL, e) ||
         make_buffer(st, B_IMAGE, CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR, pixels * 3 * sizeof(float), out->data, e) ||
-        make_buffer(st, B_COUNTS, RW, groups * slot_bytes, st->counts, e))
+        make_buffer(st, B_COUNTS, RW, groups * slot_bytes, st->counts, e) ||
+        make_buffer(st, B_NEXT_TILE, RW, sizeof(cl_int), NULL, e))
         return -1;
+    double t_bound = now_seconds();
+    /* The warm-up reads none of the grid, the cache or the image: it runs on the empty buffers. */
+    if (warm_up(st, groups, e))
+        return -1;
+    double t_warm = now_seconds(), cpu_warm = cpu_seconds();
+    /* The uploads, the clearing of the cache and the render, enqueued together: one wait, inside the
+     * render's time (each wait costs a wake-up of PoCL's threads). */
     cl_int zero = 0, err = CL_SUCCESS;
     if (cached)
         err = clEnqueueFillBuffer(st->rt.queue, st->buf[B_STATE], &zero, sizeof zero, 0, cached * sizeof(cl_int), 0,
                                   NULL, NULL);
-    if (cl_check(err, "clearing the shading cache", e))
-        return -1;
-    double t_bound = now_seconds();
-    if (warm_up(st, pixels, e) || bind(st, (int)pixels, e))
-        return -1;
-    double t_warm = now_seconds(), cpu_warm = cpu_seconds();
-    if (run(st, st->render, st->local, pixels, "running vx_render", e))
+    if (cl_check(err, "clearing the shading cache", e) || upload_grid(st, g, e) || reset_tiles(st, e) ||
+        bind(st, (int)pixels, e) || run(st, st->render, st->local, groups, "running vx_render", e))
         return -1;
     double t_traced = now_seconds();
     oc->kernel_cpu_seconds = cpu_seconds() - cpu_warm;
-    if (read_image(st, out, pixels * 3 * sizeof(float), e) ||
-        cl_check(clEnqueueReadBuffer(st->rt.queue, st->buf[B_COUNTS], CL_TRUE, 0, groups * slot_bytes, st->counts, 0,
-                                     NULL, NULL),
-                 "reading the counters back", e))
+    if (read_results(st, out, pixels * 3 * sizeof(float), groups * slot_bytes, e))
         return -1;
     double t_done = now_seconds();
 
@@ -323,6 +320,29 @@ static int render_on_device(cl_state *st, const scene *s, const voxel_grid *g, c
     oc->kernel_seconds = t_traced - t_warm;
     counts->seconds = (t_bound - t_compiled) + (t_done - t_warm);
     return 0;
+}
+
+/* How PoCL's CPU device should run vx_render, set before the first OpenCL call loads PoCL (which
+ * reads them then); a PoCL variable the user has set wins. Other platforms ignore them. */
+static void pocl_settings(const render_options *o)
+{
+    /* --threads: PoCL's worker threads, as many as the C backend's. */
+    if (o->threads > 0 && !getenv("POCL_CPU_MAX_CU_NUM")) {
+        char n[16];
+        snprintf(n, sizeof n, "%d", o->threads);
+        setenv("POCL_CPU_MAX_CU_NUM", n, 0);
+    }
+    /* The worker threads sleep between kernels and are woken together by the host thread; the
+     * kernel scheduler then tends to start them on the waker's core, where they share it for the
+     * first milliseconds of the render (measured: the kernel's wall time exceeded its CPU time / 2
+     * by ~8 % on a 2-core machine). Pinned, worker i runs on core i from the start, as the C
+     * backend's freshly created threads are spread at once; the tiles (render.cl) still go to
+     * whichever thread is free, so a core slowed by another process just takes fewer of them. */
+    setenv("POCL_AFFINITY", "1", 0);
+    /* The work-group function as a plain loop over the work-items: PoCL's default (loopvec) tries
+     * to vectorise across them, which vx_render's persistent, divergent work-items never allow,
+     * and its code came out ~2 % slower (CPU time, medians of 11 alternating runs). */
+    setenv("POCL_WORK_GROUP_METHOD", "loops", 0);
 }
 
 int opencl_model_check(const vx_model *m, vx_err *e)
@@ -357,12 +377,7 @@ int render_image_opencl(const scene *s, const voxel_grid *g, const vx_model *m, 
     if (opencl_source_dir(src_dir, sizeof src_dir, build_dir, sizeof build_dir, e))
         return -1;
     snprintf(cache_dir, sizeof cache_dir, "%s/pocl-cache", build_dir);
-    /* --threads for PoCL's CPU device (its own variable wins when set). */
-    if (o->threads > 0 && !getenv("POCL_CPU_MAX_CU_NUM")) {
-        char n[16];
-        snprintf(n, sizeof n, "%d", o->threads);
-        setenv("POCL_CPU_MAX_CU_NUM", n, 0);
-    }
+    pocl_settings(o);
     cl_state st;
     memset(&st, 0, sizeof st);
     if (opencl_open(&st.rt, cache_dir, e))

@@ -255,6 +255,10 @@ static int render_cone(cone_state *st, const scene *s, const voxel_grid *g, cons
         return -1;
     if (lc && (zero_buffer(st, C_LC_KEYS, lc * sizeof(uint64_t), e) || zero_buffer(st, C_LC_STATE, lc * sizeof(cl_int), e)))
         return -1;
+    /* The clears run now, inside the render's time: left queued they would run in the warm-up
+     * launch below, which counts as compile time. */
+    if (check(clFinish(st->rt->queue), "clearing the light cache", e))
+        return -1;
     double t_bound = now_seconds();
     /* A launch with nothing to do: PoCL compiles the work-group function at the first launch, and
      * that belongs to the compile time, not to the render. */

@@ -267,28 +267,14 @@ static vec3 cl_trace_ray(cl_job *j, vec3 org, vec3 dir)
     return v3_madd(color, j->P->background, 1.0f - A);
 }
 
-/* One work-item per pixel: render.c's render_row for one pixel (same random stream, strata, rays
- * and box filter). counts: one slot per work-group (cl_flush_counts). */
-__kernel void vx_render(__global const vx_cl_params *P, __global ulong *cols, __global ulong *bits,
-                        __global uint *prefix, __global const uchar *records, __global vx_cl_cache *cache,
-                        __global int *state, __global float *image, __global uint *counts, int pixels)
+/* One pixel: render.c's render_row for one pixel (same random stream, strata, rays and box filter). */
+static void cl_render_pixel(cl_job *j, __global float *image, int pix)
 {
-    /* Work-group g renders the strip of pixels (g * group_stride) mod groups, the stride coprime
-     * with the group count and near groups / golden ratio: a CPU device hands each thread a run
-     * of consecutive groups (PoCL: up to half of them at once), and in scanline order one thread
-     * could get all of the sky and the other all of the geometry; spread this way, any run of
-     * groups samples the whole image. Which work-item renders a pixel changes nothing in it. */
-    size_t strip = ((size_t)get_group_id(0) * (size_t)P->group_stride) % get_num_groups(0);
-    int pix = (int)(strip * get_local_size(0) + get_local_id(0));
-    if (pix >= pixels)
-        return;
-    voxel_grid g;
-    cl_grid(&g, P, cols, bits, prefix);
-    cl_job j = {P, &g, records, cache, state, {0}};
-    int width = P->width, height = P->height, spp = P->spp;
+    __global const vx_cl_params *P = j->P;
+    int width = P->width, spp = P->spp;
     int px = pix % width, py = pix / width;
     int dof = (P->effects & VX_EFFECT_DOF) != 0;
-    camera cam = P->cam;
+    camera cam = P->cam; /* camera_ray takes a private pointer */
     rng r = rng_seed(P->seed, (uint64_t)py * (uint64_t)width + (uint64_t)px);
     vec3 sum = v3(0.0f, 0.0f, 0.0f);
     for (int i = 0; i < spp; i++) {
@@ -300,12 +286,37 @@ __kernel void vx_render(__global const vx_cl_params *P, __global ulong *cols, __
             lv = rng_float(&r);
         }
         vec3 org, dir;
-        camera_ray(&cam, width, height, (float)px + sx, (float)py + sy, lu, lv, dof, &org, &dir);
-        sum = v3_add(sum, cl_trace_ray(&j, org, dir));
+        camera_ray(&cam, width, P->height, (float)px + sx, (float)py + sy, lu, lv, dof, &org, &dir);
+        sum = v3_add(sum, cl_trace_ray(j, org, dir));
     }
     __global float *dst = &image[3 * (size_t)pix];
     dst[0] = sum.x / (float)spp;
     dst[1] = sum.y / (float)spp;
     dst[2] = sum.z / (float)spp;
+}
+
+/* Persistent work-items: each takes the next tile of VX_CL_TILE_PIXELS consecutive pixels from the
+ * shared counter *next_tile until none is left, so the work goes to whoever is free, as the C
+ * tracer's threads take rows (parallel_for). A fixed split of the pixels (one work-item per pixel,
+ * the runtime handing each thread a share of the work-groups up front: PoCL gives each of 2 threads
+ * half of them) leaves one core idle at the end whenever the halves cost unlike amounts, or another
+ * process slows one core. The host launches one work-group per compute unit; on a CPU device a
+ * group runs its work-items one after the other on one thread, so the first takes tiles until the
+ * image is done and the rest find none. Which work-item renders a pixel changes nothing in it.
+ * counts: one slot per work-group (cl_flush_counts). */
+__kernel void vx_render(__global const vx_cl_params *P, __global ulong *cols, __global ulong *bits,
+                        __global uint *prefix, __global const uchar *records, __global vx_cl_cache *cache,
+                        __global int *state, __global float *image, __global uint *counts,
+                        volatile __global int *next_tile, int pixels)
+{
+    voxel_grid g;
+    cl_grid(&g, P, cols, bits, prefix);
+    cl_job j = {P, &g, records, cache, state, {0}};
+    int tiles = (pixels + VX_CL_TILE_PIXELS - 1) / VX_CL_TILE_PIXELS;
+    for (int tile = atomic_inc(next_tile); tile < tiles; tile = atomic_inc(next_tile)) {
+        int end = min(pixels, (tile + 1) * VX_CL_TILE_PIXELS);
+        for (int pix = tile * VX_CL_TILE_PIXELS; pix < end; pix++)
+            cl_render_pixel(&j, image, pix);
+    }
     cl_flush_counts(counts, j.count);
 }
