@@ -54,13 +54,25 @@ VX_INLINE double gt_exit_t(const grid_iter *it, int a, int b, int k)
 
 /* The cell of axis a, within [lo, hi], that the ray occupies just after t. The floor of the
  * position is only a guess: it is corrected against gt_plane_t so that the answer is consistent
- * with the distances the stepping uses, whatever rounding did to o + t*d. */
+ * with the distances the stepping uses, whatever rounding did to o + t*d. The planes' distances are
+ * monotonic in the plane's number (rounding is monotonic), so the corrections end on the same cell
+ * from any guess: the guess is taken by truncation toward zero, which is floor for the positions
+ * that matter (p >= lo >= 0; the others clamp to lo anyway), rather than by floor() and ceil(),
+ * which PoCL's library computes in software. */
 VX_INLINE int gt_cell_at(const grid_iter *it, int a, double t, int lo, int hi)
 {
     int s = it->dir[a];
     double p = it->o[a] + t * it->d[a];
-    double guess = s < 0 ? ceil(p) - 1.0 : floor(p);
-    int c = guess < lo ? lo : (guess > hi ? hi : (int)guess); /* NaN-free: t and o are finite here */
+    int c;
+    if (!(p >= lo)) /* also NaN (cannot happen: t and o are finite here) */
+        c = lo;
+    else if (p >= hi + 1.0)
+        c = hi;
+    else {
+        c = (int)p;             /* floor(p): 0 <= lo <= p < hi + 1 */
+        if (s < 0 && c == p && c > lo)
+            c--;                /* ceil(p) - 1: the cell below a boundary, going down */
+    }
     if (s > 0) {
         while (c < hi && gt_plane_t(it, a, c + 1) <= t)
             c++;
@@ -79,17 +91,21 @@ VX_INLINE int gt_cell_at(const grid_iter *it, int a, double t, int lo, int hi)
 GT_ITER_INLINE int gt_iter_init(grid_iter *it, const voxel_grid *g, int level, vec3 origin, vec3 dir, float t_min,
                            float t_max)
 {
-    grid_iter zero = {0};
-    *it = zero;
+    /* Only the fields a walk reads before it writes them are set (not the whole struct zeroed:
+     * this runs once per ray): grid_iter_next reads g, level, active, k and parent_ok first. */
     it->g = g;
     it->level = level;
+    it->active = 0;
+    it->k = 0;
+    it->parent_ok = 0;
     if (!g || level < 0 || level >= g->levels)
         return 0;
     int n = g->level[level].n;
     it->n = n;
     /* Lattice units of this level: same t as in world space because origin and direction are
-     * mapped by the same affine scale. */
-    double scale = ldexp(g->voxel_size_d, level);
+     * mapped by the same affine scale. voxel_size_d * 2^level is exact, as ldexp would be, without
+     * its library call. */
+    double scale = g->voxel_size_d * (double)(1 << level);
     double o[3] = {((double)origin.x - g->origin_d[0]) / scale, ((double)origin.y - g->origin_d[1]) / scale,
                    ((double)origin.z - g->origin_d[2]) / scale};
     double d[3] = {dir.x / scale, dir.y / scale, dir.z / scale};
@@ -127,7 +143,7 @@ GT_ITER_INLINE int gt_iter_init(grid_iter *it, const voxel_grid *g, int level, v
     it->t = t0;
     it->t_end = t1;
     for (int a = 0; a < 3; a++) {
-        it->c[a] = it->dir[a] ? gt_cell_at(it, a, t0, 0, n - 1) : (int)floor(o[a]);
+        it->c[a] = it->dir[a] ? gt_cell_at(it, a, t0, 0, n - 1) : (int)o[a]; /* floor: 0 <= o[a] < n */
         it->fixed[a] = it->c[a];
         it->t_next[a] = gt_exit_t(it, a, it->c[a], 0);
     }
