@@ -173,7 +173,9 @@ VX_INLINE void gt_advance(grid_iter *it, double t1, int nk)
         it->parent_ok = 0; /* crossed into another parent */
     it->c[a] = b;
     it->t = t1;
-    it->t_next[a] = gt_exit_t(it, a, b, it->k);
+    /* gt_exit_t without its branch on the sign (which follows the unpredictable choice of axis):
+     * the nearest exit plane is finite, below t_end, so axis a is moving. */
+    it->t_next[a] = gt_plane_t(it, a, (b + (it->dir[a] > 0)) << it->k);
 }
 
 VX_INLINE double gt_cell_exit(const grid_iter *it)
