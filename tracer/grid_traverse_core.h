@@ -9,10 +9,20 @@
 
 #include "grid_core.h"
 
-/* How the iterator's two entry points are declared: a plain VX_INLINE here; an includer may ask
- * for more (tracer/cl/render.cl forces inlining). */
+/* How the iterator's two entry points and the walk's helpers are declared: a plain VX_INLINE here;
+ * an includer may ask for more (tracer/cl/render.cl forces inlining, so that the walk's state
+ * stays in registers: PoCL otherwise calls gt_advance with the state in memory). */
 #ifndef GT_ITER_INLINE
 #define GT_ITER_INLINE VX_INLINE
+#endif
+
+/* The loops over the three axes in the walk, unrolled where the compiler takes the hint (clang,
+ * which compiles the OpenCL kernel, leaves them rolled and so keeps the walk's per-axis arrays in
+ * memory; gcc unrolls such loops by itself and would warn about the unknown pragma). */
+#ifdef __OPENCL_VERSION__
+#define GT_UNROLL _Pragma("unroll")
+#else
+#define GT_UNROLL
 #endif
 
 typedef struct {
@@ -113,7 +123,7 @@ GT_ITER_INLINE int gt_iter_init(grid_iter *it, const voxel_grid *g, int level, v
     if (!(t0 <= t1))
         return 0; /* also NaN */
     int moving = 0;
-    for (int a = 0; a < 3; a++) {
+    GT_UNROLL for (int a = 0; a < 3; a++) {
         if (!isfinite(o[a]) || !isfinite(d[a]))
             return 0;
         it->o[a] = o[a];
@@ -142,7 +152,7 @@ GT_ITER_INLINE int gt_iter_init(grid_iter *it, const voxel_grid *g, int level, v
         return 0;
     it->t = t0;
     it->t_end = t1;
-    for (int a = 0; a < 3; a++) {
+    GT_UNROLL for (int a = 0; a < 3; a++) {
         it->c[a] = it->dir[a] ? gt_cell_at(it, a, t0, 0, n - 1) : (int)o[a]; /* floor: 0 <= o[a] < n */
         it->fixed[a] = it->c[a];
         it->t_next[a] = gt_exit_t(it, a, it->c[a], 0);
@@ -170,7 +180,7 @@ typedef struct {
  * neighbouring block across that axis' exit plane. Only that axis changes, as in Amanatides & Woo.
  * Returns 0 when the ray leaves the grid. The exit plane needs no branch on the direction's sign:
  * the nearest exit plane is finite and below t_end, so axis A is moving. */
-VX_INLINE int gt_step_axis(const grid_iter *it, gt_walk *w, int A, double t1, int nk)
+GT_ITER_INLINE int gt_step_axis(const grid_iter *it, gt_walk *w, int A, double t1, int nk)
 {
     int b = w->c[A] + it->dir[A];
     if (b < 0 || b >= nk)
@@ -185,7 +195,7 @@ VX_INLINE int gt_step_axis(const grid_iter *it, gt_walk *w, int A, double t1, in
 
 /* One DDA step across the nearest exit plane (ties: lowest axis first), ending at t1; returns 0
  * when the ray has left the grid or reached t_end. */
-VX_INLINE int gt_advance(const grid_iter *it, gt_walk *w, double t1, int nk)
+GT_ITER_INLINE int gt_advance(const grid_iter *it, gt_walk *w, double t1, int nk)
 {
     if (t1 >= it->t_end)
         return 0;
@@ -197,14 +207,14 @@ VX_INLINE int gt_advance(const grid_iter *it, gt_walk *w, double t1, int nk)
     return gt_step_axis(it, w, 2, t1, nk);
 }
 
-VX_INLINE double gt_cell_exit(const grid_iter *it, const gt_walk *w)
+GT_ITER_INLINE double gt_cell_exit(const grid_iter *it, const gt_walk *w)
 {
     return gt_max2(gt_min2(gt_min2(w->t_next[0], w->t_next[1]), gt_min2(w->t_next[2], it->t_end)), w->t);
 }
 
-VX_INLINE void gt_walk_store(grid_iter *it, const gt_walk *w, int active)
+GT_ITER_INLINE void gt_walk_store(grid_iter *it, const gt_walk *w, int active)
 {
-    for (int a = 0; a < 3; a++) {
+    GT_UNROLL for (int a = 0; a < 3; a++) {
         it->c[a] = w->c[a];
         it->t_next[a] = w->t_next[a];
     }
@@ -223,7 +233,7 @@ GT_ITER_INLINE int gt_iter_next(grid_iter *it, grid_hit *hit)
     const grid_level *lv = g->level + it->level; /* lv[k]: blocks of 2^k cells */
     const int top = g->levels - 1 - it->level;   /* largest k: a single block */
     gt_walk w;
-    for (int a = 0; a < 3; a++) {
+    GT_UNROLL for (int a = 0; a < 3; a++) {
         w.c[a] = it->c[a];
         w.t_next[a] = it->t_next[a];
     }
@@ -251,7 +261,7 @@ GT_ITER_INLINE int gt_iter_next(grid_iter *it, grid_hit *hit)
             /* Something in this block: go down to the child the ray is in at t, found by comparing
              * t with the crossing of each axis' mid-plane (just after t, like cell_at). */
             int h = k - 1, nh = lv[h].n;
-            for (int a = 0; a < 3; a++) {
+            GT_UNROLL for (int a = 0; a < 3; a++) {
                 int child;
                 if (it->dir[a] == 0)
                     child = (it->fixed[a] >> h) & 1;
@@ -275,12 +285,12 @@ GT_ITER_INLINE int gt_iter_next(grid_iter *it, grid_hit *hit)
                     break;
                 }
                 k++;
-                for (int a = 0; a < 3; a++)
+                GT_UNROLL for (int a = 0; a < 3; a++)
                     w.c[a] >>= 1;
             }
             if (k != w.k) {
                 w.k = k;
-                for (int a = 0; a < 3; a++)
+                GT_UNROLL for (int a = 0; a < 3; a++)
                     w.t_next[a] = gt_exit_t(it, a, w.c[a], k);
             }
         }
