@@ -7,7 +7,8 @@
  * machine it is steadier than the wall clock, which depends on what else runs. The images are
  * compared too (max per-pixel difference) so that a fast but wrong kernel shows.
  * Models that cannot run on OpenCL are listed with the backend's reason.
- * usage: bench_opencl [SCENE [RES [SIZE]]]   (defaults: scenes/bunny.json 128 256) */
+ * usage: bench_opencl [SCENE [RES [SIZE [MODEL]]]]   (defaults: scenes/bunny.json 128 256, every model;
+ * one MODEL makes a quicker run when only its figure is wanted) */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -111,10 +112,11 @@ int main(int argc, char **argv)
 {
     const char *path = argc > 1 ? argv[1] : "scenes/bunny.json";
     int res = argc > 2 ? atoi(argv[2]) : 128, size = argc > 3 ? atoi(argv[3]) : 256;
+    const char *only = argc > 4 ? argv[4] : NULL;
     vx_err e;
     scene s;
     if (res < 1 || size < 1) {
-        fprintf(stderr, "usage: bench_opencl [SCENE [RES [SIZE]]]\n");
+        fprintf(stderr, "usage: bench_opencl [SCENE [RES [SIZE [MODEL]]]]\n");
         return 1;
     }
     if (scene_load(path, &s, &e)) {
@@ -123,7 +125,8 @@ int main(int argc, char **argv)
     }
     int rc = 0;
     for (const vx_model *const *m = model_all(); *m && !rc; m++)
-        rc = bench_model(&s, *m, res, size);
+        if (!only || !strcmp(only, (*m)->name))
+            rc = bench_model(&s, *m, res, size);
     scene_free(&s);
     return rc;
 }
