@@ -58,7 +58,7 @@ VX_INLINE int hn_blend_geometry(VX_GLOBAL const hn_record *records, const hn_ste
         if (!(w > 0.0f))
             continue;
         hn_data d;
-        hn_decode(records + st->index[i], st->size[i], &d);
+        hn_decode_geometry(records + st->index[i], st->size[i], &d);
         if (!(d.area > 0.0f))
             continue; /* marked by the grid but never hit: no surface to describe */
         int k = st->slot[i] ? 1 : 0;
