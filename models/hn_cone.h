@@ -13,7 +13,7 @@
 /* Dense indices of cells (x, y, z) and (x, y, z + 1) of level L (-1: empty or outside), for x, y
  * inside the level: the two cells share their column and, but for z % 64 = 63, its word, so the
  * column, the word and its prefix are read once (grid_level_index reads them per cell). */
-VX_INLINE void hn_column_pair(const grid_level *L, int x, int y, int z, int64_t idx[2])
+HN_HOT_INLINE void hn_column_pair(const grid_level *L, int x, int y, int z, int64_t idx[2])
 {
     idx[0] = idx[1] = -1;
     uint64_t col = L->cols[(size_t)x * (size_t)L->n + (size_t)y];
