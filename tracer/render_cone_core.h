@@ -150,14 +150,18 @@ VX_INLINE int cone_column_any(const grid_level *L, int x, int y, int z0, int z1)
     return 0;
 }
 
-/* Whether the 3x3x3 cells of `level` around cell c are all empty: then no element centred anywhere
- * in cell c, at this level or any finer one, has a non-empty interpolation stencil (a stencil
- * reaches less than one cell away). One bit of the dilated bitmap where the level has one; else
- * the sparse grid's columns, the centre column first (near surfaces it answers). */
-VX_INLINE int cone_neighbourhood_empty(const cone_ctx *x, int level, const int c[3])
+/* For the marcher's small per-element helpers: PoCL's LLVM left them as calls where gcc inlines
+ * them; forced under OpenCL only (the C build's inlining is gcc's choice already). */
+#ifdef __OPENCL_VERSION__
+#define CONE_HOT_INLINE VX_INLINE __attribute__((always_inline))
+#else
+#define CONE_HOT_INLINE VX_INLINE
+#endif
+
+/* cone_neighbourhood_empty for a level without a dilated bitmap: the sparse grid's columns, the
+ * centre column first (near surfaces it answers). */
+VX_INLINE int cone_neighbourhood_empty_sparse(const cone_ctx *x, int level, const int c[3])
 {
-    if (x->skip && dilated_has(x->skip, level))
-        return !dilated_any(x->skip, level, c[0], c[1], c[2]);
     const grid_level *L = &x->g->level[level];
     unsigned n = (unsigned)L->n;
     if ((unsigned)c[0] < n && (unsigned)c[1] < n && cone_column_any(L, c[0], c[1], c[2] - 1, c[2] + 1))
@@ -175,6 +179,17 @@ VX_INLINE int cone_neighbourhood_empty(const cone_ctx *x, int level, const int c
         }
     }
     return 1;
+}
+
+/* Whether the 3x3x3 cells of `level` around cell c are all empty: then no element centred anywhere
+ * in cell c, at this level or any finer one, has a non-empty interpolation stencil (a stencil
+ * reaches less than one cell away). One bit of the dilated bitmap where the level has one (the
+ * common case, inlined); else the sparse grid's columns. */
+CONE_HOT_INLINE int cone_neighbourhood_empty(const cone_ctx *x, int level, const int c[3])
+{
+    if (x->skip && dilated_has(x->skip, level))
+        return !dilated_any(x->skip, level, c[0], c[1], c[2]);
+    return cone_neighbourhood_empty_sparse(x, level, c);
 }
 
 /* log2 to within 5e-3 (the level only picks cells and a blend weight): the float's exponent plus a
