@@ -70,6 +70,7 @@ VX_INLINE void hn_fill_stencil(const voxel_grid *g, vec3 p, float level, hn_sten
         int i0[3];
         double wt[3][2];
         float centre[3][2];
+        HN_UNROLL
         for (int a = 0; a < 3; a++) {
             double u = lat[a] * scale - 0.5;
             if (!(fabs(u) < 1e9))

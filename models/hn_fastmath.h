@@ -23,6 +23,12 @@
 #else
 #define HN_HOT_INLINE VX_INLINE
 #endif
+/* Likewise for the stencil's per-axis loop: PoCL left it rolled, its arrays on the stack. */
+#ifdef __OPENCL_VERSION__
+#define HN_UNROLL _Pragma("unroll")
+#else
+#define HN_UNROLL
+#endif
 
 #ifdef __OPENCL_VERSION__
 #define HN_FLOAT_BITS(x) as_uint(x)

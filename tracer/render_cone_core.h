@@ -157,6 +157,13 @@ VX_INLINE int cone_column_any(const grid_level *L, int x, int y, int z0, int z1)
 #else
 #define CONE_HOT_INLINE VX_INLINE
 #endif
+/* Likewise for the per-axis loops of the element step: PoCL left them rolled, their arrays on the
+ * stack (a store and a load per axis); gcc unrolls them. */
+#ifdef __OPENCL_VERSION__
+#define CONE_UNROLL _Pragma("unroll")
+#else
+#define CONE_UNROLL
+#endif
 
 /* cone_neighbourhood_empty for a level without a dilated bitmap: the sparse grid's columns, the
  * centre column first (near surfaces it answers). */
@@ -211,6 +218,7 @@ VX_INLINE float cone_fast_log2(float x)
 VX_INLINE double cone_cell_exit(int level, const double u[3], const double per_cell[3])
 {
     double cells = (double)(1u << level), best = INFINITY;
+    CONE_UNROLL
     for (int a = 0; a < 3; a++) {
         if (per_cell[a] == 0.0)
             continue;
@@ -276,6 +284,7 @@ VX_INLINE int cone_next_element(const cone_ctx *x, const cone *c, cone_walk *w, 
         int cell[3], empty = 0;
         for (;;) {
             double scale = vx_inv_pow2(K);
+            CONE_UNROLL
             for (int a = 0; a < 3; a++) {
                 u[a] = lat[a] * scale;
                 cell[a] = vx_floor_int(u[a]); /* u lies in the grid's box, cells 0..n */
@@ -289,6 +298,7 @@ VX_INLINE int cone_next_element(const cone_ctx *x, const cone *c, cone_walk *w, 
             }
             if (K == K_min) {
                 w->known_K = K;
+                CONE_UNROLL
                 for (int a = 0; a < 3; a++)
                     w->known[a] = cell[a];
                 break;
@@ -301,6 +311,7 @@ VX_INLINE int cone_next_element(const cone_ctx *x, const cone *c, cone_walk *w, 
                 if (!cone_neighbourhood_empty(x, K + 1, up))
                     break;
                 K++;
+                CONE_UNROLL
                 for (int a = 0; a < 3; a++) {
                     cell[a] = up[a];
                     u[a] *= 0.5;
