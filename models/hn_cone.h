@@ -22,6 +22,7 @@ HN_HOT_INLINE void hn_column_pair(const grid_level *L, int x, int y, int z, int6
         return;
     long w_prev = -1;
     uint64_t bits = 0;
+    HN_UNROLL
     for (int dz = 0; dz < 2; dz++) {
         int zz = z + dz;
         if ((unsigned)zz >= (unsigned)L->n)
@@ -82,14 +83,17 @@ VX_INLINE void hn_fill_stencil(const voxel_grid *g, vec3 p, float level, hn_sten
             for (int d = 0; d < 2; d++)
                 centre[a][d] = (float)(g->origin_d[a] + (i0[a] + d + 0.5) * size);
         }
+        HN_UNROLL
         for (int dx = 0; dx < 2; dx++) {
             if ((unsigned)(i0[0] + dx) >= n)
                 continue;
+            HN_UNROLL
             for (int dy = 0; dy < 2; dy++) {
                 if ((unsigned)(i0[1] + dy) >= n)
                     continue;
                 int64_t idx[2];
                 hn_column_pair(lev, i0[0] + dx, i0[1] + dy, i0[2], idx);
+                HN_UNROLL
                 for (int dz = 0; dz < 2; dz++) {
                     if (idx[dz] < 0)
                         continue;

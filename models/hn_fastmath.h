@@ -23,7 +23,8 @@
 #else
 #define HN_HOT_INLINE VX_INLINE
 #endif
-/* Likewise for the stencil's per-axis loop: PoCL left it rolled, its arrays on the stack. */
+/* Likewise for the stencil's fixed-count loops (axes, the 2x2x2 cells): PoCL left them rolled, their
+ * arrays on the stack. */
 #ifdef __OPENCL_VERSION__
 #define HN_UNROLL _Pragma("unroll")
 #else
