@@ -10,9 +10,42 @@
 #include "grid_core.h"
 #include "hn_eval.h"
 
+/* Dense indices of cells (x, y, z) and (x, y, z + 1) of level L (-1: empty or outside), for x, y
+ * inside the level: the two cells share their column and, but for z % 64 = 63, its word, so the
+ * column, the word and its prefix are read once (grid_level_index reads them per cell). */
+HN_HOT_INLINE void hn_column_pair(const grid_level *L, int x, int y, int z, int64_t idx[2])
+{
+    idx[0] = idx[1] = -1;
+    uint64_t col = L->cols[(size_t)x * (size_t)L->n + (size_t)y];
+    uint32_t mask = (uint32_t)(col & 0xffffu);
+    if (!mask)
+        return;
+    long w_prev = -1;
+    uint64_t bits = 0;
+    HN_UNROLL
+    for (int dz = 0; dz < 2; dz++) {
+        int zz = z + dz;
+        if ((unsigned)zz >= (unsigned)L->n)
+            continue;
+        unsigned j = (unsigned)zz >> 6, b = (unsigned)zz & 63u;
+        if (!((mask >> j) & 1u))
+            continue;
+        long w = (long)(col >> 16) + (long)VX_POPCOUNT32(mask & ((1u << j) - 1u));
+        if (w != w_prev) {
+            bits = L->bits[w];
+            w_prev = w;
+        }
+        if ((bits >> b) & 1u)
+            idx[dz] = (int64_t)L->prefix[w] + (int64_t)VX_POPCOUNT64(bits & ((((uint64_t)1) << b) - 1u));
+    }
+}
+
 /* Fills the stencil of the cone element at p (world) and fractional level `level` of grid g:
  * the 8 cells around p on floor(level) and on the next level, with their trilinear weights.
- * Record indices count every level's records, level 0 first (vx_model.uses_levels). */
+ * Record indices count every level's records, level 0 first (vx_model.uses_levels). The cells go
+ * in the order x, y, z major to minor (the blends sum in that order); a column's two cells are
+ * looked up together (hn_column_pair), and the weights' and centres' per-axis factors are computed
+ * once per level (the same expressions, so the same values, as per cell). */
 VX_INLINE void hn_fill_stencil(const voxel_grid *g, vec3 p, float level, hn_stencil *st)
 {
     st->count = 0;
@@ -32,29 +65,46 @@ VX_INLINE void hn_fill_stencil(const voxel_grid *g, vec3 p, float level, hn_sten
         int L = slot ? L1 : L0;
         if (slot)
             off += g->level[L0].count; /* records of level L1 = L0 + 1 follow level L0's */
+        const grid_level *lev = &g->level[L];
+        unsigned n = (unsigned)lev->n;
         double scale = vx_inv_pow2(L), size = g->voxel_size_d * (double)(1u << L);
         int i0[3];
-        double f[3];
+        double wt[3][2];
+        float centre[3][2];
+        HN_UNROLL
         for (int a = 0; a < 3; a++) {
             double u = lat[a] * scale - 0.5;
             if (!(fabs(u) < 1e9))
                 return; /* far outside (or NaN): nothing there */
             i0[a] = vx_floor_int(u);
-            f[a] = u - i0[a];
+            double f = u - i0[a];
+            wt[a][0] = 1 - f;
+            wt[a][1] = f;
+            for (int d = 0; d < 2; d++)
+                centre[a][d] = (float)(g->origin_d[a] + (i0[a] + d + 0.5) * size);
         }
-        for (int k = 0; k < 8; k++) {
-            int d[3] = {k >> 2, (k >> 1) & 1, k & 1};
-            int64_t idx = grid_index(g, L, i0[0] + d[0], i0[1] + d[1], i0[2] + d[2]);
-            if (idx < 0)
+        HN_UNROLL
+        for (int dx = 0; dx < 2; dx++) {
+            if ((unsigned)(i0[0] + dx) >= n)
                 continue;
-            int s = st->count++;
-            st->slot[s] = slot;
-            st->weight[s] = (float)((d[0] ? f[0] : 1 - f[0]) * (d[1] ? f[1] : 1 - f[1]) * (d[2] ? f[2] : 1 - f[2]));
-            st->centre[s] = v3((float)(g->origin_d[0] + (i0[0] + d[0] + 0.5) * size),
-                               (float)(g->origin_d[1] + (i0[1] + d[1] + 0.5) * size),
-                               (float)(g->origin_d[2] + (i0[2] + d[2] + 0.5) * size));
-            st->size[s] = (float)size;
-            st->index[s] = (long)(off + (size_t)idx);
+            HN_UNROLL
+            for (int dy = 0; dy < 2; dy++) {
+                if ((unsigned)(i0[1] + dy) >= n)
+                    continue;
+                int64_t idx[2];
+                hn_column_pair(lev, i0[0] + dx, i0[1] + dy, i0[2], idx);
+                HN_UNROLL
+                for (int dz = 0; dz < 2; dz++) {
+                    if (idx[dz] < 0)
+                        continue;
+                    int s = st->count++;
+                    st->slot[s] = slot;
+                    st->weight[s] = (float)(wt[0][dx] * wt[1][dy] * wt[2][dz]);
+                    st->centre[s] = v3(centre[0][dx], centre[1][dy], centre[2][dz]);
+                    st->size[s] = (float)size;
+                    st->index[s] = (long)(off + (size_t)idx[dz]);
+                }
+            }
         }
     }
 }

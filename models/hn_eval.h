@@ -43,43 +43,62 @@ VX_INLINE void hn_sample_zero(hn_sample *s)
     s->a = s->as = v3(0.0f, 0.0f, 0.0f);
 }
 
+/* The geometry sums of the stencil's cells of one level (slot k): sum of weight times normal,
+ * signed distance, variances and sidedness into g; returns the sum of weights. Why per level, with
+ * local sums: accumulating into an array indexed by each cell's slot kept the sums in memory (a
+ * store-to-load chain per term), which PoCL's code paid more for than gcc's. Same terms, same
+ * order, so the same values. */
+VX_INLINE float hn_blend_level_geometry(VX_GLOBAL const hn_record *records, const hn_stencil *st, int count, int k,
+                                        vec3 p, hn_sample *g)
+{
+    vec3 sn = v3(0.0f, 0.0f, 0.0f);
+    float sD = 0.0f, s_var_h = 0.0f, s_var_n = 0.0f, s_two = 0.0f, wsum = 0.0f;
+    for (int i = 0; i < count; i++) {
+        if ((st->slot[i] ? 1 : 0) != k)
+            continue;
+        float w = st->weight[i];
+        if (!(w > 0.0f))
+            continue;
+        hn_data d;
+        hn_decode_geometry(records + st->index[i], st->size[i], &d);
+        if (!(d.area > 0.0f))
+            continue; /* marked by the grid but never hit: no surface to describe */
+        vec3 n = d.n;
+        float h = d.h;
+        /* A two-sided sheet has an axis, not a side: turn it toward what is already blended so
+         * that opposite axes do not cancel. */
+        if (d.two_sided && v3_dot(n, sn) < 0.0f) {
+            n = v3_scale(n, -1.0f);
+            h = -h;
+        }
+        vec3 nu = v3_normalize_or(n, v3(0.0f, 0.0f, 1.0f));
+        float wg = w * fminf(1.0f, 2.0f * d.area / (st->size[i] * st->size[i]));
+        sn = v3_madd(sn, n, wg);
+        sD += wg * (v3_dot(nu, v3_sub(p, st->centre[i])) - h);
+        s_var_h += wg * d.var_h;
+        s_var_n += wg * d.var_n;
+        s_two += wg * (d.two_sided ? 1.0f : 0.0f);
+        wsum += wg;
+    }
+    hn_sample_zero(g);
+    g->n = sn;
+    g->D = sD;
+    g->var_h = s_var_h;
+    g->var_n = s_var_n;
+    g->two_sided = s_two;
+    return wsum;
+}
+
 /* Geometry at point p (normal, signed distance, sidedness; and the variances the mask needs):
  * the trilinear weights times min(1, 2 area / size^2), so that a cell whose surface only clips a
  * corner (few samples, a noisy plane) counts less. Returns 0 when no cell has surface. */
 VX_INLINE int hn_blend_geometry(VX_GLOBAL const hn_record *records, const hn_stencil *st, vec3 p, hn_sample *out)
 {
     hn_sample lv[2];
-    float wsum[2] = {0.0f, 0.0f};
-    hn_sample_zero(&lv[0]);
-    hn_sample_zero(&lv[1]);
+    float wsum[2];
     int count = st->count < HN_STENCIL_MAX ? st->count : HN_STENCIL_MAX;
-    for (int i = 0; i < count; i++) {
-        float w = st->weight[i];
-        if (!(w > 0.0f))
-            continue;
-        hn_data d;
-        hn_decode(records + st->index[i], st->size[i], &d);
-        if (!(d.area > 0.0f))
-            continue; /* marked by the grid but never hit: no surface to describe */
-        int k = st->slot[i] ? 1 : 0;
-        vec3 n = d.n;
-        float h = d.h;
-        /* A two-sided sheet has an axis, not a side: turn it toward what is already blended so
-         * that opposite axes do not cancel. */
-        if (d.two_sided && v3_dot(n, lv[k].n) < 0.0f) {
-            n = v3_scale(n, -1.0f);
-            h = -h;
-        }
-        vec3 nu = v3_normalize_or(n, v3(0.0f, 0.0f, 1.0f));
-        float wg = w * fminf(1.0f, 2.0f * d.area / (st->size[i] * st->size[i]));
-        hn_sample *g = &lv[k];
-        g->n = v3_madd(g->n, n, wg);
-        g->D += wg * (v3_dot(nu, v3_sub(p, st->centre[i])) - h);
-        g->var_h += wg * d.var_h;
-        g->var_n += wg * d.var_n;
-        g->two_sided += wg * (d.two_sided ? 1.0f : 0.0f);
-        wsum[k] += wg;
-    }
+    wsum[0] = hn_blend_level_geometry(records, st, count, 0, p, &lv[0]);
+    wsum[1] = hn_blend_level_geometry(records, st, count, 1, p, &lv[1]);
     float f = fminf(fmaxf(st->level_frac, 0.0f), 1.0f);
     float w0 = wsum[0] > 0.0f ? 1.0f - f : 0.0f, w1 = wsum[1] > 0.0f ? f : 0.0f;
     if (!(w0 + w1 > 0.0f)) { /* one level empty: the other alone */

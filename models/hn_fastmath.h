@@ -15,6 +15,22 @@
 
 #include "vec.h"
 
+/* For the small functions the cone element calls per stencil cell: PoCL's LLVM left them as calls
+ * (arguments and results through the stack, per cell) where gcc inlines them; forced under OpenCL
+ * only, the C build's inlining being gcc's choice already. */
+#ifdef __OPENCL_VERSION__
+#define HN_HOT_INLINE VX_INLINE __attribute__((always_inline))
+#else
+#define HN_HOT_INLINE VX_INLINE
+#endif
+/* Likewise for the stencil's fixed-count loops (axes, the 2x2x2 cells): PoCL left them rolled, their
+ * arrays on the stack. */
+#ifdef __OPENCL_VERSION__
+#define HN_UNROLL _Pragma("unroll")
+#else
+#define HN_UNROLL
+#endif
+
 #ifdef __OPENCL_VERSION__
 #define HN_FLOAT_BITS(x) as_uint(x)
 #define HN_BITS_FLOAT(i) as_float(i)

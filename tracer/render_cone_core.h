@@ -150,14 +150,25 @@ VX_INLINE int cone_column_any(const grid_level *L, int x, int y, int z0, int z1)
     return 0;
 }
 
-/* Whether the 3x3x3 cells of `level` around cell c are all empty: then no element centred anywhere
- * in cell c, at this level or any finer one, has a non-empty interpolation stencil (a stencil
- * reaches less than one cell away). One bit of the dilated bitmap where the level has one; else
- * the sparse grid's columns, the centre column first (near surfaces it answers). */
-VX_INLINE int cone_neighbourhood_empty(const cone_ctx *x, int level, const int c[3])
+/* For the marcher's small per-element helpers: PoCL's LLVM left them as calls where gcc inlines
+ * them; forced under OpenCL only (the C build's inlining is gcc's choice already). */
+#ifdef __OPENCL_VERSION__
+#define CONE_HOT_INLINE VX_INLINE __attribute__((always_inline))
+#else
+#define CONE_HOT_INLINE VX_INLINE
+#endif
+/* Likewise for the per-axis loops of the element step: PoCL left them rolled, their arrays on the
+ * stack (a store and a load per axis); gcc unrolls them. */
+#ifdef __OPENCL_VERSION__
+#define CONE_UNROLL _Pragma("unroll")
+#else
+#define CONE_UNROLL
+#endif
+
+/* cone_neighbourhood_empty for a level without a dilated bitmap: the sparse grid's columns, the
+ * centre column first (near surfaces it answers). */
+VX_INLINE int cone_neighbourhood_empty_sparse(const cone_ctx *x, int level, const int c[3])
 {
-    if (x->skip && dilated_has(x->skip, level))
-        return !dilated_any(x->skip, level, c[0], c[1], c[2]);
     const grid_level *L = &x->g->level[level];
     unsigned n = (unsigned)L->n;
     if ((unsigned)c[0] < n && (unsigned)c[1] < n && cone_column_any(L, c[0], c[1], c[2] - 1, c[2] + 1))
@@ -175,6 +186,17 @@ VX_INLINE int cone_neighbourhood_empty(const cone_ctx *x, int level, const int c
         }
     }
     return 1;
+}
+
+/* Whether the 3x3x3 cells of `level` around cell c are all empty: then no element centred anywhere
+ * in cell c, at this level or any finer one, has a non-empty interpolation stencil (a stencil
+ * reaches less than one cell away). One bit of the dilated bitmap where the level has one (the
+ * common case, inlined); else the sparse grid's columns. */
+CONE_HOT_INLINE int cone_neighbourhood_empty(const cone_ctx *x, int level, const int c[3])
+{
+    if (x->skip && dilated_has(x->skip, level))
+        return !dilated_any(x->skip, level, c[0], c[1], c[2]);
+    return cone_neighbourhood_empty_sparse(x, level, c);
 }
 
 /* log2 to within 5e-3 (the level only picks cells and a blend weight): the float's exponent plus a
@@ -196,6 +218,7 @@ VX_INLINE float cone_fast_log2(float x)
 VX_INLINE double cone_cell_exit(int level, const double u[3], const double per_cell[3])
 {
     double cells = (double)(1u << level), best = INFINITY;
+    CONE_UNROLL
     for (int a = 0; a < 3; a++) {
         if (per_cell[a] == 0.0)
             continue;
@@ -261,6 +284,7 @@ VX_INLINE int cone_next_element(const cone_ctx *x, const cone *c, cone_walk *w, 
         int cell[3], empty = 0;
         for (;;) {
             double scale = vx_inv_pow2(K);
+            CONE_UNROLL
             for (int a = 0; a < 3; a++) {
                 u[a] = lat[a] * scale;
                 cell[a] = vx_floor_int(u[a]); /* u lies in the grid's box, cells 0..n */
@@ -274,6 +298,7 @@ VX_INLINE int cone_next_element(const cone_ctx *x, const cone *c, cone_walk *w, 
             }
             if (K == K_min) {
                 w->known_K = K;
+                CONE_UNROLL
                 for (int a = 0; a < 3; a++)
                     w->known[a] = cell[a];
                 break;
@@ -286,6 +311,7 @@ VX_INLINE int cone_next_element(const cone_ctx *x, const cone *c, cone_walk *w, 
                 if (!cone_neighbourhood_empty(x, K + 1, up))
                     break;
                 K++;
+                CONE_UNROLL
                 for (int a = 0; a < 3; a++) {
                     cell[a] = up[a];
                     u[a] *= 0.5;
