@@ -242,7 +242,20 @@ typedef struct {
     int known_K, known[3]; /* the last cell whose neighbourhood was non-empty */
     int K_skip;            /* the level the last jump used */
     double per_cell[3];    /* distance along dir per level-0 cell along each axis (cone_cell_exit) */
+    float level_scale;     /* 2 / voxel_size: an element's width in level-0 cells per unit radius */
+    double inv_voxel_size; /* 1 / voxel_size_d, for cone_to_lattice */
 } cone_walk;
+
+/* grid_to_lattice by the reciprocal of the voxel size (within an ulp of it): three double
+ * divisions per element step were on the marcher's longest latency chain (position -> lattice ->
+ * cell -> occupancy). The element's cell only picks where empty-space skipping looks; the voxel
+ * traversal (grid_traverse) keeps grid_to_lattice's exact quotient. */
+VX_INLINE void cone_to_lattice(const voxel_grid *g, double inv_voxel_size, vec3 p, double out[3])
+{
+    out[0] = ((double)p.x - g->origin_d[0]) * inv_voxel_size;
+    out[1] = ((double)p.y - g->origin_d[1]) * inv_voxel_size;
+    out[2] = ((double)p.z - g->origin_d[2]) * inv_voxel_size;
+}
 
 VX_INLINE void cone_walk_start(cone_walk *w, const voxel_grid *g, vec3 dir, float t, float t_end)
 {
@@ -250,6 +263,8 @@ VX_INLINE void cone_walk_start(cone_walk *w, const voxel_grid *g, vec3 dir, floa
         double d = v3_get(dir, a) / g->voxel_size_d; /* lattice cells per unit distance */
         w->per_cell[a] = fabs(d) < 1e-30 ? 0.0 : 1.0 / d;
     }
+    w->level_scale = 2.0f / g->voxel_size;
+    w->inv_voxel_size = 1.0 / g->voxel_size_d;
     w->t = t;
     w->t_end = t_end;
     w->known_K = -1;
@@ -271,7 +286,7 @@ VX_INLINE int cone_next_element(const cone_ctx *x, const cone *c, cone_walk *w, 
         float r = cone_radius(c, t + cone_radius(c, t));
         float tc_ = t + r;
         vec3 p = v3_madd(c->org, c->dir, tc_);
-        float level = cone_fast_log2(2.0f * r / vs);
+        float level = cone_fast_log2(r * w->level_scale); /* log2(2 r / vs): a multiply, not a division */
         level = level > 0.0f ? (level < (float)top ? level : (float)top) : 0.0f;
         /* Empty-space skipping over the coarse levels with hysteresis (as grid_traverse's DDA):
          * start at the level the last jump used, descend while the neighbourhood is occupied,
@@ -280,7 +295,7 @@ VX_INLINE int cone_next_element(const cone_ctx *x, const cone *c, cone_walk *w, 
         int K_min = (int)level + 1 <= top ? (int)level + 1 : top;
         int K = w->K_skip > K_min ? w->K_skip : K_min;
         double lat[3], u[3];
-        grid_to_lattice(g, p, lat);
+        cone_to_lattice(g, w->inv_voxel_size, p, lat);
         int cell[3], empty = 0;
         for (;;) {
             double scale = vx_inv_pow2(K);
