@@ -275,7 +275,7 @@ VX_INLINE void cone_walk_start(cone_walk *w, const voxel_grid *g, vec3 dir, floa
 /* Steps to the next element whose stencil may be non-empty: its centre p, radius r and fractional
  * level; 0 when the march leaves [t, t_end] (or the element guard runs out). The caller sets
  * w->t = centre + r after evaluating it. */
-VX_INLINE int cone_next_element(const cone_ctx *x, const cone *c, cone_walk *w, int *steps, vec3 *p_out,
+CONE_HOT_INLINE int cone_next_element(const cone_ctx *x, const cone *c, cone_walk *w, int *steps, vec3 *p_out,
                                 float *r_out, float *tc_out, float *level_out)
 {
     const voxel_grid *g = x->g;
