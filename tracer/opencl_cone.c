@@ -59,12 +59,15 @@ static int check(cl_int err, const char *what, vx_err *e)
     return vx_fail(e, "OpenCL: %s failed: %s", what, opencl_error_name(err));
 }
 
-/* A buffer holding `bytes` of `host` (copied; NULL: uninitialised). OpenCL has no empty buffers:
- * an empty one gets 16 bytes that nothing reads. */
+/* A buffer holding `bytes` of `host` (copied, or with CL_MEM_USE_HOST_PTR in flags used in place;
+ * NULL: uninitialised). OpenCL has no empty buffers: an empty one gets 16 bytes that nothing
+ * reads. */
 static int buffer(cone_state *st, int which, cl_mem_flags flags, size_t bytes, const void *host, vx_err *e)
 {
     cl_int err;
-    if (host && bytes)
+    if (!host || !bytes)
+        flags &= ~(cl_mem_flags)CL_MEM_USE_HOST_PTR;
+    else if (!(flags & CL_MEM_USE_HOST_PTR))
         flags |= CL_MEM_COPY_HOST_PTR;
     if (!bytes) {
         host = NULL;
@@ -247,10 +250,12 @@ static int render_cone(cone_state *st, const scene *s, const voxel_grid *g, cons
         record_count += grid_count(g, l);
     size_t table_bytes = 0;
     const void *table = m->table ? m->table(&table_bytes) : NULL;
+    /* The records and the table are used in place (they outlive the render): on a CPU device
+     * (PoCL) no copy, as the C backend reads them; a GPU's driver copies them as before. */
     const cl_mem_flags RO = CL_MEM_READ_ONLY, RW = CL_MEM_READ_WRITE;
     if (buffer(st, C_PARAMS, RO, sizeof params, &params, e) || upload_grid(st, g, e) ||
-        buffer(st, C_RECORDS, RO, record_count * m->voxel_bytes, records, e) ||
-        buffer(st, C_TABLE, RO, table_bytes, table, e) ||
+        buffer(st, C_RECORDS, RO | CL_MEM_USE_HOST_PTR, record_count * m->voxel_bytes, records, e) ||
+        buffer(st, C_TABLE, RO | CL_MEM_USE_HOST_PTR, table_bytes, table, e) ||
         buffer(st, C_LC_KEYS, RW, lc * sizeof(uint64_t), NULL, e) ||
         buffer(st, C_LC_STATE, RW, lc * sizeof(cl_int), NULL, e) ||
         buffer(st, C_LC_T, RW, lc * lights * sizeof(float), NULL, e) ||
