@@ -69,23 +69,10 @@ VX_INLINE float hn_cot_from_cos(float c)
     return fmaxf(c / s, 1e-6f);
 }
 
-/* Lambda for 0 < x < 9.5: hn_lambda_mu's costly part, kept out of line in both backends (gcc's
- * own choice for the C build, where it split the function so; static, not inline: gcc refuses
- * noinline on an inline function, and unused for the includers that never call it). */
-static __attribute__((noinline, unused)) float hn_lambda_of_x(float x)
-{
-    if (x < 2.0f)
-        return fmaxf(0.0f, 0.5f * (expf(-x * x) / (x * HN_SQRT_PI) - hn_erfcf(x)));
-    float k = hn_erfc_cf_tail(x);
-    return 0.5f * (expf(-x * x) / HN_SQRT_PI) * k / (x * (x + k));
-}
-
 /* Smith's Lambda for Gaussian slopes (2012 paper eq. 6): with mu = cot(theta), x = mu/(sqrt2 sigma),
  * Lambda = (sqrt(2/pi) (sigma/mu) e^(-x^2) - erfc(x)) / 2 = (e^(-x^2)/(x sqrt(pi)) - erfc(x)) / 2.
- * Relative accuracy about 1e-6 everywhere (direct formula for x < 2, continued fraction beyond).
- * The early exits inline (forced under OpenCL: PoCL called the whole function where gcc inlined
- * them): most views of a smooth surface end at x >= 9.5 without a call. */
-HN_HOT_INLINE float hn_lambda_mu(float mu, float sigma)
+ * Relative accuracy about 1e-6 everywhere (direct formula for x < 2, continued fraction beyond). */
+VX_INLINE float hn_lambda_mu(float mu, float sigma)
 {
     if (!(sigma > 1e-12f))
         return 0.0f; /* a flat surface masks nothing */
@@ -94,7 +81,10 @@ HN_HOT_INLINE float hn_lambda_mu(float mu, float sigma)
     float x = mu / (HN_SQRT2 * sigma);
     if (!(x < 9.5f))
         return 0.0f; /* e^(-x^2) < 1e-39: below float */
-    return hn_lambda_of_x(x);
+    if (x < 2.0f)
+        return fmaxf(0.0f, 0.5f * (expf(-x * x) / (x * HN_SQRT_PI) - hn_erfcf(x)));
+    float k = hn_erfc_cf_tail(x);
+    return 0.5f * (expf(-x * x) / HN_SQRT_PI) * k / (x * (x + k));
 }
 
 VX_INLINE float hn_lambda(float cos_theta, float sigma)
