@@ -13,7 +13,7 @@
 /* Dense indices of cells (x, y, z) and (x, y, z + 1) of level L (-1: empty or outside), for x, y
  * inside the level: the two cells share their column and, but for z % 64 = 63, its word, so the
  * column, the word and its prefix are read once (grid_level_index reads them per cell). */
-HN_HOT_INLINE void hn_column_pair(const grid_level *L, int x, int y, int z, int64_t idx[2])
+VX_HOT_INLINE void hn_column_pair(const grid_level *L, int x, int y, int z, int64_t idx[2])
 {
     idx[0] = idx[1] = -1;
     uint64_t col = L->cols[(size_t)x * (size_t)L->n + (size_t)y];
@@ -22,7 +22,7 @@ HN_HOT_INLINE void hn_column_pair(const grid_level *L, int x, int y, int z, int6
         return;
     long w_prev = -1;
     uint64_t bits = 0;
-    HN_UNROLL
+    VX_UNROLL
     for (int dz = 0; dz < 2; dz++) {
         int zz = z + dz;
         if ((unsigned)zz >= (unsigned)L->n)
@@ -71,7 +71,7 @@ VX_INLINE void hn_fill_stencil(const voxel_grid *g, vec3 p, float level, hn_sten
         int i0[3];
         double wt[3][2];
         float centre[3][2];
-        HN_UNROLL
+        VX_UNROLL
         for (int a = 0; a < 3; a++) {
             double u = lat[a] * scale - 0.5;
             if (!(fabs(u) < 1e9))
@@ -83,17 +83,17 @@ VX_INLINE void hn_fill_stencil(const voxel_grid *g, vec3 p, float level, hn_sten
             for (int d = 0; d < 2; d++)
                 centre[a][d] = (float)(g->origin_d[a] + (i0[a] + d + 0.5) * size);
         }
-        HN_UNROLL
+        VX_UNROLL
         for (int dx = 0; dx < 2; dx++) {
             if ((unsigned)(i0[0] + dx) >= n)
                 continue;
-            HN_UNROLL
+            VX_UNROLL
             for (int dy = 0; dy < 2; dy++) {
                 if ((unsigned)(i0[1] + dy) >= n)
                     continue;
                 int64_t idx[2];
                 hn_column_pair(lev, i0[0] + dx, i0[1] + dy, i0[2], idx);
-                HN_UNROLL
+                VX_UNROLL
                 for (int dz = 0; dz < 2; dz++) {
                     if (idx[dz] < 0)
                         continue;

@@ -13,45 +13,8 @@
 #ifndef VX_HN_FASTMATH_H
 #define VX_HN_FASTMATH_H
 
+#include "portable_hints.h"
 #include "vec.h"
-
-/* For the small functions the cone element calls per stencil cell: PoCL's LLVM left them as calls
- * (arguments and results through the stack, per cell) where gcc inlines them; forced under OpenCL
- * only, the C build's inlining being gcc's choice already. */
-#ifdef __OPENCL_VERSION__
-#define HN_HOT_INLINE VX_INLINE __attribute__((always_inline))
-#else
-#define HN_HOT_INLINE VX_INLINE
-#endif
-/* Likewise for the stencil's fixed-count loops (axes, the 2x2x2 cells): PoCL left them rolled, their
- * arrays on the stack. */
-#ifdef __OPENCL_VERSION__
-#define HN_UNROLL _Pragma("unroll")
-#else
-#define HN_UNROLL
-#endif
-
-#ifdef __OPENCL_VERSION__
-#define HN_FLOAT_BITS(x) as_uint(x)
-#define HN_BITS_FLOAT(i) as_float(i)
-#else
-#include <stdint.h>
-#include <string.h>
-static inline uint32_t hn_float_bits(float x)
-{
-    uint32_t i;
-    memcpy(&i, &x, sizeof i);
-    return i;
-}
-static inline float hn_bits_float(uint32_t i)
-{
-    float x;
-    memcpy(&x, &i, sizeof x);
-    return x;
-}
-#define HN_FLOAT_BITS(x) hn_float_bits(x)
-#define HN_BITS_FLOAT(i) hn_bits_float(i)
-#endif
 
 /* atan2(y, x) in [-pi, pi]; 0 for (0, 0) and NaN for NaN input (callers guard both). atan of the
  * ratio min/max of |x|, |y| (in [0, 1]: no overflow), reduced below tan(pi/8) by atan(a) =
@@ -84,9 +47,9 @@ VX_INLINE float hn_logf(float x)
 {
     if (!(x >= 1.17549435e-38f && x <= 3.40282347e38f))
         return logf(x);
-    uint32_t i = HN_FLOAT_BITS(x);
+    uint32_t i = VX_FLOAT_BITS(x);
     int e = (int)(i >> 23) - 126;
-    float f = HN_BITS_FLOAT((i & 0x007fffffu) | 0x3f000000u); /* in [1/2, 1) */
+    float f = VX_BITS_FLOAT((i & 0x007fffffu) | 0x3f000000u); /* in [1/2, 1) */
     if (f < 0.70710678118f) {
         e -= 1;
         f = f + f - 1.0f;

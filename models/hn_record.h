@@ -54,7 +54,7 @@ typedef struct {
 /* The geometry of a record (h, n, var_h, var_n, area, has_color, two_sided; the colour fields are
  * left as they were). Why apart from hn_decode: the geometry blend reads up to 16 records per cone
  * element and needs none of the colour, whose eight divisions were most of the decode's cost. */
-HN_HOT_INLINE void hn_decode_geometry(VX_GLOBAL const hn_record *r, float size, hn_data *d)
+VX_HOT_INLINE void hn_decode_geometry(VX_GLOBAL const hn_record *r, float size, hn_data *d)
 {
     d->h = r->h;
     d->n = v3((float)r->n[0] / 32767.0f, (float)r->n[1] / 32767.0f, (float)r->n[2] / 32767.0f);

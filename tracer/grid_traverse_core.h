@@ -8,6 +8,7 @@
 #define VX_GRID_TRAVERSE_CORE_H
 
 #include "grid_core.h"
+#include "portable_hints.h"
 
 /* How the iterator's two entry points and the walk's helpers are declared: a plain VX_INLINE here;
  * an includer may ask for more (tracer/cl/render.cl forces inlining, so that the walk's state
@@ -16,14 +17,6 @@
 #define GT_ITER_INLINE VX_INLINE
 #endif
 
-/* The loops over the three axes in the walk, unrolled where the compiler takes the hint (clang,
- * which compiles the OpenCL kernel, leaves them rolled and so keeps the walk's per-axis arrays in
- * memory; gcc unrolls such loops by itself and would warn about the unknown pragma). */
-#ifdef __OPENCL_VERSION__
-#define GT_UNROLL _Pragma("unroll")
-#else
-#define GT_UNROLL
-#endif
 
 typedef struct {
     int x, y, z;    /* cell coordinates at the iterator's level */
@@ -123,7 +116,7 @@ GT_ITER_INLINE int gt_iter_init(grid_iter *it, const voxel_grid *g, int level, v
     if (!(t0 <= t1))
         return 0; /* also NaN */
     int moving = 0;
-    GT_UNROLL for (int a = 0; a < 3; a++) {
+    VX_UNROLL for (int a = 0; a < 3; a++) {
         if (!isfinite(o[a]) || !isfinite(d[a]))
             return 0;
         it->o[a] = o[a];
@@ -152,7 +145,7 @@ GT_ITER_INLINE int gt_iter_init(grid_iter *it, const voxel_grid *g, int level, v
         return 0;
     it->t = t0;
     it->t_end = t1;
-    GT_UNROLL for (int a = 0; a < 3; a++) {
+    VX_UNROLL for (int a = 0; a < 3; a++) {
         it->c[a] = it->dir[a] ? gt_cell_at(it, a, t0, 0, n - 1) : (int)o[a]; /* floor: 0 <= o[a] < n */
         it->fixed[a] = it->c[a];
         it->t_next[a] = gt_exit_t(it, a, it->c[a], 0);
@@ -214,7 +207,7 @@ GT_ITER_INLINE double gt_cell_exit(const grid_iter *it, const gt_walk *w)
 
 GT_ITER_INLINE void gt_walk_store(grid_iter *it, const gt_walk *w, int active)
 {
-    GT_UNROLL for (int a = 0; a < 3; a++) {
+    VX_UNROLL for (int a = 0; a < 3; a++) {
         it->c[a] = w->c[a];
         it->t_next[a] = w->t_next[a];
     }
@@ -233,7 +226,7 @@ GT_ITER_INLINE int gt_iter_next(grid_iter *it, grid_hit *hit)
     const grid_level *lv = g->level + it->level; /* lv[k]: blocks of 2^k cells */
     const int top = g->levels - 1 - it->level;   /* largest k: a single block */
     gt_walk w;
-    GT_UNROLL for (int a = 0; a < 3; a++) {
+    VX_UNROLL for (int a = 0; a < 3; a++) {
         w.c[a] = it->c[a];
         w.t_next[a] = it->t_next[a];
     }
@@ -261,7 +254,7 @@ GT_ITER_INLINE int gt_iter_next(grid_iter *it, grid_hit *hit)
             /* Something in this block: go down to the child the ray is in at t, found by comparing
              * t with the crossing of each axis' mid-plane (just after t, like cell_at). */
             int h = k - 1, nh = lv[h].n;
-            GT_UNROLL for (int a = 0; a < 3; a++) {
+            VX_UNROLL for (int a = 0; a < 3; a++) {
                 int child;
                 if (it->dir[a] == 0)
                     child = (it->fixed[a] >> h) & 1;
@@ -285,12 +278,12 @@ GT_ITER_INLINE int gt_iter_next(grid_iter *it, grid_hit *hit)
                     break;
                 }
                 k++;
-                GT_UNROLL for (int a = 0; a < 3; a++)
+                VX_UNROLL for (int a = 0; a < 3; a++)
                     w.c[a] >>= 1;
             }
             if (k != w.k) {
                 w.k = k;
-                GT_UNROLL for (int a = 0; a < 3; a++)
+                VX_UNROLL for (int a = 0; a < 3; a++)
                     w.t_next[a] = gt_exit_t(it, a, w.c[a], k);
             }
         }

@@ -23,6 +23,7 @@
 #include "grid_core.h"
 #include "light.h"
 #include "model.h"
+#include "portable_hints.h"
 
 #ifndef CONE_ELEMENT
 #error "define CONE_ELEMENT(ctx, q, a) before including render_cone_core.h"
@@ -30,27 +31,6 @@
 
 #define CONE_MAX_ELEMENTS (1 << 20) /* a runaway guard; real cones use a few hundred at most */
 #define CONE_FULL_MASK (32 * VX_MASK_WORDS)
-
-#ifdef __OPENCL_VERSION__
-#define CONE_FLOAT_BITS(x) as_uint(x)
-#define CONE_BITS_FLOAT(i) as_float(i)
-#else
-#include <string.h>
-static inline uint32_t cone_float_bits(float x)
-{
-    uint32_t i;
-    memcpy(&i, &x, sizeof i);
-    return i;
-}
-static inline float cone_bits_float(uint32_t i)
-{
-    float x;
-    memcpy(&x, &i, sizeof x);
-    return x;
-}
-#define CONE_FLOAT_BITS(x) cone_float_bits(x)
-#define CONE_BITS_FLOAT(i) cone_bits_float(i)
-#endif
 
 /* What a cone march counts (render statistics). */
 typedef struct {
@@ -150,20 +130,6 @@ VX_INLINE int cone_column_any(const grid_level *L, int x, int y, int z0, int z1)
     return 0;
 }
 
-/* For the marcher's small per-element helpers: PoCL's LLVM left them as calls where gcc inlines
- * them; forced under OpenCL only (the C build's inlining is gcc's choice already). */
-#ifdef __OPENCL_VERSION__
-#define CONE_HOT_INLINE VX_INLINE __attribute__((always_inline))
-#else
-#define CONE_HOT_INLINE VX_INLINE
-#endif
-/* Likewise for the per-axis loops of the element step: PoCL left them rolled, their arrays on the
- * stack (a store and a load per axis); gcc unrolls them. */
-#ifdef __OPENCL_VERSION__
-#define CONE_UNROLL _Pragma("unroll")
-#else
-#define CONE_UNROLL
-#endif
 
 /* cone_neighbourhood_empty for a level without a dilated bitmap: the sparse grid's columns, the
  * centre column first (near surfaces it answers). */
@@ -192,7 +158,7 @@ VX_INLINE int cone_neighbourhood_empty_sparse(const cone_ctx *x, int level, cons
  * in cell c, at this level or any finer one, has a non-empty interpolation stencil (a stencil
  * reaches less than one cell away). One bit of the dilated bitmap where the level has one (the
  * common case, inlined); else the sparse grid's columns. */
-CONE_HOT_INLINE int cone_neighbourhood_empty(const cone_ctx *x, int level, const int c[3])
+VX_HOT_INLINE int cone_neighbourhood_empty(const cone_ctx *x, int level, const int c[3])
 {
     if (x->skip && dilated_has(x->skip, level))
         return !dilated_any(x->skip, level, c[0], c[1], c[2]);
@@ -205,9 +171,9 @@ VX_INLINE float cone_fast_log2(float x)
 {
     if (!(x > 1e-30f))
         return -100.0f;
-    uint32_t i = CONE_FLOAT_BITS(x);
+    uint32_t i = VX_FLOAT_BITS(x);
     float e = (float)((int)((i >> 23) & 255u) - 128); /* the quadratic below is log2(m) + 1 */
-    float m = CONE_BITS_FLOAT((i & 0x007fffffu) | 0x3f800000u); /* in [1, 2) */
+    float m = VX_BITS_FLOAT((i & 0x007fffffu) | 0x3f800000u); /* in [1, 2) */
     return e + (-0.34484843f * m + 2.02466578f) * m - 0.67487759f;
 }
 
@@ -218,7 +184,7 @@ VX_INLINE float cone_fast_log2(float x)
 VX_INLINE double cone_cell_exit(int level, const double u[3], const double per_cell[3])
 {
     double cells = (double)(1u << level), best = INFINITY;
-    CONE_UNROLL
+    VX_UNROLL
     for (int a = 0; a < 3; a++) {
         if (per_cell[a] == 0.0)
             continue;
@@ -275,7 +241,7 @@ VX_INLINE void cone_walk_start(cone_walk *w, const voxel_grid *g, vec3 dir, floa
 /* Steps to the next element whose stencil may be non-empty: its centre p, radius r and fractional
  * level; 0 when the march leaves [t, t_end] (or the element guard runs out). The caller sets
  * w->t = centre + r after evaluating it. */
-CONE_HOT_INLINE int cone_next_element(const cone_ctx *x, const cone *c, cone_walk *w, int *steps, vec3 *p_out,
+VX_HOT_INLINE int cone_next_element(const cone_ctx *x, const cone *c, cone_walk *w, int *steps, vec3 *p_out,
                                 float *r_out, float *tc_out, float *level_out)
 {
     const voxel_grid *g = x->g;
@@ -299,7 +265,7 @@ CONE_HOT_INLINE int cone_next_element(const cone_ctx *x, const cone *c, cone_wal
         int cell[3], empty = 0;
         for (;;) {
             double scale = vx_inv_pow2(K);
-            CONE_UNROLL
+            VX_UNROLL
             for (int a = 0; a < 3; a++) {
                 u[a] = lat[a] * scale;
                 cell[a] = vx_floor_int(u[a]); /* u lies in the grid's box, cells 0..n */
@@ -313,7 +279,7 @@ CONE_HOT_INLINE int cone_next_element(const cone_ctx *x, const cone *c, cone_wal
             }
             if (K == K_min) {
                 w->known_K = K;
-                CONE_UNROLL
+                VX_UNROLL
                 for (int a = 0; a < 3; a++)
                     w->known[a] = cell[a];
                 break;
@@ -326,7 +292,7 @@ CONE_HOT_INLINE int cone_next_element(const cone_ctx *x, const cone *c, cone_wal
                 if (!cone_neighbourhood_empty(x, K + 1, up))
                     break;
                 K++;
-                CONE_UNROLL
+                VX_UNROLL
                 for (int a = 0; a < 3; a++) {
                     cell[a] = up[a];
                     u[a] *= 0.5;
