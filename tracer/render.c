@@ -277,6 +277,8 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
         free(j.cache);
         if (j.light_cache)
             cone_light_cache_free(j.light_cache);
+        if (cone && !skip_failed)
+            dilated_free(&skip);
         image_free(out);
         return vx_fail(e, "out of memory for the render");
     }
