@@ -14,6 +14,12 @@ size_t cone_light_cache_slots(size_t cells)
     return slots;
 }
 
+size_t cone_light_cache_cells(size_t level0_cells, size_t pixels)
+{
+    size_t per_pixels = 2 * pixels;
+    return per_pixels < level0_cells ? per_pixels : level0_cells;
+}
+
 int cone_light_cache_init(cone_light_cache *c, size_t cells, int lights)
 {
     memset(c, 0, sizeof *c);

@@ -129,6 +129,12 @@ VX_INLINE void cone_light_cache_put(const cone_light_cache *c, long slot, const 
 /* Room for about `cells` cells (the table gets twice that, a power of two, capped). Returns 0, or
  * -1 when out of memory (c is then zeroed). */
 int cone_light_cache_init(cone_light_cache *c, size_t cells, int lights);
+/* The cells to make room for: the cells that light cones are cast from are those where camera
+ * cones meet a surface, about one or two per pixel and never more than level 0's cells (coarser
+ * levels add a fraction). Sized by the grid alone, bunny at 256^3 got millions of slots for the
+ * ~16 k cells its 256^2 image used (tens of MB for nothing); a cell that finds the table full is
+ * computed uncached, with the same value, so the size never changes an image. */
+size_t cone_light_cache_cells(size_t level0_cells, size_t pixels);
 /* The table's slots for about `cells` cells (what cone_light_cache_init allocates; the OpenCL
  * backend sizes its buffers alike). */
 size_t cone_light_cache_slots(size_t cells);

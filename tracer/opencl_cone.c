@@ -241,7 +241,7 @@ static int render_cone(cone_state *st, const scene *s, const voxel_grid *g, cons
     st->counts = calloc(groups, slot_bytes);
     if (!st->counts)
         return vx_fail(e, "out of memory for the render's counters");
-    size_t lc_slots = cone_light_cache_slots(grid_count(g, 0));
+    size_t lc_slots = cone_light_cache_slots(cone_light_cache_cells(grid_count(g, 0), pixels));
     vx_cl_cone_params params;
     fill_params(&params, s, g, &st->skip, o, lc_slots);
     size_t lc = params.use_light_cache ? lc_slots : 0, lights = params.light_count > 0 ? (size_t)params.light_count : 1;

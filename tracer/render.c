@@ -259,10 +259,8 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
     int use_lc = o->cache && cone && (s->effects & EFFECT_SHADOWS) && s->light_count > 0;
     int lc_failed = 0;
     if (use_lc) {
-        /* Elements enter the surface at about one cell per level-0 surface cell seen (coarser
-         * levels add a fraction): room for as many cells as level 0 has (so does the OpenCL
-         * backend, tracer/opencl_cone.c). */
-        size_t cells = grid_count(g, 0);
+        /* Sized as the OpenCL backend's (tracer/opencl_cone.c). */
+        size_t cells = cone_light_cache_cells(grid_count(g, 0), (size_t)o->width * (size_t)o->height);
         lc_failed = cone_light_cache_init(&lc, cells, s->light_count < VX_MAX_LIGHTS ? s->light_count : VX_MAX_LIGHTS);
         j.light_cache = lc_failed ? NULL : &lc;
     }
