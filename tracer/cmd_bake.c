@@ -149,12 +149,8 @@ int cmd_bake(int argc, char **argv)
         cJSON_AddNumberToObject(j, "bake_rays_per_second", (double)c.rays / c.seconds);
         cJSON_AddNumberToObject(j, "threads", parallel_threads(o.threads));
         cJSON_AddNumberToObject(j, "peak_rss_bytes", peak_rss_bytes());
-        int bad = stats_write(j, stats_path, "bake");
-        cJSON_Delete(j);
-        if (bad) {
-            remove(out_path);
+        if (stats_finish(j, stats_path, "bake", out_path))
             goto done;
-        }
     }
     rc = 0;
 done:

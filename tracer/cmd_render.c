@@ -186,12 +186,8 @@ int cmd_render(int argc, char **argv)
         cJSON_AddBoolToObject(j, "cache", o.cache);
         cJSON_AddBoolToObject(j, "shadow_skip", o.shadow_skip);
         stats_add_image(j, o.spp, o.width, o.height, o.seed, o.threads);
-        int bad = stats_write(j, stats_path, "render");
-        cJSON_Delete(j);
-        if (bad) {
-            remove(out_path);
+        if (stats_finish(j, stats_path, "render", out_path))
             goto done;
-        }
     }
     rc = 0;
     goto done;

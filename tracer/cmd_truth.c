@@ -36,17 +36,26 @@ void stats_add_image(cJSON *j, int spp, int width, int height, uint64_t seed, in
     cJSON_AddNumberToObject(j, "peak_rss_bytes", peak_rss_bytes());
 }
 
-int stats_write(cJSON *j, const char *path, const char *cmd)
+int stats_finish(cJSON *j, const char *path, const char *cmd, const char *output)
 {
     char *text = cJSON_Print(j);
+    cJSON_Delete(j);
     vx_err e;
-    size_t n = strlen(text);
-    text = realloc(text, n + 2);
-    text[n] = '\n', text[n + 1] = 0;
-    int rc = fileio_write_text(path, text, &e);
-    free(text);
-    if (rc)
+    int rc = -1;
+    size_t n = text ? strlen(text) : 0;
+    char *line = text ? realloc(text, n + 2) : NULL;
+    if (!line) {
+        free(text);
+        snprintf(e.msg, sizeof e.msg, "%s: out of memory for the statistics", path);
+    } else {
+        line[n] = '\n', line[n + 1] = 0;
+        rc = fileio_write_text(path, line, &e);
+        free(line);
+    }
+    if (rc) {
         fprintf(stderr, "voxlab %s: --stats %s\n", cmd, e.msg);
+        remove(output);
+    }
     return rc;
 }
 
@@ -119,12 +128,8 @@ int cmd_truth(int argc, char **argv)
         cJSON_AddNumberToObject(j, "voxels", 0);
         cJSON_AddNumberToObject(j, "bytes_per_voxel", 0);
         stats_add_image(j, o.spp, o.width, o.height, o.seed, o.threads);
-        int bad = stats_write(j, stats_path, "truth");
-        cJSON_Delete(j);
-        if (bad) {
-            remove(out_path);
+        if (stats_finish(j, stats_path, "truth", out_path))
             goto done;
-        }
     }
     rc = 0;
     goto done;

@@ -16,7 +16,9 @@ int cmd_models(int argc, char **argv);
 
 /* --stats JSON helpers: the scene's fields, and writing the object atomically to path. */
 cJSON *stats_scene_fields(const scene *s);
-int stats_write(cJSON *j, const char *path, const char *cmd);
+/* Writes j to path atomically and frees it. When that fails the command's output file is removed
+ * too (a run whose statistics were asked for and lost leaves nothing behind) and -1 returned. */
+int stats_finish(cJSON *j, const char *path, const char *cmd, const char *output);
 /* The image fields of --stats: spp, width, height, seed, threads, peak_rss_bytes. */
 void stats_add_image(cJSON *j, int spp, int width, int height, uint64_t seed, int threads);
 /* The bake fields of --stats (model, res, voxels, bytes_per_voxel, bake seconds, ...). */
