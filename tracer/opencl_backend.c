@@ -80,29 +80,15 @@ static int make_buffer(cl_state *st, int which, cl_mem_flags flags, size_t bytes
 static void fill_params(vx_cl_params *p, const scene *s, const voxel_grid *g, const render_options *o)
 {
     memset(p, 0, sizeof *p);
-    uint64_t cols = 0, words = 0;
-    for (int l = 0; l < g->levels; l++) {
-        p->level_cols[l] = cols;
-        p->level_words[l] = words;
-        p->level_n[l] = g->level[l].n;
-        cols += (uint64_t)g->level[l].n * (uint64_t)g->level[l].n;
-        words += g->level[l].words;
-    }
-    for (int a = 0; a < 3; a++)
-        p->origin_d[a] = g->origin_d[a];
-    p->voxel_size_d = g->voxel_size_d;
+    vx_cl_grid_params_fill(&p->grid, g);
     p->seed = o->seed;
     p->cam = s->camera;
     p->background = s->background;
     p->light_count = s->light_count < VX_MAX_LIGHTS ? s->light_count : VX_MAX_LIGHTS;
     for (int i = 0; i < p->light_count; i++)
         p->lights[i] = s->lights[i];
-    p->grid_origin = g->origin;
-    p->voxel_size = g->voxel_size;
     p->spread = camera_pixel_spread(&s->camera, o->height);
     p->stop_opacity = o->stop_opacity;
-    p->n = g->n;
-    p->levels = g->levels;
     p->width = o->width;
     p->height = o->height;
     p->spp = o->spp;

@@ -117,32 +117,20 @@ static void fill_params(vx_cl_cone_params *p, const scene *s, const voxel_grid *
                         const render_options *o, size_t lc_slots)
 {
     memset(p, 0, sizeof *p);
-    uint64_t cols = 0, words = 0, dil = 0;
+    vx_cl_grid_params_fill(&p->grid, g);
+    uint64_t dil = 0;
     for (int l = 0; l < g->levels; l++) {
-        p->level_cols[l] = cols;
-        p->level_words[l] = words;
-        p->level_count[l] = g->level[l].count;
-        p->level_n[l] = g->level[l].n;
-        cols += (uint64_t)g->level[l].n * (uint64_t)g->level[l].n;
-        words += g->level[l].words;
         p->dilated_off[l] = dil;
         p->dilated_n[l] = d->level[l].w ? d->level[l].n : 0;
         p->dilated_wpc[l] = d->level[l].w ? d->level[l].wpc : 0;
         dil += dilated_words(d, l);
     }
-    for (int a = 0; a < 3; a++)
-        p->origin_d[a] = g->origin_d[a];
-    p->voxel_size_d = g->voxel_size_d;
     p->cam = s->camera;
     p->background = s->background;
     p->light_count = s->light_count < VX_MAX_LIGHTS ? s->light_count : VX_MAX_LIGHTS;
     for (int i = 0; i < p->light_count; i++)
         p->lights[i] = s->lights[i];
-    p->grid_origin = g->origin;
-    p->voxel_size = g->voxel_size;
     p->spread = camera_pixel_spread(&s->camera, o->height);
-    p->n = g->n;
-    p->levels = g->levels;
     p->width = o->width;
     p->height = o->height;
     p->effects = s->effects;

@@ -42,31 +42,6 @@ typedef struct {
     uint count[VX_CL_COUNTERS];
 } cl_job;
 
-/* The grid as grid_core.h expects it: the tables of every level, rebuilt from buffer offsets (the
- * coordinates, word counts and the levels past the last are not used by the lookups and the DDA). */
-static void cl_grid(voxel_grid *g, __global const vx_cl_params *P, __global ulong *cols, __global ulong *bits,
-                    __global uint *prefix)
-{
-    g->n = P->n;
-    g->origin = P->grid_origin;
-    g->voxel_size = P->voxel_size;
-    for (int a = 0; a < 3; a++)
-        g->origin_d[a] = P->origin_d[a];
-    g->voxel_size_d = P->voxel_size_d;
-    g->levels = P->levels;
-    for (int l = 0; l < P->levels; l++) {
-        grid_level *L = &g->level[l];
-        L->n = P->level_n[l];
-        L->words_per_col = (L->n + 63) / 64;
-        L->cols = cols + P->level_cols[l];
-        L->bits = bits + P->level_words[l];
-        L->prefix = prefix + P->level_words[l];
-        L->coords = 0;
-        L->words = 0;
-        L->count = 0;
-    }
-}
-
 static __global const void *cl_record(const cl_job *j, long index)
 {
     return (__global const void *)(j->records + (size_t)index * VX_CL_RECORD_BYTES);
@@ -310,7 +285,7 @@ __kernel void vx_render(__global const vx_cl_params *P, __global ulong *cols, __
                         volatile __global int *next_tile, int pixels)
 {
     voxel_grid g;
-    cl_grid(&g, P, cols, bits, prefix);
+    vx_cl_grid_from_params(&g, &P->grid, cols, bits, prefix);
     cl_job j = {P, &g, records, cache, state, {0}};
     int tiles = (pixels + VX_CL_TILE_PIXELS - 1) / VX_CL_TILE_PIXELS;
     for (int tile = atomic_inc(next_tile); tile < tiles; tile = atomic_inc(next_tile)) {

@@ -14,30 +14,6 @@
 /* A mismatch between the host's and this compiler's layout would read garbage: refuse to build. */
 typedef char vx_cl_cone_params_size_matches_host[sizeof(vx_cl_cone_params) == VX_CL_PARAMS_BYTES ? 1 : -1];
 
-/* The grid as grid_core.h expects it, its level tables pointing into the buffers. */
-static void cone_cl_grid(voxel_grid *g, __global const vx_cl_cone_params *P, __global ulong *cols,
-                         __global ulong *bits, __global uint *prefix)
-{
-    g->n = P->n;
-    g->origin = P->grid_origin;
-    g->voxel_size = P->voxel_size;
-    for (int a = 0; a < 3; a++)
-        g->origin_d[a] = P->origin_d[a];
-    g->voxel_size_d = P->voxel_size_d;
-    g->levels = P->levels;
-    for (int l = 0; l < P->levels; l++) {
-        grid_level *L = &g->level[l];
-        L->n = P->level_n[l];
-        L->words_per_col = (L->n + 63) / 64;
-        L->cols = cols + P->level_cols[l];
-        L->bits = bits + P->level_words[l];
-        L->prefix = prefix + P->level_words[l];
-        L->coords = 0;
-        L->words = 0;
-        L->count = (size_t)P->level_count[l];
-    }
-}
-
 /* Adds a work-item's counters to its work-group's slot (64-bit sums as low and high words, so
  * that OpenCL 1.2's 32-bit atomics suffice). */
 static void cone_cl_flush_counts(__global uint *counts, const cone_counts *c)
@@ -72,10 +48,10 @@ __kernel void vx_render_cone(__global const vx_cl_cone_params *P, __global ulong
                              volatile __global int *next_tile, int pixels)
 {
     voxel_grid g;
-    cone_cl_grid(&g, P, cols, bits, prefix);
+    vx_cl_grid_from_params(&g, &P->grid, cols, bits, prefix);
     dilated_grid d;
     for (int l = 0; l < GRID_MAX_LEVELS; l++) {
-        int on = l < P->levels && P->dilated_n[l] > 0;
+        int on = l < P->grid.levels && P->dilated_n[l] > 0;
         d.level[l].n = on ? P->dilated_n[l] : 0;
         d.level[l].wpc = on ? P->dilated_wpc[l] : 0;
         d.level[l].w = on ? dilated + P->dilated_off[l] : 0;

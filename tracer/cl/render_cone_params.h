@@ -6,26 +6,18 @@
 #define VX_CL_RENDER_CONE_PARAMS_H
 
 #include "camera.h"
-#include "grid_core.h"
+#include "grid_params.h"
 #include "light.h"
 #include "model.h"
 
 typedef struct {
-    double origin_d[3];                     /* the grid mapping (grid_core.h) */
-    double voxel_size_d;
-    uint64_t level_cols[GRID_MAX_LEVELS];   /* where each level's column table starts in the cols buffer */
-    uint64_t level_words[GRID_MAX_LEVELS];  /* where each level's words start in the bits and prefix buffers */
-    uint64_t level_count[GRID_MAX_LEVELS];  /* non-empty cells per level (the records' level offsets) */
+    vx_cl_grid_params grid;
     uint64_t dilated_off[GRID_MAX_LEVELS];  /* where each level's dilated bitmap starts (cone_skip.h) */
     uint64_t light_cache_mask;              /* slots - 1; the cache is off when use_light_cache is 0 */
     camera cam;
     vec3 background;
     light lights[VX_MAX_LIGHTS];
-    vec3 grid_origin;
-    float voxel_size;
     float spread;                           /* footprint radius per unit distance (camera_pixel_spread) */
-    int n, levels;
-    int level_n[GRID_MAX_LEVELS];
     int dilated_n[GRID_MAX_LEVELS];         /* 0: no bitmap for the level */
     int dilated_wpc[GRID_MAX_LEVELS];
     int width, height;

@@ -7,25 +7,18 @@
 #define VX_CL_RENDER_PARAMS_H
 
 #include "camera.h"
-#include "grid_core.h"
+#include "grid_params.h"
 #include "light.h"
 #include "model.h"
 
 typedef struct {
-    double origin_d[3];       /* the grid mapping (grid_core.h) */
-    double voxel_size_d;
+    vx_cl_grid_params grid;
     uint64_t seed;
-    uint64_t level_cols[GRID_MAX_LEVELS];  /* where each level's column table starts in the cols buffer */
-    uint64_t level_words[GRID_MAX_LEVELS]; /* where each level's words start in the bits and prefix buffers */
     camera cam;               /* the scene's, as it is */
     vec3 background;
     light lights[VX_MAX_LIGHTS];
-    vec3 grid_origin;
-    float voxel_size;
     float spread;             /* footprint radius per unit distance (camera_pixel_spread) */
     float stop_opacity;
-    int n, levels;
-    int level_n[GRID_MAX_LEVELS];
     int width, height, spp;
     int strata_x, strata_y;   /* truth_strata(spp) */
     int light_count;
