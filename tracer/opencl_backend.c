@@ -50,31 +50,10 @@ static void release(cl_state *st)
     free(st->counts);
 }
 
-static int cl_check(cl_int err, const char *what, vx_err *e)
-{
-    if (err == CL_SUCCESS)
-        return 0;
-    return vx_fail(e, "OpenCL: %s failed: %s", what, opencl_error_name(err));
-}
-
-/* A buffer; `host` is copied (CL_MEM_COPY_HOST_PTR) or, with CL_MEM_USE_HOST_PTR in flags, used in
- * place: on a CPU device that is the same memory, no copy and no second set of fresh pages. */
 static int make_buffer(cl_state *st, int which, cl_mem_flags flags, size_t bytes, const void *host, vx_err *e)
 {
-    cl_int err;
-    if (host && bytes && !(flags & CL_MEM_USE_HOST_PTR))
-        flags |= CL_MEM_COPY_HOST_PTR;
-    if (!bytes) {
-        /* OpenCL has no empty buffers; an empty grid still gets one element that nothing reads. */
-        flags &= ~(cl_mem_flags)(CL_MEM_USE_HOST_PTR | CL_MEM_COPY_HOST_PTR);
-        host = NULL;
-        bytes = 16;
-    }
-    st->buf[which] = clCreateBuffer(st->rt.context, flags, bytes, (void *)host, &err);
-    if (!st->buf[which])
-        return vx_fail(e, "OpenCL: cannot allocate a %zu-byte buffer on %s: %s", bytes, st->rt.device_name,
-                       opencl_error_name(err));
-    return 0;
+    st->buf[which] = opencl_buffer(&st->rt, flags, bytes, host, e);
+    return st->buf[which] ? 0 : -1;
 }
 
 static void fill_params(vx_cl_params *p, const scene *s, const voxel_grid *g, const render_options *o)
@@ -145,7 +124,7 @@ static int upload_grid(cl_state *st, const voxel_grid *g, vx_err *e)
                 err = clEnqueueWriteBuffer(q, st->buf[B_PREFIX], CL_FALSE, w * sizeof(uint32_t),
                                            L->words * sizeof(uint32_t), L->prefix, 0, NULL, NULL);
         }
-        if (cl_check(err, "uploading the grid", e))
+        if (opencl_check(err, "uploading the grid", e))
             return -1;
         c += nc;
         w += L->words;
@@ -160,7 +139,7 @@ static int run(cl_state *st, cl_kernel k, size_t local, size_t groups, const cha
     cl_int err = clEnqueueNDRangeKernel(st->rt.queue, k, 1, NULL, &global, &local, 0, NULL, NULL);
     if (err == CL_SUCCESS)
         err = clFinish(st->rt.queue);
-    return cl_check(err, what, e);
+    return opencl_check(err, what, e);
 }
 
 static size_t local_size(const cl_state *st, cl_kernel k)
@@ -186,7 +165,7 @@ static int compile(cl_state *st, const vx_model *m, const char *src_dir, const c
     cl_int err;
     st->render = clCreateKernel(st->program, "vx_render", &err);
     if (!st->render)
-        return cl_check(err, "creating kernel vx_render", e);
+        return opencl_check(err, "creating kernel vx_render", e);
     st->local = local_size(st, st->render);
     return 0;
 }
@@ -198,14 +177,14 @@ static int bind(cl_state *st, int pixels, vx_err *e)
         err = clSetKernelArg(st->render, (cl_uint)i, sizeof(cl_mem), &st->buf[i]);
     if (err == CL_SUCCESS)
         err = clSetKernelArg(st->render, B_N, sizeof(int), &pixels);
-    return cl_check(err, "setting the arguments of vx_render", e);
+    return opencl_check(err, "setting the arguments of vx_render", e);
 }
 
 /* Sets the tile counter to 0 before a launch: vx_render's work-items start from the first tile. */
 static int reset_tiles(cl_state *st, vx_err *e)
 {
     cl_int zero = 0;
-    return cl_check(clEnqueueFillBuffer(st->rt.queue, st->buf[B_NEXT_TILE], &zero, sizeof zero, 0, sizeof zero, 0,
+    return opencl_check(clEnqueueFillBuffer(st->rt.queue, st->buf[B_NEXT_TILE], &zero, sizeof zero, 0, sizeof zero, 0,
                                         NULL, NULL),
                     "resetting the tile counter", e);
 }
@@ -244,7 +223,7 @@ static int read_results(cl_state *st, image *out, size_t image_bytes, size_t cou
         err = clEnqueueReadBuffer(q, st->buf[B_COUNTS], CL_FALSE, 0, count_bytes, st->counts, 0, NULL, NULL);
     if (err == CL_SUCCESS)
         err = clFinish(q);
-    return cl_check(err, "reading the image and the counters back", e);
+    return opencl_check(err, "reading the image and the counters back", e);
 }
 
 static int render_on_device(cl_state *st, const scene *s, const voxel_grid *g, const vx_model *m, const void *records,
@@ -285,7 +264,7 @@ static int render_on_device(cl_state *st, const scene *s, const voxel_grid *g, c
     if (cached)
         err = clEnqueueFillBuffer(st->rt.queue, st->buf[B_STATE], &zero, sizeof zero, 0, cached * sizeof(cl_int), 0,
                                   NULL, NULL);
-    if (cl_check(err, "clearing the shading cache", e) || upload_grid(st, g, e) || reset_tiles(st, e) ||
+    if (opencl_check(err, "clearing the shading cache", e) || upload_grid(st, g, e) || reset_tiles(st, e) ||
         bind(st, (int)pixels, e) || run(st, st->render, st->local, groups, "running vx_render", e))
         return -1;
     double t_traced = now_seconds();

@@ -52,39 +52,17 @@ static void release(cone_state *st)
     dilated_free(&st->skip);
 }
 
-static int check(cl_int err, const char *what, vx_err *e)
-{
-    if (err == CL_SUCCESS)
-        return 0;
-    return vx_fail(e, "OpenCL: %s failed: %s", what, opencl_error_name(err));
-}
-
-/* A buffer holding `bytes` of `host` (copied, or with CL_MEM_USE_HOST_PTR in flags used in place;
- * NULL: uninitialised). OpenCL has no empty buffers: an empty one gets 16 bytes that nothing
- * reads. */
 static int buffer(cone_state *st, int which, cl_mem_flags flags, size_t bytes, const void *host, vx_err *e)
 {
-    cl_int err;
-    if (!host || !bytes)
-        flags &= ~(cl_mem_flags)CL_MEM_USE_HOST_PTR;
-    else if (!(flags & CL_MEM_USE_HOST_PTR))
-        flags |= CL_MEM_COPY_HOST_PTR;
-    if (!bytes) {
-        host = NULL;
-        bytes = 16;
-    }
-    st->buf[which] = clCreateBuffer(st->rt->context, flags, bytes, (void *)host, &err);
-    if (!st->buf[which])
-        return vx_fail(e, "OpenCL: cannot allocate a %zu-byte buffer on %s: %s", bytes, st->rt->device_name,
-                       opencl_error_name(err));
-    return 0;
+    st->buf[which] = opencl_buffer(st->rt, flags, bytes, host, e);
+    return st->buf[which] ? 0 : -1;
 }
 
 static int zero_buffer(cone_state *st, int which, size_t bytes, vx_err *e)
 {
     cl_uint zero = 0;
     cl_int err = clEnqueueFillBuffer(st->rt->queue, st->buf[which], &zero, sizeof zero, 0, bytes, 0, NULL, NULL);
-    return check(err, "clearing a buffer", e);
+    return opencl_check(err, "clearing a buffer", e);
 }
 
 static int compile(cone_state *st, const vx_model *m, const char *src_dir, const char *build_dir, vx_err *e)
@@ -110,7 +88,7 @@ static int compile(cone_state *st, const vx_model *m, const char *src_dir, const
         return -1;
     cl_int err;
     st->kernel = clCreateKernel(st->program, "vx_render_cone", &err);
-    return st->kernel ? 0 : check(err, "creating kernel vx_render_cone", e);
+    return st->kernel ? 0 : opencl_check(err, "creating kernel vx_render_cone", e);
 }
 
 static void fill_params(vx_cl_cone_params *p, const scene *s, const voxel_grid *g, const dilated_grid *d,
@@ -172,7 +150,7 @@ static int upload_grid(cone_state *st, const voxel_grid *g, vx_err *e)
         if (err == CL_SUCCESS && nd)
             err = clEnqueueWriteBuffer(q, st->buf[C_DILATED], CL_FALSE, dw * sizeof(uint64_t), nd * sizeof(uint64_t),
                                        st->skip.level[l].w, 0, NULL, NULL);
-        if (check(err, "uploading the grid", e))
+        if (opencl_check(err, "uploading the grid", e))
             return -1;
         c += nc;
         w += L->words;
@@ -202,7 +180,7 @@ static int run(cone_state *st, size_t groups, int n, const char *what, vx_err *e
         err = clEnqueueNDRangeKernel(st->rt->queue, st->kernel, 1, NULL, &global, &local, 0, NULL, NULL);
     if (err == CL_SUCCESS)
         err = clFinish(st->rt->queue);
-    return check(err, what, e);
+    return opencl_check(err, what, e);
 }
 
 static double cpu_seconds(void)
@@ -255,7 +233,7 @@ static int render_cone(cone_state *st, const scene *s, const voxel_grid *g, cons
         return -1;
     /* The uploads and clears complete now, inside the render's time: left queued they would run
      * in the warm-up launch below, which counts as compile time. */
-    if (check(clFinish(st->rt->queue), "uploading the grid and clearing the light cache", e))
+    if (opencl_check(clFinish(st->rt->queue), "uploading the grid and clearing the light cache", e))
         return -1;
     double t_bound = now_seconds();
     /* A launch with nothing to do: PoCL compiles the work-group function at the first launch, and
@@ -272,7 +250,7 @@ static int render_cone(cone_state *st, const scene *s, const voxel_grid *g, cons
     if (err == CL_SUCCESS)
         err = clEnqueueReadBuffer(st->rt->queue, st->buf[C_COUNTS], CL_TRUE, 0, groups * slot_bytes, st->counts, 0, NULL,
                                   NULL);
-    if (check(err, "reading the image back", e))
+    if (opencl_check(err, "reading the image back", e))
         return -1;
     double t_done = now_seconds();
     uint64_t sums[VX_CONE_COUNTERS] = {0};

@@ -210,3 +210,28 @@ int opencl_build(const opencl_runtime *rt, const char *source, const char *what,
     free(log);
     return -1;
 }
+
+int opencl_check(cl_int err, const char *what, vx_err *e)
+{
+    if (err == CL_SUCCESS)
+        return 0;
+    return vx_fail(e, "OpenCL: %s failed: %s", what, opencl_error_name(err));
+}
+
+cl_mem opencl_buffer(const opencl_runtime *rt, cl_mem_flags flags, size_t bytes, const void *host, vx_err *e)
+{
+    if (!host || !bytes)
+        flags &= ~(cl_mem_flags)CL_MEM_USE_HOST_PTR;
+    else if (!(flags & CL_MEM_USE_HOST_PTR))
+        flags |= CL_MEM_COPY_HOST_PTR;
+    if (!bytes) {
+        host = NULL;
+        bytes = 16;
+    }
+    cl_int err;
+    cl_mem b = clCreateBuffer(rt->context, flags, bytes, (void *)host, &err);
+    if (!b)
+        vx_fail(e, "OpenCL: cannot allocate a %zu-byte buffer on %s: %s", bytes, rt->device_name,
+                opencl_error_name(err));
+    return b;
+}

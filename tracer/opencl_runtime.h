@@ -22,6 +22,15 @@ typedef struct {
 /* The name of an OpenCL error code ("CL_OUT_OF_RESOURCES"), or "OpenCL error N". */
 const char *opencl_error_name(cl_int code);
 
+/* 0 when err is CL_SUCCESS; else -1 with "OpenCL: <what> failed: <error name>" in e. */
+int opencl_check(cl_int err, const char *what, vx_err *e);
+
+/* A buffer of `bytes` holding `host` (copied, or used in place with CL_MEM_USE_HOST_PTR in flags:
+ * on a CPU device the same memory, no copy and no second set of fresh pages; host NULL: left
+ * uninitialised). OpenCL has no empty buffers: an empty one gets 16 bytes that nothing reads.
+ * NULL, with the reason in e, when the device cannot allocate it. */
+cl_mem opencl_buffer(const opencl_runtime *rt, cl_mem_flags flags, size_t bytes, const void *host, vx_err *e);
+
 /* Opens the first device (of the first platform that has one) with double precision, which the
  * grid traversal needs. pocl_cache_dir: where PoCL keeps compiled kernels unless POCL_CACHE_DIR is
  * already set (it must be set before the first OpenCL call, which loads PoCL). */
