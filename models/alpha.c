@@ -1,6 +1,8 @@
-/* `alpha`: the "averages" baseline (GigaVoxels-style). One mean colour, one mean normal and one
- * opacity per voxel, the fraction of the voxel's sample rays that hit inside it; front-to-back
- * alpha blending. */
+/* `alpha`: the "averages" baseline (GigaVoxels-style; Brito et al. 2023's "Averages"). One mean
+ * colour, one mean normal and one opacity per voxel, all from the shared sample classification
+ * (models/model.h, Brito et al. §3.2): the opacity is the fraction of the voxel's sample rays that
+ * occlude it (cases a and b, exactly the rays vmesh counts as occluding), colour and normal the
+ * means over the front-facing hits; front-to-back alpha blending. */
 #include "alpha_eval.h" /* the record and its evaluation (portable C, shared with OpenCL) */
 #include "average_bake.h"
 
@@ -8,17 +10,17 @@ static void alpha_bake(const vx_voxel *v, const vx_sample *samples, int n, void 
 {
     (void)v;
     alpha_record *r = out;
-    int inside = 0;
+    int occluding = 0;
     for (int i = 0; i < n; i++)
-        inside += samples[i].kind == VX_SAMPLE_INSIDE_FRONT || samples[i].kind == VX_SAMPLE_INSIDE_BACK;
-    r->opacity = n > 0 ? (float)inside / (float)n : 0.0f;
+        occluding += vx_sample_occludes(&samples[i]);
+    r->opacity = n > 0 ? (float)occluding / (float)n : 0.0f;
     /* Without front hits (back faces only) the colour stays 0: a dark occluder. */
-    average_front_hits(samples, n, r->color, r->normal, &r->specular, &r->roughness);
+    average_front_hits(samples, n, r->color, r->normal, &r->specular, &r->roughness, &r->double_sided);
 }
 
 const vx_model model_alpha = {
     .name = "alpha",
-    .description = "averages: one colour, normal and opacity (hit fraction) per voxel; front-to-back alpha",
+    .description = "averages: one colour, normal and opacity (occluding fraction of the samples) per voxel; front-to-back alpha",
     .voxel_bytes = sizeof(alpha_record),
     .compositing = VX_COMPOSITE_ALPHA,
     .bake_voxel = alpha_bake,

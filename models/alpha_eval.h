@@ -11,6 +11,7 @@ typedef struct {
     float normal[3]; /* mean of the front-facing hit normals (length <= 1) */
     float opacity;
     float specular, roughness;
+    unsigned int double_sided; /* most front hits were on a double-sided material */
 } alpha_record;
 
 VX_INLINE float alpha_eval_opacity(VX_GLOBAL const void *record, const vx_query *q)
@@ -23,7 +24,7 @@ VX_INLINE void alpha_eval_shade(VX_GLOBAL const void *record, const vx_query *q,
 {
     VX_GLOBAL const alpha_record *r = (VX_GLOBAL const alpha_record *)record;
     a->radiance = average_shading(v3(r->color[0], r->color[1], r->color[2]),
-                                  v3(r->normal[0], r->normal[1], r->normal[2]), r->specular, r->roughness, q);
+                                  v3(r->normal[0], r->normal[1], r->normal[2]), r->specular, r->roughness, r->double_sided, q);
 }
 
 #endif

@@ -8,7 +8,7 @@ static void binary_bake(const vx_voxel *v, const vx_sample *samples, int n, void
 {
     (void)v;
     binary_record *r = out;
-    r->opaque = average_front_hits(samples, n, r->color, r->normal, &r->specular, &r->roughness) > 0;
+    r->opaque = average_front_hits(samples, n, r->color, r->normal, &r->specular, &r->roughness, &r->double_sided) > 0;
 }
 
 const vx_model model_binary = {

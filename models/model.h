@@ -73,12 +73,21 @@ typedef struct {
     unsigned int mask[VX_MASK_WORDS]; /* coverage of the footprint (VX_COMPOSITE_COVERAGE only) */
 } vx_answer;
 
-/* One ray of the shared bake sampler (see tracer/bake.h). */
+/* One ray of the shared bake sampler (see tracer/bake.h): Brito et al. 2023 §3.2's classification,
+ * the one every model derives its occlusion from. The ray is intersected with the voxel's own
+ * triangles only (those overlapping the voxel's closed box), over its whole length from outside the
+ * scene; its closest own-triangle crossing decides:
+ *   (a) inside the voxel: INSIDE_FRONT (front side, or either side of a double-sided material:
+ *       normal and colour recorded, occlusion 1) or INSIDE_BACK (the back of a single-sided
+ *       surface: occlusion 1 only);
+ *   (b) outside the voxel, before its entry or after its exit: OUTSIDE (occlusion 1 only);
+ *   (c) no crossing at all: MISS (occlusion 0, but the ray still counts as traversing the voxel).
+ * Other geometry never shadows a voxel's statistics: the paper intersects the voxel's list alone. */
 enum {
-    VX_SAMPLE_MISS = 0,         /* left the voxel and hit nothing after it */
-    VX_SAMPLE_INSIDE_FRONT = 1, /* closest hit inside the voxel, on a triangle's front side */
-    VX_SAMPLE_INSIDE_BACK = 2,  /* closest hit inside the voxel, on a back side */
-    VX_SAMPLE_OUTSIDE = 3,      /* crossed the voxel without a hit, hit something after it */
+    VX_SAMPLE_MISS = 0,         /* case (c) */
+    VX_SAMPLE_INSIDE_FRONT = 1, /* case (a), front side (or a double-sided material) */
+    VX_SAMPLE_INSIDE_BACK = 2,  /* case (a), back side of a single-sided material */
+    VX_SAMPLE_OUTSIDE = 3,      /* case (b) */
 };
 
 typedef struct {
@@ -86,14 +95,32 @@ typedef struct {
     vec3 dir;         /* unit, uniform on the sphere */
     float t_entry;    /* the ray's interval inside the voxel */
     float t_exit;
-    float t_hit;      /* closest hit at or after t_entry; INFINITY for a miss */
+    float t_hit;      /* closest own-triangle crossing (a, b); INFINITY for a miss */
     int kind;         /* VX_SAMPLE_* */
-    int own_triangle; /* the hit triangle overlaps the voxel (Brito et al.'s per-voxel list) */
-    vec3 normal;      /* shading normal at the hit, on the side the ray came from (INSIDE hits only) */
+    int own_triangle; /* 1 for cases (a) and (b): the crossing is on one of the voxel's triangles */
+    vec3 normal;      /* shading normal at the hit, turned toward the ray's side (INSIDE hits only) */
     vec3 albedo;      /* diffuse colour at the hit (front hits of shaded surfaces; else 0) */
     float specular;   /* the hit material's specular reflectance and roughness (INSIDE hits only) */
     float roughness;
+    int double_sided; /* INSIDE hits: the material is double-sided */
+    int back_side;    /* INSIDE hits: the ray met the triangle's back; `normal` was turned toward the ray,
+                         so -normal is the surface's own (front-side) orientation */
 } vx_sample;
+
+#ifndef __OPENCL_VERSION__ /* the bake runs on the host only */
+/* Whether the sample occludes the voxel (cases a and b). */
+static inline int vx_sample_occludes(const vx_sample *s)
+{
+    return s->kind == VX_SAMPLE_INSIDE_FRONT || s->kind == VX_SAMPLE_INSIDE_BACK || s->kind == VX_SAMPLE_OUTSIDE;
+}
+
+/* The hit's normal on the surface's own front side (INSIDE hits): what averages of a double-sided
+ * surface must add up, or the two sides' normals cancel. */
+static inline vec3 vx_sample_front_normal(const vx_sample *s)
+{
+    return s->back_side ? v3_scale(s->normal, -1.0f) : s->normal;
+}
+#endif
 
 /* What a model knows about the voxel it bakes. */
 typedef struct {

@@ -1,11 +1,9 @@
 /* `vmesh`: the 3x3x3 subgrid of opacities (Brito et al. 2023, §3.2 and §3.4; see vmesh_bake.h).
  *
  * Our reading of the paper's counting, written down because the paper leaves it to the reader:
- *  - A ray's occlusion value is 1 for a hit inside the voxel, front- or back-facing (case (a) and
- *    its back-facing variant), and 1 for a hit beyond the voxel on one of the voxel's own triangles
- *    (case (b): the paper intersects only the voxel's triangle list, so every "outside" hit it sees
- *    is an own triangle; our sampler traces the whole scene, and a hit on someone else's triangle
- *    is what the paper would have called a miss). Everything else is 0.
+ *  - A ray's occlusion value is the shared classification's (models/model.h, tracer/bake.h): 1 for
+ *    cases (a) (front or back) and (b) (the voxel's own triangle met outside it, before or after),
+ *    0 for a miss (c).
  *  - The value is added to every sub-cell along the ray's whole chord [t_entry, t_exit], not only up
  *    to the hit: the paper adds "to the subgrid elements that the ray traversed" and spreads
  *    outside hits along the chord too, then localises the result with the special pass (sub-cells
@@ -85,8 +83,7 @@ void vmesh_subgrid(const vx_voxel *v, const vx_sample *samples, int n, float opa
         if (!(len > 1e-6f * v->size))
             continue;
         int k = s->kind;
-        float occ = (k == VX_SAMPLE_INSIDE_FRONT || k == VX_SAMPLE_INSIDE_BACK ||
-                     (k == VX_SAMPLE_OUTSIDE && s->own_triangle)) ? 1.0f : 0.0f;
+        float occ = vx_sample_occludes(s) ? 1.0f : 0.0f;
         /* Work from the entry point (lattice units) so the far-away origin costs no precision. */
         vec3 e = v3_scale(v3_sub(v3_madd(s->origin, s->dir, s->t_entry), v->lo), scale);
         vec3 d = v3_scale(s->dir, scale);

@@ -1,8 +1,10 @@
 /* Benchmark of the bake sampler and the render's shading cache, each figure printed against a
  * reference measured in the same run (medians):
  *  (a) bake rays/s over raw Embree rays/s: the raw side traces the very same sample rays (generated
- *      by bake_generate_rays beforehand, outside the timing) with rtcIntersect16 only, in the same
- *      packets and on the same threads; the bake side is bake_run with the `alpha` model.
+ *      by bake_generate_rays beforehand, outside the timing) from the voxel's entry with
+ *      rtcIntersect16 only, in packets of 16 on the same threads: what a whole-scene closest-hit
+ *      sampler would pay for its rays alone. The bake side is bake_run with the `alpha` model
+ *      (own-triangle lists and their ray tests, tracer/bake.h).
  *  (b) bake time at 128^3 and 256^3 (alpha, 150 rays) against our targets and the times Brito et
  *      al. report for their single-threaded baker.
  *  (c) render time with the shading cache on over off (alpha and binary, 128^3, 128x128, 4 spp),
@@ -48,14 +50,14 @@ static void generate_item(void *p, int64_t item, int thread)
         bake_generate_rays(j->rt, j->g, i, 1, RAYS, s);
         raw_ray *r = &j->rays[i * RAYS];
         for (int k = 0; k < RAYS; k++) {
-            /* tnear exactly as bake_trace sets it, so Embree does the same traversal work. */
+            /* tnear at the voxel's entry (less the slack): the whole-scene query from the voxel on. */
             r[k] = (raw_ray){s[k].origin.x, s[k].origin.y, s[k].origin.z, s[k].dir.x,
                              s[k].dir.y,    s[k].dir.z,    fmaxf(0.0f, s[k].t_entry - j->slack)};
         }
     }
 }
 
-/* The bare minimum the bake must do: intersect each voxel's rays, in bake_trace's packets. */
+/* A reference for the bake's speed: each voxel's rays through the whole scene's BVH, in packets of 16. */
 static void raw_item(void *p, int64_t item, int thread)
 {
     raw_job *j = p;
@@ -72,7 +74,7 @@ static void raw_item(void *p, int64_t item, int thread)
                 rt_packet_rayhit(&rh, k, v3(q->ox, q->oy, q->oz), v3(q->dx, q->dy, q->dz), q->tnear, INFINITY);
             }
             struct RTCIntersectContext ctx;
-            rtcInitIntersectContext(&ctx); /* incoherent, as in bake_trace */
+            rtcInitIntersectContext(&ctx); /* incoherent rays */
             rtcIntersect16(valid, j->rt->bvh, &ctx, &rh);
             for (int k = 0; k < PACKET; k++)
                 hits += valid[k] && rh.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID;
@@ -107,7 +109,7 @@ static int bench_rays(const rt_scene *rt, const vx_model *alpha, int threads, in
         return 1;
     }
     *j = (raw_job){.rt = rt, .g = &g, .rays = rays, .scratch = scratch,
-                   /* bake_trace's slack (tracer/bake.c): keep the two in step. */
+                   /* bake_trace's slack (tracer/bake.c). */
                    .slack = 1e-4f * g.voxel_size + rt->epsilon * 0.1f};
     int64_t items = (int64_t)((voxels + VOXELS_PER_ITEM - 1) / VOXELS_PER_ITEM);
     /* Timed once, for information only: it tells how much of the gap is ray generation. */

@@ -31,6 +31,7 @@
 #include "mesh.h"
 #include "rt.h"
 #include "scene.h"
+#include "tribox.h"
 #include "unit.h"
 
 /* ---------- the test's own random numbers (xorshift64*, not tracer/rng.h) ---------- */
@@ -369,52 +370,69 @@ static void test_generation(void)
 enum { C_MISS = 0, C_FRONT = 1, C_BACK = 2, C_OUTSIDE = 3 };
 static const char *const class_names[4] = {"MISS", "INSIDE_FRONT", "INSIDE_BACK", "OUTSIDE"};
 
-/* The reference's geometry: a parallelogram c + a u + b w (|a|, |b| <= 1, front = u x w side) or the
- * surface of a box. */
+/* The reference's geometry: the mesh itself (the reference intersects its triangles by plane
+ * crossing and edge functions, not the sampler's Moller-Trumbore), plus for the winding check a
+ * parallelogram c + a u + b w (front = u x w side) or a box. */
 typedef struct {
     int is_box;
     double c[3], u[3], w[3]; /* quad */
-    double lo[3], hi[3];     /* box */
     int double_sided;
+    const mesh *m;
+    int own[64], own_count; /* the voxel's own triangles (filled by ref_frequencies) */
 } ref_geometry;
 
 static double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
-/* Class of the line p + s d whose piece inside the voxel is s in [0, s_exit]. */
+static void cross3(const double a[3], const double b[3], double out[3])
+{
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+static void tri_vertices(const mesh *m, int t, double v[3][3])
+{
+    for (int k = 0; k < 3; k++) {
+        vec3 q = mesh_position(m, m->indices[3 * (size_t)t + (size_t)k]);
+        v[k][0] = q.x, v[k][1] = q.y, v[k][2] = q.z;
+    }
+}
+
+/* Brito et al. 2023 §3.2 by brute force: the line p + s d (its piece inside the voxel is
+ * s in [0, s_exit]) against the voxel's own triangles over its whole length; the closest crossing
+ * inside the voxel is case (a) (front/back by the winding), outside it case (b), none case (c). */
 static int ref_classify(const ref_geometry *rg, const double p[3], const double d[3], double s_exit)
 {
-    double s_hit;
-    int front;
-    if (rg->is_box) {
-        double t0, t1;
-        if (!slab(p, d, rg->lo, rg->hi, &t0, &t1, NULL) || t1 < 0)
-            return C_MISS;
-        /* Entering the box at t0 meets an outward face from outside: front; leaving it, a back face. */
-        if (t0 >= 0) {
-            s_hit = t0;
-            front = 1;
-        } else {
-            s_hit = t1;
-            front = 0;
-        }
-    } else {
-        double n[3] = {rg->u[1] * rg->w[2] - rg->u[2] * rg->w[1], rg->u[2] * rg->w[0] - rg->u[0] * rg->w[2],
-                       rg->u[0] * rg->w[1] - rg->u[1] * rg->w[0]};
+    double best = INFINITY;
+    int front = 0;
+    for (int i = 0; i < rg->own_count; i++) {
+        double v[3][3], e1[3], e2[3], n[3];
+        tri_vertices(rg->m, rg->own[i], v);
+        for (int k = 0; k < 3; k++)
+            e1[k] = v[1][k] - v[0][k], e2[k] = v[2][k] - v[0][k];
+        cross3(e1, e2, n);
         double dn = dot3(d, n);
         if (dn == 0)
-            return C_MISS;
-        double pc[3] = {rg->c[0] - p[0], rg->c[1] - p[1], rg->c[2] - p[2]};
-        s_hit = dot3(pc, n) / dn;
-        if (s_hit < 0)
-            return C_MISS; /* crossed before the voxel: the sampler's query starts at the entry */
-        double q[3] = {p[0] + s_hit * d[0] - rg->c[0], p[1] + s_hit * d[1] - rg->c[1], p[2] + s_hit * d[2] - rg->c[2]};
-        /* u and w are orthogonal here, so the coordinates are plain projections. */
-        double a = dot3(q, rg->u) / dot3(rg->u, rg->u), b = dot3(q, rg->w) / dot3(rg->w, rg->w);
-        if (fabs(a) > 1 || fabs(b) > 1)
-            return C_MISS;
-        front = dn < 0;
+            continue;
+        double pa[3] = {v[0][0] - p[0], v[0][1] - p[1], v[0][2] - p[2]};
+        double sh = dot3(pa, n) / dn, q[3];
+        for (int k = 0; k < 3; k++)
+            q[k] = p[k] + sh * d[k];
+        int in = 1;
+        for (int k = 0; k < 3 && in; k++) { /* q on the inner side of every edge */
+            const double *a = v[k], *b = v[(k + 1) % 3];
+            double ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, aq[3] = {q[0] - a[0], q[1] - a[1], q[2] - a[2]}, c[3];
+            cross3(ab, aq, c);
+            in = dot3(c, n) >= 0;
+        }
+        if (in && sh < best) {
+            best = sh;
+            front = dn < 0;
+        }
     }
-    if (s_hit <= s_exit)
+    if (!isfinite(best))
+        return C_MISS;
+    if (best >= 0 && best <= s_exit)
         return front || rg->double_sided ? C_FRONT : C_BACK;
     return C_OUTSIDE;
 }
@@ -423,9 +441,18 @@ static int ref_classify(const ref_geometry *rg, const double p[3], const double 
  * directions uniform on the sphere (the sampler's documented measure); 1: directions weighted by
  * the voxel's projected area (isotropic uniform random lines). Either way the line's entry point is
  * drawn as: a visible face with probability |w_k| / |w|_1, then uniform on that face. */
-static void ref_frequencies(const ref_geometry *rg, const double lo[3], double size, int area_weighted, long M,
+static void ref_frequencies(const ref_geometry *rg_in, const double lo[3], double size, int area_weighted, long M,
                             uint64_t seed, double freq[4])
 {
+    ref_geometry own = *rg_in, *rg = &own;
+    own.own_count = 0;
+    double hi[3] = {lo[0] + size, lo[1] + size, lo[2] + size};
+    for (int t = 0; t < (int)rg->m->triangle_count && own.own_count < 64; t++) {
+        double v[3][3];
+        tri_vertices(rg->m, t, v);
+        if (tribox_overlap_d(lo, hi, v[0], v[1], v[2]))
+            own.own[own.own_count++] = t;
+    }
     uint64_t r = seed;
     long count[4] = {0};
     for (long i = 0; i < M; i++) {
@@ -533,7 +560,7 @@ static void test_axis_quad(int reversed, int double_sided)
         world_free(w);
         return;
     }
-    ref_geometry rg = {.is_box = 0, .c = {0, 0, 0}, .u = {1, 0, 0}, .w = {0, reversed ? -1 : 1, 0},
+    ref_geometry rg = {.is_box = 0, .c = {0, 0, 0}, .u = {1, 0, 0}, .w = {0, reversed ? -1 : 1, 0}, .m = &w->s.mesh,
                        .double_sided = double_sided};
     char what[96];
     snprintf(what, sizeof what, "quad z=0%s%s", reversed ? " (reversed winding)" : "",
@@ -571,7 +598,7 @@ static void test_tilted_quad(void)
         world_free(w);
         return;
     }
-    ref_geometry rg = {.is_box = 0, .c = {c[0], c[1], c[2]}, .u = {u[0], u[1], u[2]}, .w = {wv[0], wv[1], wv[2]}};
+    ref_geometry rg = {.is_box = 0, .c = {c[0], c[1], c[2]}, .u = {u[0], u[1], u[2]}, .w = {wv[0], wv[1], wv[2]}, .m = &w->s.mesh};
     /* The non-empty voxel whose centre lies closest to the plane (the plane then cuts it roughly in
      * half, and it is far from the quad's edges). */
     double nrm[3] = {u[1] * wv[2] - u[2] * wv[1], u[2] * wv[0] - u[0] * wv[2], u[0] * wv[1] - u[1] * wv[0]};
@@ -601,6 +628,23 @@ static void test_tilted_quad(void)
     world_free(w);
 }
 
+/* Other geometry between the scene's boundary and the voxel must not shadow its classes (the paper
+ * intersects the voxel's own list only): the quad z = 0 with a second quad above it that does not
+ * touch voxel (3,3,1). */
+static void test_occluded_quad(void)
+{
+    world *w = world_new();
+    mesh_add_quad(&w->s.mesh, v3(-1, -1, 0), v3(1, -1, 0), v3(1, 1, 0), v3(-1, 1, 0), 0);
+    mesh_add_quad(&w->s.mesh, v3(-1, -1, 0.9f), v3(1, -1, 0.9f), v3(1, 1, 0.9f), v3(-1, 1, 0.9f), 0);
+    if (world_build(w, 8, 0)) {
+        world_free(w);
+        return;
+    }
+    ref_geometry rg = {.is_box = 0, .c = {0, 0, 0}, .u = {1, 0, 0}, .w = {0, 1, 0}, .m = &w->s.mesh};
+    compare_classes("quad z=0 under an occluder", w, 3, 3, 1, &rg, 60000, 1000000);
+    world_free(w);
+}
+
 static void test_box(void)
 {
     world *w = world_new();
@@ -609,12 +653,15 @@ static void test_box(void)
         world_free(w);
         return;
     }
-    ref_geometry rg = {.is_box = 1, .lo = {-1, -1, -1}, .hi = {1, 1, 1}};
+    ref_geometry rg = {.is_box = 1, .m = &w->s.mesh};
     /* Voxel (3,3,1) is cut through its centre by the -z face; (3,3,6) by the +z face (N = 8: both
      * faces lie on cell centres, grid.h); (1,3,3) by the -x face. */
     compare_classes("box -z face", w, 3, 3, 1, &rg, 60000, 1000000);
     compare_classes("box +z face", w, 3, 3, 6, &rg, 60000, 1000000);
     compare_classes("box -x face", w, 1, 3, 3, &rg, 60000, 1000000);
+    /* (1,3,1) holds the edge where the -x and -z faces meet: lines cross one face before entering
+     * the voxel, the paper's case (b) before the entry. */
+    compare_classes("box -x/-z edge", w, 1, 3, 1, &rg, 60000, 1000000);
     world_free(w);
 }
 
@@ -637,7 +684,7 @@ static void test_quad_on_face(void)
     CHECK("on face: the grid marks both cells around the face (grid.h: closed cells)",
           grid_index(&w->g, 0, 5, 5, 1) >= 0 && grid_index(&w->g, 0, 5, 5, 2) >= 0 &&
               grid_index(&w->g, 0, 5, 5, 0) < 0 && grid_index(&w->g, 0, 5, 5, 3) < 0);
-    ref_geometry rg = {.is_box = 0, .c = {0, 0, 0.125}, .u = {1, 0, 0}, .w = {0, 1, 0}};
+    ref_geometry rg = {.is_box = 0, .c = {0, 0, 0.125}, .u = {1, 0, 0}, .w = {0, 1, 0}, .m = &w->s.mesh};
     for (int layer = 1; layer <= 2; layer++) {
         int64_t idx = grid_index(&w->g, 0, 5, 5, layer);
         if (idx < 0)
@@ -663,6 +710,7 @@ int main(void)
     test_axis_quad(0, 1);
     test_tilted_quad();
     test_box();
+    test_occluded_quad();
     test_quad_on_face();
     return unit_exit();
 }

@@ -333,7 +333,7 @@ static void bake(void)
         dir = v3_normalize(dir);
         vec3 hit = v3(0.1f + 0.002f * (float)i, 0.3f + 0.001f * (float)i, 0.5f);
         two[i] = (vx_sample){v3_madd(hit, dir, -5.0f), dir, 4.5f, 5.5f, 5.0f, VX_SAMPLE_INSIDE_FRONT, 1,
-                             v3(0, 0, sgn), v3(0.2f, 0.8f, 0.2f), 0, 0.5f};
+                             v3(0, 0, sgn), v3(0.2f, 0.8f, 0.2f), 0, 0.5f, 0, 0};
     }
     vx_voxel v = {0, 0, 0, 0, v3(0, 0, 0), 1.0f, 0};
     m->bake_voxel(&v, two, 400, &rec);

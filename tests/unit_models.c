@@ -205,7 +205,7 @@ static void fill_half(vx_sample *s, int i, uint64_t *r)
 
 static const bake_case cases[] = {
     {"empty (all MISS)", 150, fill_miss, EXPECT_EMPTY},
-    {"all OUTSIDE", 150, fill_outside, EXPECT_EMPTY},
+    {"all OUTSIDE", 150, fill_outside, EXPECT_NONE}, /* case (b): alpha occludes (1), binary has no colour (0) */
     {"one normal", 150, fill_one_normal, EXPECT_FULL},
     {"half covered", 150, fill_half, EXPECT_NONE},
     {"single-sided plane", 150, fill_single_sided_plane, EXPECT_NONE},
@@ -313,7 +313,7 @@ static double g_over_nv_sup(double alpha)
 
 typedef struct {
     double albedo_max, f0_max, spec_peak; /* spec_peak = D_max * G_sup at the smallest roughness */
-    int inside, front, n;
+    int inside, front, occluding, n; /* occluding: cases (a) and (b) of the classification */
 } sample_summary;
 
 static void summarise(const vx_sample *s, int n, sample_summary *out)
@@ -326,6 +326,7 @@ static void summarise(const vx_sample *s, int n, sample_summary *out)
         int hit = s[i].kind == VX_SAMPLE_INSIDE_FRONT || s[i].kind == VX_SAMPLE_INSIDE_BACK;
         out->inside += hit;
         out->front += s[i].kind == VX_SAMPLE_INSIDE_FRONT;
+        out->occluding += hit || s[i].kind == VX_SAMPLE_OUTSIDE;
         if (hit) {
             out->f0_max = fmax(out->f0_max, s[i].specular);
             alpha_min = fmin(alpha_min, s[i].roughness);
@@ -471,10 +472,11 @@ static void check_baseline(const vx_model *m, const bake_case *c, const sample_s
     if (c->expect == EXPECT_FULL && (!strcmp(m->name, "binary") || !strcmp(m->name, "alpha")) && opacity != 1.0f)
         fail(v, "%s: every sample hit inside, opacity %.9g (want 1)", where, (double)opacity);
     if (!strcmp(m->name, "alpha")) {
-        double want = sum->n ? (double)sum->inside / (double)sum->n : 0.0;
+        /* Brito et al. §3.2: cases (a) and (b) occlude, a miss does not. */
+        double want = sum->n ? (double)sum->occluding / (double)sum->n : 0.0;
         if (fabs(opacity - want) > 1e-6 * fmax(1.0, want))
-            fail(v, "%s: alpha opacity %.9g, want the INSIDE fraction %d/%d = %.9g", where, (double)opacity,
-                 sum->inside, sum->n, want);
+            fail(v, "%s: alpha opacity %.9g, want the occluding (INSIDE + OUTSIDE) fraction %d/%d = %.9g", where,
+                 (double)opacity, sum->occluding, sum->n, want);
     }
     if (!strcmp(m->name, "binary")) {
         float want = sum->front > 0 ? 1.0f : 0.0f;

@@ -9,7 +9,7 @@
 #include "shading.h"
 #include "tribox.h"
 
-#define PACKET 16
+#define OWN_STACK 64 /* own triangles of a voxel kept on the stack; more go to the heap */
 #define VOXELS_PER_ITEM 32
 
 void bake_generate_rays(const rt_scene *rt, const voxel_grid *g, size_t index, uint64_t seed, int n, vx_sample *out)
@@ -61,9 +61,104 @@ void bake_generate_rays(const rt_scene *rt, const voxel_grid *g, size_t index, u
         /* The rest is filled by bake_trace. */
         o->kind = VX_SAMPLE_MISS;
         o->own_triangle = 0;
+        o->double_sided = o->back_side = 0;
         o->normal = o->albedo = v3(0, 0, 0);
         o->specular = o->roughness = 0.0f;
     }
+}
+
+/* The voxel's own triangles (Brito et al.'s per-voxel list), prepared for ray tests in double
+ * relative to the voxel's centre: the rays start outside the scene, and a float test there would
+ * lose the voxel's scale. */
+typedef struct {
+    double p0[3], e1[3], e2[3];
+    unsigned prim;
+} own_triangle;
+
+typedef struct {
+    const mesh *m;
+    double lo[3], hi[3], centre[3]; /* the voxel's box, widened by the slack */
+    own_triangle *tri;
+    int count, cap, failed, heap;
+} own_list;
+
+/* Embree's point query hands over every triangle whose bounds come near the voxel's bounding
+ * sphere; the exact closed triangle/box test (the grid's own notion of overlap, touching counts)
+ * keeps the voxel's triangles. */
+static bool own_collect(struct RTCPointQueryFunctionArguments *args)
+{
+    own_list *o = args->userPtr;
+    const uint32_t *idx = &o->m->indices[3 * (size_t)args->primID];
+    double v[3][3];
+    for (int k = 0; k < 3; k++) {
+        vec3 p = mesh_position(o->m, idx[k]);
+        v[k][0] = p.x, v[k][1] = p.y, v[k][2] = p.z;
+    }
+    for (int a = 0; a < 3; a++) {
+        double tlo = fmin(v[0][a], fmin(v[1][a], v[2][a])), thi = fmax(v[0][a], fmax(v[1][a], v[2][a]));
+        if (tlo > o->hi[a] || thi < o->lo[a])
+            return false;
+    }
+    if (!tribox_overlap_d(o->lo, o->hi, v[0], v[1], v[2]))
+        return false;
+    if (o->count == o->cap) {
+        int cap = o->cap * 2;
+        own_triangle *t = o->heap ? realloc(o->tri, sizeof *t * (size_t)cap) : malloc(sizeof *t * (size_t)cap);
+        if (!t) {
+            o->failed = 1; /* out of memory: the voxel keeps the triangles gathered so far */
+            return false;
+        }
+        if (!o->heap)
+            memcpy(t, o->tri, sizeof *t * (size_t)o->count);
+        o->heap = 1;
+        o->tri = t;
+        o->cap = cap;
+    }
+    own_triangle *t = &o->tri[o->count++];
+    for (int a = 0; a < 3; a++) {
+        t->p0[a] = v[0][a] - o->centre[a];
+        t->e1[a] = v[1][a] - v[0][a];
+        t->e2[a] = v[2][a] - v[0][a];
+    }
+    t->prim = args->primID;
+    return false;
+}
+
+/* Closest crossing of the line o + t d (o relative to the voxel's centre) with the own triangles:
+ * Moller-Trumbore with inclusive edges (a line through a shared edge hits both sides; either gives
+ * the same t). Returns the index of the triangle, or -1; t, u, v as Embree reports them. */
+static int own_closest_hit(const own_list *o, const double org[3], const double d[3], double *t_out, float *u_out,
+                           float *v_out)
+{
+    int best = -1;
+    double best_t = INFINITY;
+    for (int i = 0; i < o->count; i++) {
+        const own_triangle *tr = &o->tri[i];
+        double p[3] = {d[1] * tr->e2[2] - d[2] * tr->e2[1], d[2] * tr->e2[0] - d[0] * tr->e2[2],
+                       d[0] * tr->e2[1] - d[1] * tr->e2[0]};
+        double det = tr->e1[0] * p[0] + tr->e1[1] * p[1] + tr->e1[2] * p[2];
+        if (det == 0.0 || !isfinite(det))
+            continue; /* the line lies in the triangle's plane (or the triangle has no area) */
+        double inv = 1.0 / det;
+        double s[3] = {org[0] - tr->p0[0], org[1] - tr->p0[1], org[2] - tr->p0[2]};
+        double u = (s[0] * p[0] + s[1] * p[1] + s[2] * p[2]) * inv;
+        if (u < 0.0 || u > 1.0)
+            continue;
+        double q[3] = {s[1] * tr->e1[2] - s[2] * tr->e1[1], s[2] * tr->e1[0] - s[0] * tr->e1[2],
+                       s[0] * tr->e1[1] - s[1] * tr->e1[0]};
+        double v = (d[0] * q[0] + d[1] * q[1] + d[2] * q[2]) * inv;
+        if (v < 0.0 || u + v > 1.0)
+            continue;
+        double t = (tr->e2[0] * q[0] + tr->e2[1] * q[1] + tr->e2[2] * q[2]) * inv;
+        if (t > 0.0 && t < best_t) {
+            best_t = t;
+            best = i;
+            *u_out = (float)u;
+            *v_out = (float)v;
+        }
+    }
+    *t_out = best_t;
+    return best;
 }
 
 void bake_trace(const rt_scene *rt, const voxel_grid *g, size_t index, vx_sample *samples, int n)
@@ -74,66 +169,49 @@ void bake_trace(const rt_scene *rt, const voxel_grid *g, size_t index, vx_sample
     grid_cell_box(g, 0, x, y, z, &lo, &hi);
     /* Triangles lying on the voxel's faces are hit exactly at t_entry or t_exit: widen a little. */
     float slack = 1e-4f * g->voxel_size + rt->epsilon * 0.1f;
-    const mesh *m = &rt->scene->mesh;
-    /* Rays of one voxel that pass it often hit the same few triangles behind it: remember the
-     * last answers of the (comparatively costly) triangle/voxel overlap test. */
-    enum { OWN_CACHE = 8 };
-    unsigned own_prim[OWN_CACHE];
-    int own_result[OWN_CACHE], own_next = 0;
-    for (int c = 0; c < OWN_CACHE; c++)
-        own_prim[c] = RTC_INVALID_GEOMETRY_ID;
-    for (int first = 0; first < n; first += PACKET) {
-        int count = n - first < PACKET ? n - first : PACKET;
-        struct RTCRayHit16 rh;
-        int valid[PACKET] __attribute__((aligned(64)));
-        for (int k = 0; k < PACKET; k++) {
-            const vx_sample *sp = &samples[first + (k < count ? k : 0)];
-            valid[k] = k < count ? -1 : 0;
-            rt_packet_rayhit(&rh, k, sp->origin, sp->dir, fmaxf(0.0f, sp->t_entry - slack), INFINITY);
-        }
-        struct RTCIntersectContext ctx;
-        rtcInitIntersectContext(&ctx);
-        rtcIntersect16(valid, rt->bvh, &ctx, &rh);
-        for (int k = 0; k < count; k++) {
-            vx_sample *sp = &samples[first + k];
-            if (rh.hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) {
-                sp->kind = VX_SAMPLE_MISS;
-                continue;
-            }
-            unsigned prim = rh.hit.primID[k];
-            sp->t_hit = rh.ray.tfar[k];
-            if (sp->t_hit > sp->t_exit + slack) {
-                /* Past the voxel: models only ask whether the triangle is one of the voxel's own
-                 * (Brito et al.'s per-voxel list). Bounding boxes settle most cases before the SAT. */
-                sp->kind = VX_SAMPLE_OUTSIDE;
-                int cached = -1;
-                for (int c = 0; c < OWN_CACHE; c++)
-                    if (own_prim[c] == prim)
-                        cached = own_result[c];
-                if (cached < 0) {
-                    const uint32_t *tri = &m->indices[3 * (size_t)prim];
-                    vec3 a = mesh_position(m, tri[0]), b = mesh_position(m, tri[1]), c = mesh_position(m, tri[2]);
-                    vec3 tlo = v3_min(a, v3_min(b, c)), thi = v3_max(a, v3_max(b, c));
-                    cached = tlo.x <= hi.x && thi.x >= lo.x && tlo.y <= hi.y && thi.y >= lo.y && tlo.z <= hi.z &&
-                             thi.z >= lo.z && tribox_overlap(lo, hi, a, b, c);
-                    own_prim[own_next] = prim;
-                    own_result[own_next] = cached;
-                    own_next = (own_next + 1) % OWN_CACHE;
-                }
-                sp->own_triangle = cached;
-                continue;
-            }
-            surface_hit h;
-            rt_surface(rt, prim, rh.hit.u[k], rh.hit.v[k], sp->origin, sp->dir, sp->t_hit, &h);
-            sp->normal = h.normal;
-            sp->specular = h.material->specular;
-            sp->roughness = h.material->roughness;
-            sp->own_triangle = 1;
-            /* A double-sided surface seen from behind shades like a front face. */
-            sp->kind = h.front_facing || h.material->double_sided ? VX_SAMPLE_INSIDE_FRONT : VX_SAMPLE_INSIDE_BACK;
-            sp->albedo = sp->kind == VX_SAMPLE_INSIDE_FRONT ? h.albedo : v3(0, 0, 0);
-        }
+    own_triangle stack[OWN_STACK];
+    own_list own = {.m = &rt->scene->mesh, .tri = stack, .cap = OWN_STACK};
+    float flo[3] = {lo.x, lo.y, lo.z}, fhi[3] = {hi.x, hi.y, hi.z};
+    for (int a = 0; a < 3; a++) {
+        own.lo[a] = (double)flo[a] - slack;
+        own.hi[a] = (double)fhi[a] + slack;
+        own.centre[a] = 0.5 * ((double)flo[a] + (double)fhi[a]);
     }
+    struct RTCPointQuery query = {(float)own.centre[0], (float)own.centre[1], (float)own.centre[2], 0.0f,
+                                  0.8660254f * (float)(own.hi[0] - own.lo[0]) * 1.001f};
+    struct RTCPointQueryContext ctx;
+    rtcInitPointQueryContext(&ctx);
+    rtcPointQuery(rt->bvh, &query, &ctx, own_collect, &own);
+    for (int i = 0; i < n; i++) {
+        vx_sample *sp = &samples[i];
+        double org[3] = {(double)sp->origin.x - own.centre[0], (double)sp->origin.y - own.centre[1],
+                         (double)sp->origin.z - own.centre[2]};
+        double d[3] = {sp->dir.x, sp->dir.y, sp->dir.z}, t;
+        float u = 0.0f, v = 0.0f;
+        int hit = own_closest_hit(&own, org, d, &t, &u, &v);
+        if (hit < 0) {
+            sp->kind = VX_SAMPLE_MISS; /* case (c) */
+            continue;
+        }
+        sp->t_hit = (float)t;
+        sp->own_triangle = 1;
+        if (!(sp->t_hit >= sp->t_entry - slack && sp->t_hit <= sp->t_exit + slack)) {
+            sp->kind = VX_SAMPLE_OUTSIDE; /* case (b): the closest own triangle is met outside the voxel */
+            continue;
+        }
+        surface_hit h;
+        rt_surface(rt, own.tri[hit].prim, u, v, sp->origin, sp->dir, sp->t_hit, &h);
+        sp->normal = h.normal;
+        sp->specular = h.material->specular;
+        sp->roughness = h.material->roughness;
+        sp->double_sided = h.material->double_sided;
+        sp->back_side = !h.front_facing;
+        /* Case (a). A double-sided surface seen from behind shades like a front face. */
+        sp->kind = h.front_facing || h.material->double_sided ? VX_SAMPLE_INSIDE_FRONT : VX_SAMPLE_INSIDE_BACK;
+        sp->albedo = sp->kind == VX_SAMPLE_INSIDE_FRONT ? h.albedo : v3(0, 0, 0);
+    }
+    if (own.heap)
+        free(own.tri);
 }
 
 size_t bake_level_offset(const voxel_grid *g, int level)
