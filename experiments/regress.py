@@ -83,9 +83,19 @@ def main(argv=None):
     ap.add_argument("--baseline", default=os.path.join(vr.REPO, "results", "baseline.json"))
     ap.add_argument("--write-baseline", action="store_true", help="store this run as the baseline; do not compare")
     ap.add_argument("--history", help="history CSV (default <results>/history.csv)")
+    ap.add_argument("--allow-dirty", action="store_true",
+                    help="let --write-baseline store a run of a checkout with uncommitted changes (its numbers "
+                         "then belong to no commit: a fresh clone cannot reproduce them)")
     a = ap.parse_args(argv)
 
     def go():
+        if a.write_baseline and not a.allow_dirty:
+            g = vr.git_info()
+            if g["dirty"]:
+                # A baseline from uncommitted sources shows a false regression on every fresh clone.
+                raise vr.VoxlabError("--write-baseline: the checkout has uncommitted changes outside results/ "
+                                     f"({g['text']}); commit them first, so that the baseline belongs to a commit "
+                                     "a fresh clone can rebuild (or pass --allow-dirty)")
         decl = vr.load_declaration(a.experiment)
         tol = tolerances_for(decl)
         baseline = None

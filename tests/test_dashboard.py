@@ -55,6 +55,31 @@ def console_errors(stderr):
             re.search(r"Uncaught|Error|Failed to load|Not allowed", line)]
 
 
+def dirty_baseline_refused(decl):
+    """A baseline must belong to a commit: in a scratch git repository holding a copy of experiments/,
+    --write-baseline on a checkout with an uncommitted change fails, names the cause and writes
+    nothing; committing the change lets it through."""
+    repo = os.path.join(TMP, "scratch-repo")
+    shutil.copytree(EXP, os.path.join(repo, "experiments"))
+    git = lambda *a: subprocess.run(["git", "-C", repo, *a], capture_output=True, text=True, check=True)
+    os.symlink(os.path.join(REPO, "scenes"), os.path.join(repo, "scenes"))  # untracked: not "dirty"
+    git("init", "-q")
+    git("add", "experiments")
+    git("-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qm", "scratch")
+    with open(os.path.join(repo, "experiments", "README.md"), "a") as f:
+        f.write("an uncommitted edit\n")
+    baseline = os.path.join(TMP, "scratch-baseline.json")
+    cmd = [PY, os.path.join(repo, "experiments", "regress.py"), "--experiment", decl, "--results",
+           os.path.join(TMP, "scratch-results"), "--baseline", baseline, "--voxlab", VOXLAB, "--write-baseline"]
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    report("--write-baseline refuses a checkout with uncommitted changes",
+           p.returncode != 0 and "uncommitted changes" in p.stderr and not os.path.exists(baseline), p.stderr[-800:])
+    git("-c", "user.name=t", "-c", "user.email=t@t", "commit", "-qam", "the edit")
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    report("--write-baseline on the committed checkout writes the baseline",
+           p.returncode == 0 and os.path.exists(baseline), p.stderr[-800:])
+
+
 def main():
     models = [line.split()[0] for line in voxlab("models").stdout.splitlines() if line.strip()]
     results = os.path.join(TMP, "results")
@@ -64,11 +89,13 @@ def main():
         json.dump({"name": "tiny", "truth_spp": 16, "scenes": ["spheres"], "history": True,
                    "runs": [{"models": "all", "res": [16], "size": 32, "spp": [2], "rays": [64]}]}, f)
     common = ["--experiment", decl, "--results", results, "--baseline", baseline, "--voxlab", VOXLAB, "--jobs", "2"]
-    p = subprocess.run([PY, os.path.join(EXP, "regress.py"), *common, "--write-baseline"], capture_output=True,
-                       text=True)
+    # --allow-dirty: this test runs in developers' checkouts too; the refusal is tested below.
+    p = subprocess.run([PY, os.path.join(EXP, "regress.py"), *common, "--write-baseline", "--allow-dirty"],
+                       capture_output=True, text=True)
     report("tiny sweep and baseline", p.returncode == 0 and os.path.exists(baseline), p.stderr[-1500:])
     if p.returncode != 0:
         return
+    dirty_baseline_refused(decl)
     # Pretend the baseline was better: the first model's MSE now counts as a regression.
     with open(baseline) as f:
         doc = json.load(f)
