@@ -169,7 +169,11 @@ VX_INLINE void hn_blend_edge(VX_GLOBAL const hn_record *records, const hn_stenci
         d.area = 0.0f;
         if (st->index[i] >= 0)
             hn_decode_geometry(records + st->index[i], size, &d);
-        if (d.area > 0.0f) {
+        if (st->index[i] >= 0) {
+            /* Marked by the grid but never hit (a plane on the cell's face, whose hits the
+             * neighbour took): a triangle touches it, so it is no edge; it says nothing. */
+            if (!(d.area > 0.0f))
+                continue;
             psi = d.psi;
         } else {
             /* The conservative voxelisation marks every cell a triangle touches: an empty cell
