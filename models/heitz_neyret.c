@@ -221,6 +221,88 @@ static void principal_axis(const double m[3][3], double out[3])
 /* Below this mean-normal length the cell's normals disagree too much for a side: a sheet seen
  * from both sides (double-sided leaves) or a closed blob smaller than the cell. */
 #define HN_ONE_SIDED_MIN 0.3
+/* ... and a sheet: normals along one axis (up to sign) whose mean is short against that axis,
+ * |n|^2 < HN_SHEET_RATIO lambda_max(E[n n^T]). A one-sided surface has |n|^2 close to lambda_max
+ * however curved (Jensen: |n|^2 <= lambda_max, equal for a plane; a box's corner 1/3 against 1/3,
+ * a right-angled crease 1/2 against 1/2), a double-sided sheet hit k times from one side and
+ * m - k from the other ((k - (m - k)) / m)^2 against 1. Why not |n| < 0.3 alone: the mean of m
+ * random signs is 1/sqrt(m), so a leaf clipping a cell with 5 to 15 hits came out one-sided
+ * about half the time (a half-space with a random side, at trees 128^3 half the leaf cells); this
+ * ratio misses only a sheet hit from one side only (2^(1-m): 6 % at m = 5). */
+#define HN_SHEET_RATIO 0.5
+
+/* The centroid of the polygon where the plane x.N = h cuts the cube [-size/2, size/2]^3 (the patch
+ * a surface spanning the cell would have); 0 when the plane misses the cube. */
+static int plane_cube_centroid(const double N[3], double h, double size, double out[3])
+{
+    double pts[12][3], c[3] = {0, 0, 0};
+    int np = 0;
+    double half = 0.5 * size;
+    for (int a = 0; a < 3; a++) { /* the 4 edges along axis a */
+        int b = (a + 1) % 3, d = (a + 2) % 3;
+        if (!(fabs(N[a]) > 1e-12))
+            continue;
+        for (int k = 0; k < 4; k++) {
+            double x[3];
+            x[b] = (k & 1) ? half : -half;
+            x[d] = (k & 2) ? half : -half;
+            x[a] = (h - N[b] * x[b] - N[d] * x[d]) / N[a];
+            if (fabs(x[a]) > half)
+                continue;
+            for (int i = 0; i < 3; i++)
+                pts[np][i] = x[i];
+            np++;
+        }
+    }
+    if (np < 3)
+        return 0;
+    for (int j = 0; j < np; j++)
+        for (int i = 0; i < 3; i++)
+            c[i] += pts[j][i] / np;
+    /* Order the vertices by angle about their mean in the plane, then the fan's area centroid. */
+    double t1[3], t2[3], ref[3] = {fabs(N[0]) < 0.9 ? 1.0 : 0.0, fabs(N[0]) < 0.9 ? 0.0 : 1.0, 0.0};
+    t1[0] = N[1] * ref[2] - N[2] * ref[1], t1[1] = N[2] * ref[0] - N[0] * ref[2], t1[2] = N[0] * ref[1] - N[1] * ref[0];
+    double l1 = sqrt(t1[0] * t1[0] + t1[1] * t1[1] + t1[2] * t1[2]);
+    for (int i = 0; i < 3; i++)
+        t1[i] /= l1;
+    t2[0] = N[1] * t1[2] - N[2] * t1[1], t2[1] = N[2] * t1[0] - N[0] * t1[2], t2[2] = N[0] * t1[1] - N[1] * t1[0];
+    double ang[12];
+    for (int j = 0; j < np; j++) {
+        double u = 0, v = 0;
+        for (int i = 0; i < 3; i++) {
+            u += (pts[j][i] - c[i]) * t1[i];
+            v += (pts[j][i] - c[i]) * t2[i];
+        }
+        ang[j] = atan2(v, u);
+    }
+    for (int j = 1; j < np; j++) /* insertion sort: at most 12 */
+        for (int k = j; k > 0 && ang[k] < ang[k - 1]; k--) {
+            double t = ang[k];
+            ang[k] = ang[k - 1], ang[k - 1] = t;
+            for (int i = 0; i < 3; i++) {
+                t = pts[k][i];
+                pts[k][i] = pts[k - 1][i], pts[k - 1][i] = t;
+            }
+        }
+    double area = 0.0, acc[3] = {0, 0, 0};
+    for (int j = 0; j < np; j++) {
+        const double *p0 = pts[j], *p1 = pts[(j + 1) % np];
+        double e0[3] = {p0[0] - c[0], p0[1] - c[1], p0[2] - c[2]}, e1[3] = {p1[0] - c[0], p1[1] - c[1], p1[2] - c[2]};
+        double cr[3] = {e0[1] * e1[2] - e0[2] * e1[1], e0[2] * e1[0] - e0[0] * e1[2], e0[0] * e1[1] - e0[1] * e1[0]};
+        double ar = 0.5 * fabs(cr[0] * N[0] + cr[1] * N[1] + cr[2] * N[2]);
+        area += ar;
+        for (int i = 0; i < 3; i++)
+            acc[i] += ar * (c[i] + p0[i] + p1[i]) / 3.0;
+    }
+    if (!(area > 1e-12 * size * size)) {
+        for (int i = 0; i < 3; i++)
+            out[i] = c[i];
+        return 1;
+    }
+    for (int i = 0; i < 3; i++)
+        out[i] = acc[i] / area;
+    return 1;
+}
 
 /* The record's fields from a cell's moments (cell edge `size`). */
 static void derive(const moments *m, float size, hn_data *d)
@@ -239,7 +321,12 @@ static void derive(const moments *m, float size, hn_data *d)
             NN[i][k] = m->nn[i][k] / m->w;
         }
     double len = sqrt(nbar[0] * nbar[0] + nbar[1] * nbar[1] + nbar[2] * nbar[2]);
-    if (len >= HN_ONE_SIDED_MIN) {
+    double axis[3], lambda_max = 0.0;
+    principal_axis(NN, axis);
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 3; k++)
+            lambda_max += axis[i] * NN[i][k] * axis[k];
+    if (len >= HN_ONE_SIDED_MIN && len * len >= HN_SHEET_RATIO * lambda_max) {
         for (int i = 0; i < 3; i++)
             N[i] = nbar[i] / len;
     } else {
@@ -289,6 +376,28 @@ static void derive(const moments *m, float size, hn_data *d)
     d->var_h = (float)var_h;
     d->var_n = (float)hn_sigma2_of_m(mq);
     d->area = (float)m->w;
+    /* psi (hn_record.h): where the patch ends. For a patch that fills the plane's cut of the cell
+     * from one side up to a straight edge, the patch's centroid lies off the cut's centroid by
+     * half the distance from the edge to the far side, so the edge lies 2 |offset| - size/2 from
+     * the cut's centroid (+size/2: a sliver at the far side; -size/2: the whole cut). The cut's
+     * centroid rather than the cell's centre: a tilted plane through a corner of the cell is
+     * continued by the neighbours, not ended. */
+    {
+        double cc[3], off2 = 0.0;
+        if (!plane_cube_centroid(N, h, size, cc))
+            for (int i = 0; i < 3; i++)
+                cc[i] = h * N[i];
+        double o[3], on = 0.0;
+        for (int i = 0; i < 3; i++) {
+            o[i] = mean[i] - cc[i];
+            on += o[i] * N[i];
+        }
+        for (int i = 0; i < 3; i++) {
+            o[i] -= on * N[i];
+            off2 += o[i] * o[i];
+        }
+        d->psi = (float)fmin(fmax(2.0 * sqrt(off2) - 0.5 * size, -0.5 * size), 0.5 * size);
+    }
     if (!(m->wf > 0.0))
         return; /* only back faces: colour unknown (black if no neighbour knows better) */
     d->has_color = 1;
@@ -346,6 +455,15 @@ static void hn_bake(const vx_voxel *v, const vx_sample *samples, int n, void *ou
         double x[3] = {s->origin.x + (double)s->dir.x * s->t_hit - c[0], s->origin.y + (double)s->dir.y * s->t_hit - c[1],
                        s->origin.z + (double)s->dir.z * s->t_hit - c[2]};
         double sign = front ? 1.0 : -1.0;
+#ifdef VX_SAMPLE_HAS_DOUBLE_SIDED
+        /* A double-sided hit whose normal comes on the triangle's front side: turned toward the
+         * ray, as the sampler used to hand it, so that a sheet seen from both sides has normals
+         * of both signs (a two-sided cell, derive) rather than a one-sided half-space that the
+         * viewer behind it would start inside of. */
+        if (s->double_sided && (double)s->normal.x * s->dir.x + (double)s->normal.y * s->dir.y +
+                                       (double)s->normal.z * s->dir.z > 0.0)
+            sign = -sign;
+#endif
         double nv[3] = {sign * s->normal.x, sign * s->normal.y, sign * s->normal.z};
         m.w += w;
         for (int k = 0; k < 3; k++) {

@@ -41,7 +41,8 @@ VX_HOT_INLINE void hn_column_pair(const grid_level *L, int x, int y, int z, int6
 }
 
 /* Fills the stencil of the cone element at p (world) and fractional level `level` of grid g:
- * the 8 cells around p on floor(level) and on the next level, with their trilinear weights.
+ * the 8 cells around p on floor(level) and on the next level, with their trilinear weights (the
+ * empty ones too, index -1).
  * Record indices count every level's records, level 0 first (vx_model.uses_levels). The cells go
  * in the order x, y, z major to minor (the blends sum in that order); a column's two cells are
  * looked up together (hn_column_pair), and the weights' and centres' per-axis factors are computed
@@ -83,26 +84,24 @@ VX_INLINE void hn_fill_stencil(const voxel_grid *g, vec3 p, float level, hn_sten
             for (int d = 0; d < 2; d++)
                 centre[a][d] = (float)(g->origin_d[a] + (i0[a] + d + 0.5) * size);
         }
+        /* Every cell of the 2x2x2 block goes in, the empty ones (and those outside the grid) with
+         * index -1: the edge field (hn_blend_edge) needs a value where there is no surface. */
         VX_UNROLL
         for (int dx = 0; dx < 2; dx++) {
-            if ((unsigned)(i0[0] + dx) >= n)
-                continue;
+            int in_x = (unsigned)(i0[0] + dx) < n;
             VX_UNROLL
             for (int dy = 0; dy < 2; dy++) {
-                if ((unsigned)(i0[1] + dy) >= n)
-                    continue;
-                int64_t idx[2];
-                hn_column_pair(lev, i0[0] + dx, i0[1] + dy, i0[2], idx);
+                int64_t idx[2] = {-1, -1};
+                if (in_x && (unsigned)(i0[1] + dy) < n)
+                    hn_column_pair(lev, i0[0] + dx, i0[1] + dy, i0[2], idx);
                 VX_UNROLL
                 for (int dz = 0; dz < 2; dz++) {
-                    if (idx[dz] < 0)
-                        continue;
                     int s = st->count++;
                     st->slot[s] = slot;
                     st->weight[s] = (float)(wt[0][dx] * wt[1][dy] * wt[2][dz]);
                     st->centre[s] = v3(centre[0][dx], centre[1][dy], centre[2][dz]);
                     st->size[s] = (float)size;
-                    st->index[s] = (long)(off + (size_t)idx[dz]);
+                    st->index[s] = idx[dz] < 0 ? -1L : (long)(off + (size_t)idx[dz]);
                 }
             }
         }
@@ -127,6 +126,7 @@ VX_INLINE void hn_cone_element_eval(const vx_query *q, vx_answer *a)
     hn_sample s;
     if (!hn_blend_geometry(records, &st, q->position, &s))
         return;
+    hn_blend_edge(records, &st, q->position, &s);
     vec3 N = hn_mask_answer(table, &s, q, fmaxf(q->footprint, 0.0f), a);
     if (q->light_count <= 0 || !(a->opacity > 0.0f))
         return;

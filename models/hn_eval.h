@@ -34,6 +34,9 @@ typedef struct {
     float var_h, var_n, var_brdf, f0;
     float two_sided; /* weight of two-sided cells, 0..1 */
     vec3 a, as;
+    int edge;        /* psi and gpsi hold the edge field (hn_blend_edge); 0: the plane is unbounded */
+    float psi;       /* in-plane signed distance to where the surface ends (world; > 0 beyond it) */
+    vec3 gpsi;       /* its gradient */
 } hn_sample;
 
 VX_INLINE void hn_sample_zero(hn_sample *s)
@@ -41,6 +44,9 @@ VX_INLINE void hn_sample_zero(hn_sample *s)
     s->n = v3(0.0f, 0.0f, 0.0f);
     s->D = s->var_h = s->var_n = s->var_brdf = s->f0 = s->two_sided = 0.0f;
     s->a = s->as = v3(0.0f, 0.0f, 0.0f);
+    s->edge = 0;
+    s->psi = 0.0f;
+    s->gpsi = v3(0.0f, 0.0f, 0.0f);
 }
 
 /* The geometry sums of the stencil's cells of one level (slot k): sum of weight times normal,
@@ -57,7 +63,7 @@ VX_INLINE float hn_blend_level_geometry(VX_GLOBAL const hn_record *records, cons
         if ((st->slot[i] ? 1 : 0) != k)
             continue;
         float w = st->weight[i];
-        if (!(w > 0.0f))
+        if (!(w > 0.0f) || st->index[i] < 0)
             continue;
         hn_data d;
         hn_decode_geometry(records + st->index[i], st->size[i], &d);
@@ -127,6 +133,86 @@ VX_INLINE int hn_blend_geometry(VX_GLOBAL const hn_record *records, const hn_ste
     return 1;
 }
 
+/* The edge field at p: psi, the in-plane signed distance to where the surface ends (> 0 beyond
+ * it), interpolated trilinearly over the dense 2x2x2 block of each level, and its gradient. Why:
+ * a cell's plane is unbounded, and with the sparse grid's empty cells dropped from the blend the
+ * plane of the last occupied cells reached a whole cell (of the element's level, so about a
+ * pixel) past them, and a coarser level's a cell of its own. The paper interpolates a dense
+ * distance field (HN 2012 §4.1, §5.2), where the field rises beyond a surface's boundary; this is
+ * its in-plane part. Values: an occupied cell its baked psi (-size/2 when its patch spans it); an
+ * empty cell that the blended plane runs through (the surface would be there but is not) +size/2,
+ * the least distance from its centre to any surface; an empty cell the plane misses lies above or
+ * below the surface, says nothing about where it ends, and is left out (weights renormalised).
+ * The gradient is that of the interpolant (the weights' gradients times the values). The element's
+ * mask then keeps the side of the edge line psi = 0 (hn_mask_answer). */
+VX_INLINE void hn_blend_edge(VX_GLOBAL const hn_record *records, const hn_stencil *st, vec3 p, hn_sample *s)
+{
+    vec3 N = v3_normalize_or(s->n, v3(0.0f, 0.0f, 1.0f));
+    float support = 0.5f * (fabsf(N.x) + fabsf(N.y) + fabsf(N.z));
+    int count = st->count < HN_STENCIL_MAX ? st->count : HN_STENCIL_MAX;
+    float W[2] = {0.0f, 0.0f}, S[2] = {0.0f, 0.0f};
+    vec3 G[2], Gw[2];
+    G[0] = G[1] = Gw[0] = Gw[1] = v3(0.0f, 0.0f, 0.0f);
+    for (int i = 0; i < count; i++) {
+        float size = st->size[i];
+        vec3 dp = v3_sub(p, st->centre[i]);
+        float wa[3], ga[3];
+        for (int a = 0; a < 3; a++) {
+            float u = v3_get(dp, a) / size;
+            wa[a] = fmaxf(0.0f, 1.0f - fabsf(u));
+            ga[a] = (u > 0.0f ? -1.0f : 1.0f) / size;
+        }
+        float w = wa[0] * wa[1] * wa[2];
+        vec3 gw = v3(ga[0] * wa[1] * wa[2], wa[0] * ga[1] * wa[2], wa[0] * wa[1] * ga[2]);
+        float psi;
+        hn_data d;
+        d.area = 0.0f;
+        if (st->index[i] >= 0)
+            hn_decode_geometry(records + st->index[i], size, &d);
+        if (st->index[i] >= 0) {
+            /* Marked by the grid but never hit (a plane on the cell's face, whose hits the
+             * neighbour took): a triangle touches it, so it is no edge; it says nothing. */
+            if (!(d.area > 0.0f))
+                continue;
+            psi = d.psi;
+        } else {
+            /* The conservative voxelisation marks every cell a triangle touches: an empty cell
+             * the plane enters (with a little slack for planes on cell faces) has lost its
+             * surface. */
+            float dist = s->D - v3_dot(N, dp);
+            if (!(fabsf(dist) <= support * size * 1.001f))
+                continue;
+            psi = 0.5f * size;
+        }
+        int k = st->slot[i] ? 1 : 0;
+        W[k] += w;
+        S[k] += w * psi;
+        G[k] = v3_madd(G[k], gw, psi);
+        Gw[k] = v3_add(Gw[k], gw);
+    }
+    float f = fminf(fmaxf(st->level_frac, 0.0f), 1.0f);
+    float w0 = W[0] > 0.0f ? 1.0f - f : 0.0f, w1 = W[1] > 0.0f ? f : 0.0f;
+    if (!(w0 + w1 > 0.0f)) {
+        w0 = W[0] > 0.0f ? 1.0f : 0.0f;
+        w1 = W[1] > 0.0f ? 1.0f : 0.0f;
+    }
+    if (!(w0 + w1 > 0.0f))
+        return;
+    s->psi = 0.0f;
+    s->gpsi = v3(0.0f, 0.0f, 0.0f);
+    for (int k = 0; k < 2; k++) {
+        float wk = (k ? w1 : w0) / (w0 + w1);
+        if (!(wk > 0.0f))
+            continue;
+        float pk = S[k] / W[k];
+        /* d(S/W) = (dS - (S/W) dW) / W */
+        vec3 gk = v3_scale(v3_madd(G[k], Gw[k], -pk), 1.0f / W[k]);
+        s->psi += wk * pk;
+        s->gpsi = v3_madd(s->gpsi, gk, wk);
+    }
+    s->edge = 1;
+}
+
 /* Attributes (colours, variances, material) at a point p of the surface: they are averages over
  * the surface, so they are weighted by area, bilinearly along the surface but summed over the
  * cell layers it spans (the axis nearest the normal n). Trilinear weights would favour the nearer
@@ -143,6 +229,8 @@ VX_INLINE void hn_blend_attributes(VX_GLOBAL const hn_record *records, const hn_
     hn_sample_zero(&lv[1]);
     int count = st->count < HN_STENCIL_MAX ? st->count : HN_STENCIL_MAX;
     for (int i = 0; i < count; i++) {
+        if (st->index[i] < 0)
+            continue;
         hn_data d;
         hn_decode(records + st->index[i], st->size[i], &d);
         if (!(d.area > 0.0f))
@@ -167,6 +255,10 @@ VX_INLINE void hn_blend_attributes(VX_GLOBAL const hn_record *records, const hn_
     }
     float f = fminf(fmaxf(st->level_frac, 0.0f), 1.0f);
     float w0 = wv[0] > 0.0f ? 1.0f - f : 0.0f, w1 = wv[1] > 0.0f ? f : 0.0f;
+    if (!(w0 + w1 > 0.0f)) { /* one level empty: the other alone (as hn_blend_geometry does) */
+        w0 = wv[0] > 0.0f ? 1.0f : 0.0f;
+        w1 = wv[1] > 0.0f ? 1.0f : 0.0f;
+    }
     if (w0 + w1 > 0.0f) {
         out->var_h = (w0 > 0.0f ? w0 * lv[0].var_h / wv[0] : 0.0f) + (w1 > 0.0f ? w1 * lv[1].var_h / wv[1] : 0.0f);
         out->var_n = (w0 > 0.0f ? w0 * lv[0].var_n / wv[0] : 0.0f) + (w1 > 0.0f ? w1 * lv[1].var_n / wv[1] : 0.0f);
@@ -174,6 +266,13 @@ VX_INLINE void hn_blend_attributes(VX_GLOBAL const hn_record *records, const hn_
         out->var_n /= w0 + w1;
     }
     float c0 = wc[0] > 0.0f ? 1.0f - f : 0.0f, c1 = wc[1] > 0.0f ? f : 0.0f;
+    /* One level without colour here: the other alone. Without this, an element on an integer
+     * level whose finer cells have no colour at the foot (the ground plane's rim, where only the
+     * coarser level reaches) covered bits in black. */
+    if (!(c0 + c1 > 0.0f)) {
+        c0 = wc[0] > 0.0f ? 1.0f : 0.0f;
+        c1 = wc[1] > 0.0f ? 1.0f : 0.0f;
+    }
     out->a = out->as = v3(0.0f, 0.0f, 0.0f);
     out->f0 = out->var_brdf = 0.0f;
     if (!(c0 + c1 > 0.0f))
@@ -263,13 +362,31 @@ VX_INLINE vec3 hn_mask_answer(VX_GLOBAL const unsigned int *table, const hn_samp
     vec3 T, B;
     v3_basis(dir, &T, &B);
     float nx = v3_dot(N, T), ny = v3_dot(N, B), nz = v3_dot(N, dir);
-    if (two) {
-        hn_slab_mask(table, nx, ny, nz, D, r, sigma_h, a->mask);
-    } else {
-        /* The silhouette plane rises with the view: only the peaks remain visible at grazing
-         * angles (mean visible depth, report §4.4). */
-        float lambda_v = hn_lambda(v3_dot(N, q->to_viewer), sqrtf(fmaxf(s->var_n, 0.0f)));
-        hn_plane_mask(table, nx, ny, nz, D - hn_visible_depth_offset(sigma_h, lambda_v), r, a->mask);
+    /* A two-sided sheet is the half-space behind it as seen from the viewer's side (N and D
+     * turned above), so that it renders from either side as a one-sided surface from its front.
+     * (It used to be a slab of half-thickness sigma_h: not the paper's model, whose H7 excludes
+     * thin sheets, and a flat sheet, sigma_h = 0, then covered only where the element's
+     * centre lay within r |nz| of it: the double-sided plate on cell faces lost coverage.) */
+    float sigma_n = sqrtf(fmaxf(s->var_n, 0.0f));
+    /* The silhouette plane rises with the view: only the peaks remain visible at grazing angles
+     * (mean visible depth, report §4.4). */
+    float lambda_v = hn_lambda(v3_dot(N, q->to_viewer), sigma_n);
+    hn_plane_mask(table, nx, ny, nz, D - hn_visible_depth_offset(sigma_h, lambda_v), r, a->mask);
+    if (s->edge) {
+        /* Where the surface ends (hn_blend_edge): the half-space psi <= 0, its boundary the line
+         * across the plane where psi crosses 0, linearised at the centre along psi's in-plane
+         * gradient. With no in-plane gradient the element is all inside or all beyond. */
+        vec3 g = v3_madd(s->gpsi, N, -v3_dot(s->gpsi, N));
+        float gl = sqrtf(v3_dot(g, g));
+        unsigned int e[VX_MASK_WORDS];
+        if (gl > 1e-3f) {
+            vec3 u = v3_scale(g, 1.0f / gl);
+            hn_plane_mask(table, v3_dot(u, T), v3_dot(u, B), v3_dot(u, dir), s->psi / gl, r, e);
+        } else {
+            hn_mask_set(e, s->psi <= 0.0f ? 0xffffffffu : 0u);
+        }
+        for (int w = 0; w < VX_MASK_WORDS; w++)
+            a->mask[w] &= e[w];
     }
     a->opacity = (float)hn_mask_count(a->mask) / (float)HN_MASK_SAMPLES;
     a->radiance = v3(0.0f, 0.0f, 0.0f);

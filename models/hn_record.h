@@ -1,7 +1,7 @@
 /* The Heitz–Neyret per-voxel record (one per non-empty cell of every MIP level) and its decoding.
  * Portable C (OpenCL C too); the encoder is host-only.
  *
- * 24 bytes (the paper: 15-20 bytes with 8/16-bit channels; we add the material's specular
+ * 28 bytes (the paper: 15-20 bytes with 8/16-bit channels; we add the material's specular
  * reflectance and roughness, which the paper keeps global):
  *   h         float   mean height of the cell's surface above the cell centre along the mean
  *                     normal (world units). 32 bits as the paper advises: it is the distance field.
@@ -18,6 +18,13 @@
  *                     min(a, 1 - a) (the largest |a_s| that keeps a + a_s s(h) in [0, 1])
  *   alpha     unorm8  the material's Beckmann roughness (RMS slope) over [0, 1]
  *   f0_flags  bits 0-6 specular reflectance (unorm7), bit 7 two-sided
+ *   psi       snorm8  where the surface ends within the plane: the in-plane signed distance psi
+ *                     from the cell's centre to the boundary of its surface patch, over size / 2
+ *                     (-size/2: the patch spans the cell; +size/2: it only touches a corner). The
+ *                     cone element interpolates psi densely (empty cells count +size/2 where the
+ *                     plane runs through them) so that a plane stops where its surface stops
+ *                     instead of reaching past the occupied cells (hn_eval.h, hn_blend_edge).
+ *   spare[3]  zero (the struct's padding, named so that every byte is defined)
  * Variances are stored (not deviations): they are what interpolates and combines linearly. */
 #ifndef VX_HN_RECORD_H
 #define VX_HN_RECORD_H
@@ -35,6 +42,8 @@ typedef struct {
     signed char as[3];
     unsigned char alpha;
     unsigned char f0_flags;
+    signed char psi;
+    unsigned char spare[3];
 } hn_record;
 
 /* A record decoded to floats. */
@@ -49,6 +58,7 @@ typedef struct {
     float var_brdf;   /* alpha^2 / 2 */
     float f0;
     int two_sided;
+    float psi;        /* world units (see psi above) */
 } hn_data;
 
 /* The geometry of a record (h, n, var_h, var_n, area, has_color, two_sided; the colour fields are
@@ -64,6 +74,7 @@ VX_HOT_INLINE void hn_decode_geometry(VX_GLOBAL const hn_record *r, float size, 
     d->area = fabsf(area) * size * size;
     d->has_color = area > 0.0f;
     d->two_sided = (r->f0_flags & HN_TWO_SIDED) != 0u;
+    d->psi = (float)r->psi / 127.0f * 0.5f * size;
 }
 
 VX_INLINE void hn_decode(VX_GLOBAL const hn_record *r, float size, hn_data *d)
@@ -143,6 +154,8 @@ static inline void hn_encode(const hn_data *d, float size, hn_record *r)
     r->alpha = hn_unorm8(sqrtf(2.0f * fmaxf(d->var_brdf, 0.0f)));
     unsigned f0 = (unsigned)lrintf(fminf(fmaxf(d->f0, 0.0f), 1.0f) * 127.0f);
     r->f0_flags = (unsigned char)(f0 | (d->two_sided ? HN_TWO_SIDED : 0u));
+    r->psi = hn_snorm8(d->psi / (0.5f * size));
+    r->spare[0] = r->spare[1] = r->spare[2] = 0;
 }
 #endif
 

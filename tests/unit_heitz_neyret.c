@@ -302,7 +302,7 @@ static void bake(void)
     CHECK("registered as heitz-neyret", m != NULL);
     if (!m)
         return;
-    CHECK("record is 24 bytes", m->voxel_bytes == 24 && sizeof(hn_record) == 24);
+    CHECK("record is 28 bytes", m->voxel_bytes == 28 && sizeof(hn_record) == 28);
     CHECK("declares cone marching, coverage masks and levels",
           m->march == VX_MARCH_CONE && m->compositing == VX_COMPOSITE_COVERAGE && m->uses_levels && m->cone_element);
     hn_record rec;
