@@ -9,7 +9,13 @@
  *
  * This file is the host side: the start-up mask table, the bake (level 0 from the shared sampler's
  * hits, coarser levels from their children) and the glue from the model interface to the portable
- * evaluation in hn_eval.h. */
+ * evaluation in hn_eval.h.
+ *
+ * Limits, honestly: each element is one plane (or, for a two-sided sheet, the half-space behind it
+ * as the viewer sees it) clipped by one edge line (psi, hn_record.h); its coverage bits are all or
+ * nothing per sample. A cell holding a cloud of sub-pixel leaves has partial coverage that no plane
+ * can represent (HN 2012 §7; Brito et al. 2023 §2): such cells cover as an opaque blob, so foliage
+ * comes out denser than the truth at coarse levels. */
 #include <math.h>
 #include <pthread.h>
 #include <string.h>
