@@ -9,7 +9,13 @@
  *
  * This file is the host side: the start-up mask table, the bake (level 0 from the shared sampler's
  * hits, coarser levels from their children) and the glue from the model interface to the portable
- * evaluation in hn_eval.h. */
+ * evaluation in hn_eval.h.
+ *
+ * Limits, honestly: each element is one plane (or, for a two-sided sheet, the half-space behind it
+ * as the viewer sees it) clipped by one edge line (psi, hn_record.h); its coverage bits are all or
+ * nothing per sample. A cell holding a cloud of sub-pixel leaves has partial coverage that no plane
+ * can represent (HN 2012 §7; Brito et al. 2023 §2): such cells cover as an opaque blob, so foliage
+ * comes out denser than the truth at coarse levels. */
 #include <math.h>
 #include <pthread.h>
 #include <string.h>
@@ -163,6 +169,7 @@ typedef struct {
     double w, x[3], xx[3][3], n[3], nn[3][3];
     double tang[3][3]; /* the children's in-plane spread, kept apart from xx (see derive) */
     double wf, xf[3], a[3], ax[3][3], f0, var_brdf; /* over the shaded (front) surface */
+    double w2; /* sum of the squared sample weights (level 0; 0 for a child record: no noise) */
 } moments;
 
 static void moments_shift(moments *m, const double off[3])
@@ -396,6 +403,13 @@ static void derive(const moments *m, float size, hn_data *d)
             o[i] -= on * N[i];
             off2 += o[i] * o[i];
         }
+        /* The sampled centroid wanders by the in-plane spread over the effective sample count: a
+         * cell with a few hits (a plane on its face, whose hits mostly go to the neighbour) must
+         * not read as an edge, so twice that standard error comes off the offset. */
+        if (m->w2 > 0.0) {
+            double n_eff = m->w * m->w / m->w2, spread = C[0][0] + C[1][1] + C[2][2] - var_h;
+            off2 = fmax(off2 - 4.0 * fmax(spread, 0.0) / n_eff, 0.0);
+        }
         d->psi = (float)fmin(fmax(2.0 * sqrt(off2) - 0.5 * size, -0.5 * size), 0.5 * size);
     }
     if (!(m->wf > 0.0))
@@ -466,6 +480,7 @@ static void hn_bake(const vx_voxel *v, const vx_sample *samples, int n, void *ou
 #endif
         double nv[3] = {sign * s->normal.x, sign * s->normal.y, sign * s->normal.z};
         m.w += w;
+        m.w2 += w * w;
         for (int k = 0; k < 3; k++) {
             m.x[k] += w * x[k];
             m.n[k] += w * nv[k];
