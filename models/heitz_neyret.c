@@ -469,15 +469,6 @@ static void hn_bake(const vx_voxel *v, const vx_sample *samples, int n, void *ou
         double x[3] = {s->origin.x + (double)s->dir.x * s->t_hit - c[0], s->origin.y + (double)s->dir.y * s->t_hit - c[1],
                        s->origin.z + (double)s->dir.z * s->t_hit - c[2]};
         double sign = front ? 1.0 : -1.0;
-#ifdef VX_SAMPLE_HAS_DOUBLE_SIDED
-        /* A double-sided hit whose normal comes on the triangle's front side: turned toward the
-         * ray, as the sampler used to hand it, so that a sheet seen from both sides has normals
-         * of both signs (a two-sided cell, derive) rather than a one-sided half-space that the
-         * viewer behind it would start inside of. */
-        if (s->double_sided && (double)s->normal.x * s->dir.x + (double)s->normal.y * s->dir.y +
-                                       (double)s->normal.z * s->dir.z > 0.0)
-            sign = -sign;
-#endif
         double nv[3] = {sign * s->normal.x, sign * s->normal.y, sign * s->normal.z};
         m.w += w;
         m.w2 += w * w;
