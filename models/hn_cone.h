@@ -136,7 +136,24 @@ VX_INLINE void hn_cone_element_eval(const vx_query *q, vx_answer *a)
         foot = q->position;
     hn_fill_stencil(q->grid, foot, q->level, &st);
     hn_blend_attributes(records, &st, foot, nu, &s);
-    a->radiance = hn_radiance(&s, N, q);
+    /* Point lights from the foot, where the surface is, as the truth lights its hit points: from
+     * the element's centre a light lying on the surface would be seen at a slant and at a distance
+     * as small as the centre's height, so its 1/d^2 would blow up (a light on the ground lit the
+     * elements around it 75x brighter than the truth). The distance is bounded by the element's
+     * radius: the element stands for its footprint, over which the irradiance is averaged. */
+    vx_query ql = *q;
+    for (int i = 0; i < ql.light_count && i < VX_MAX_LIGHTS; i++) {
+        float d = q->light_distance[i];
+        if (!(d > 0.0f) || !(d < 1e30f))
+            continue; /* directional, or unknown */
+        vec3 v = v3_add(v3_scale(q->to_light[i], d), v3_sub(q->position, foot));
+        float d2 = v3_dot(v, v), r = fmaxf(q->footprint, 0.0f);
+        if (!(d2 < 1e30f))
+            continue;
+        ql.to_light[i] = v3_normalize_or(v, q->to_light[i]);
+        ql.irradiance[i] = v3_scale(q->irradiance[i], d * d / fmaxf(d2, fmaxf(r * r, 1e-30f)));
+    }
+    a->radiance = hn_radiance(&s, N, &ql);
 }
 
 #endif

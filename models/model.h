@@ -57,6 +57,10 @@ typedef struct {
     int light_count;
     vec3 to_light[VX_MAX_LIGHTS];   /* unit, from the voxel centre toward each light */
     vec3 irradiance[VX_MAX_LIGHTS]; /* irradiance on a facing surface, shadows already applied */
+    /* Cone marching only: each light's distance from `position` (INFINITY for a directional light;
+     * 0 when the tracer did not say), so that a model whose surface lies away from the element's
+     * centre can light the surface where it is, as the ground truth does. */
+    float light_distance[VX_MAX_LIGHTS];
     /* Cone marching (VX_MARCH_CONE) only: the element's centre, its MIP level (fractional: the
      * model interpolates between floor and ceil), and the grid and records to look up. */
     vec3 position;

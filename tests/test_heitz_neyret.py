@@ -348,6 +348,30 @@ def silhouette_excess():
     report("silhouette_excess_falls", abs(excess[128]) < abs(excess[32]) + 0.05, f"{excess}")
 
 
+def light_on_the_ground():
+    """A point light lying exactly on a lit ground plate: the truth, which lights each hit point
+    where it is, stays bounded (its cosine vanishes as the light's distance does). heitz-neyret must
+    stay within the truth's range too: its elements light the surface at their foot on the plane,
+    not at their centre above or below it (where 1/d^2 blew up: pixels of 10-188 against a truth
+    peaking at ~2.5)."""
+    ply = os.path.join(TMP, "ground.ply")
+    write_ply(ply, [(-2, 0, -2), (2, 0, -2), (2, 0, 2), (-2, 0, 2)], [(0, 2, 1), (0, 3, 2)])
+    cam = {"position": [0.3, 2.2, 2.6], "look_at": [0, 0, 0], "up": [0, 1, 0], "fov_deg": 40}
+    lights = [{"type": "point", "position": [0.013, 0.0, -0.021], "intensity": [3, 3, 3]}]
+    sc = write_scene("light_on_ground", [{"ply": ply, "material": "grey"}], lights, cam, size=(96, 96))
+    truth = os.path.join(TMP, "log_truth.exr")
+    voxlab("truth", sc, "--spp", 64, "-o", truth)
+    t = read_image(truth)[..., :3]
+    for res in (64, 128):
+        out = os.path.join(TMP, f"log_{res}.exr")
+        voxlab("render", sc, "--model", "heitz-neyret", "--res", res, "--spp", 1, "-o", out)
+        m = read_image(out)[..., :3]
+        hot = int((m > 2 * t.max()).any(axis=2).sum())
+        report(f"light_on_the_ground_{res}: max {m.max():.3g} vs truth max {t.max():.3g}, {hot} pixels above twice it",
+               np.isfinite(m).all() and hot == 0, f"{hot} pixels above {2 * t.max():.3g} (max {m.max():.3g})")
+
+
+light_on_the_ground()
 silhouette_excess()
 light_cache()
 depth_of_field()

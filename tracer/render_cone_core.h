@@ -451,6 +451,7 @@ VX_INLINE void cone_march_shaded(cone_ctx *x, const cone *c, float t, float t_en
         for (int li = 0; li < q.light_count; li++) {
             light_at(&x->lights[li], p, &q.to_light[li], &irr[li], &dist[li]);
             q.irradiance[li] = irr[li];
+            q.light_distance[li] = dist[li];
         }
         vx_answer a;
         CONE_ELEMENT(x, &q, &a);
