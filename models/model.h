@@ -101,7 +101,6 @@ typedef struct {
     float t_exit;
     float t_hit;      /* closest own-triangle crossing (a, b); INFINITY for a miss */
     int kind;         /* VX_SAMPLE_* */
-    int own_triangle; /* 1 for cases (a) and (b): the crossing is on one of the voxel's triangles */
     vec3 normal;      /* shading normal at the hit, turned toward the ray's side (INSIDE hits only) */
     vec3 albedo;      /* diffuse colour at the hit (front hits of shaded surfaces; else 0) */
     float specular;   /* the hit material's specular reflectance and roughness (INSIDE hits only) */

@@ -332,7 +332,7 @@ static void bake(void)
         vec3 dir = v3(0.1f, 0.2f, -sgn);
         dir = v3_normalize(dir);
         vec3 hit = v3(0.1f + 0.002f * (float)i, 0.3f + 0.001f * (float)i, 0.5f);
-        two[i] = (vx_sample){v3_madd(hit, dir, -5.0f), dir, 4.5f, 5.5f, 5.0f, VX_SAMPLE_INSIDE_FRONT, 1,
+        two[i] = (vx_sample){v3_madd(hit, dir, -5.0f), dir, 4.5f, 5.5f, 5.0f, VX_SAMPLE_INSIDE_FRONT,
                              v3(0, 0, sgn), v3(0.2f, 0.8f, 0.2f), 0, 0.5f, 0, 0};
     }
     vx_voxel v = {0, 0, 0, 0, v3(0, 0, 0), 1.0f, 0};

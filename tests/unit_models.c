@@ -84,7 +84,6 @@ typedef struct {
 static void front(vx_sample *s, vec3 normal, vec3 albedo, float spec, float rough)
 {
     s->kind = VX_SAMPLE_INSIDE_FRONT;
-    s->own_triangle = 1;
     s->normal = normal;
     s->albedo = albedo;
     s->specular = spec;
@@ -94,7 +93,6 @@ static void front(vx_sample *s, vec3 normal, vec3 albedo, float spec, float roug
 static void back(vx_sample *s, vec3 normal)
 {
     s->kind = VX_SAMPLE_INSIDE_BACK;
-    s->own_triangle = 1;
     s->normal = normal;
     s->albedo = v3(0, 0, 0); /* the sampler gives back faces of single-sided surfaces no colour */
     s->specular = 0.04f;

@@ -289,7 +289,6 @@ static void synth(int mode, const sheet *sh, int nsh, int n, uint64_t seed, vx_s
         if (mode == SYN_FOAM) { /* dense matter: every ray stops somewhere inside, facing it */
             o->t_hit = o->t_entry + rng_float(&r) * (o->t_exit - o->t_entry);
             o->kind = VX_SAMPLE_INSIDE_FRONT;
-            o->own_triangle = 1;
             o->normal = v3_scale(d, -1.0f);
             o->albedo = v3(0.5f, 0.5f, 0.5f);
             continue;
@@ -312,7 +311,6 @@ static void synth(int mode, const sheet *sh, int nsh, int n, uint64_t seed, vx_s
         const sheet *s = &sh[hit];
         int front = v3_dot(s->n, d) < 0.0f;
         o->t_hit = best;
-        o->own_triangle = 1;
         o->specular = s->specular;
         o->roughness = s->roughness;
         o->normal = front ? s->n : v3_scale(s->n, -1.0f);

@@ -60,7 +60,6 @@ void bake_generate_rays(const rt_scene *rt, const voxel_grid *g, size_t index, u
         o->t_hit = INFINITY;
         /* The rest is filled by bake_trace. */
         o->kind = VX_SAMPLE_MISS;
-        o->own_triangle = 0;
         o->double_sided = o->back_side = 0;
         o->normal = o->albedo = v3(0, 0, 0);
         o->specular = o->roughness = 0.0f;
@@ -79,12 +78,12 @@ typedef struct {
     const mesh *m;
     double lo[3], hi[3], centre[3]; /* the voxel's box, widened by the slack */
     own_triangle *tri;
-    int count, cap, failed, heap;
+    int count, cap, heap;
 } own_list;
 
 /* Embree's point query hands over every triangle whose bounds come near the voxel's bounding
- * sphere; the exact closed triangle/box test (the grid's own notion of overlap, touching counts)
- * keeps the voxel's triangles. */
+ * sphere; the exact closed triangle/box test (the grid's own notion of overlap, touching counts;
+ * its first axes are the box's, a bounding-box rejection) keeps the voxel's triangles. */
 static bool own_collect(struct RTCPointQueryFunctionArguments *args)
 {
     own_list *o = args->userPtr;
@@ -94,20 +93,13 @@ static bool own_collect(struct RTCPointQueryFunctionArguments *args)
         vec3 p = mesh_position(o->m, idx[k]);
         v[k][0] = p.x, v[k][1] = p.y, v[k][2] = p.z;
     }
-    for (int a = 0; a < 3; a++) {
-        double tlo = fmin(v[0][a], fmin(v[1][a], v[2][a])), thi = fmax(v[0][a], fmax(v[1][a], v[2][a]));
-        if (tlo > o->hi[a] || thi < o->lo[a])
-            return false;
-    }
     if (!tribox_overlap_d(o->lo, o->hi, v[0], v[1], v[2]))
         return false;
     if (o->count == o->cap) {
         int cap = o->cap * 2;
         own_triangle *t = o->heap ? realloc(o->tri, sizeof *t * (size_t)cap) : malloc(sizeof *t * (size_t)cap);
-        if (!t) {
-            o->failed = 1; /* out of memory: the voxel keeps the triangles gathered so far */
-            return false;
-        }
+        if (!t)
+            return false; /* out of memory: the voxel keeps the triangles gathered so far */
         if (!o->heap)
             memcpy(t, o->tri, sizeof *t * (size_t)o->count);
         o->heap = 1;
@@ -194,7 +186,6 @@ void bake_trace(const rt_scene *rt, const voxel_grid *g, size_t index, vx_sample
             continue;
         }
         sp->t_hit = (float)t;
-        sp->own_triangle = 1;
         if (!(sp->t_hit >= sp->t_entry - slack && sp->t_hit <= sp->t_exit + slack)) {
             sp->kind = VX_SAMPLE_OUTSIDE; /* case (b): the closest own triangle is met outside the voxel */
             continue;
