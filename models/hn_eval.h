@@ -49,6 +49,20 @@ VX_INLINE void hn_sample_zero(hn_sample *s)
     s->gpsi = v3(0.0f, 0.0f, 0.0f);
 }
 
+/* The weights of the finer (*w0) and the coarser (*w1) level at level fraction f, given whether
+ * each level has anything to blend: 1 - f and f, and where one level is empty the other alone (an
+ * element on an integer level whose finer cells miss the surface takes the coarser cells'). Every
+ * blend below uses it, so geometry, edge field and colour never disagree on a level. */
+VX_INLINE void hn_level_weights(float f, int have0, int have1, float *w0, float *w1)
+{
+    *w0 = have0 ? 1.0f - f : 0.0f;
+    *w1 = have1 ? f : 0.0f;
+    if (!(*w0 + *w1 > 0.0f)) {
+        *w0 = have0 ? 1.0f : 0.0f;
+        *w1 = have1 ? 1.0f : 0.0f;
+    }
+}
+
 /* The geometry sums of the stencil's cells of one level (slot k): sum of weight times normal,
  * signed distance, variances and sidedness into g; returns the sum of weights. Why per level, with
  * local sums: accumulating into an array indexed by each cell's slot kept the sums in memory (a
@@ -106,11 +120,8 @@ VX_INLINE int hn_blend_geometry(VX_GLOBAL const hn_record *records, const hn_ste
     wsum[0] = hn_blend_level_geometry(records, st, count, 0, p, &lv[0]);
     wsum[1] = hn_blend_level_geometry(records, st, count, 1, p, &lv[1]);
     float f = fminf(fmaxf(st->level_frac, 0.0f), 1.0f);
-    float w0 = wsum[0] > 0.0f ? 1.0f - f : 0.0f, w1 = wsum[1] > 0.0f ? f : 0.0f;
-    if (!(w0 + w1 > 0.0f)) { /* one level empty: the other alone */
-        w0 = wsum[0] > 0.0f ? 1.0f : 0.0f;
-        w1 = wsum[1] > 0.0f ? 1.0f : 0.0f;
-    }
+    float w0, w1;
+    hn_level_weights(f, wsum[0] > 0.0f, wsum[1] > 0.0f, &w0, &w1);
     if (!(w0 + w1 > 0.0f))
         return 0;
     /* Two-sided axes of the two levels must agree too. */
@@ -165,11 +176,9 @@ VX_INLINE void hn_blend_edge(VX_GLOBAL const hn_record *records, const hn_stenci
         float w = wa[0] * wa[1] * wa[2];
         vec3 gw = v3(ga[0] * wa[1] * wa[2], wa[0] * ga[1] * wa[2], wa[0] * wa[1] * ga[2]);
         float psi;
-        hn_data d;
-        d.area = 0.0f;
-        if (st->index[i] >= 0)
-            hn_decode_geometry(records + st->index[i], size, &d);
         if (st->index[i] >= 0) {
+            hn_data d;
+            hn_decode_geometry(records + st->index[i], size, &d);
             /* Marked by the grid but never hit (a plane on the cell's face, whose hits the
              * neighbour took): a triangle touches it, so it is no edge; it says nothing. */
             if (!(d.area > 0.0f))
@@ -191,11 +200,8 @@ VX_INLINE void hn_blend_edge(VX_GLOBAL const hn_record *records, const hn_stenci
         Gw[k] = v3_add(Gw[k], gw);
     }
     float f = fminf(fmaxf(st->level_frac, 0.0f), 1.0f);
-    float w0 = W[0] > 0.0f ? 1.0f - f : 0.0f, w1 = W[1] > 0.0f ? f : 0.0f;
-    if (!(w0 + w1 > 0.0f)) {
-        w0 = W[0] > 0.0f ? 1.0f : 0.0f;
-        w1 = W[1] > 0.0f ? 1.0f : 0.0f;
-    }
+    float w0, w1;
+    hn_level_weights(f, W[0] > 0.0f, W[1] > 0.0f, &w0, &w1);
     if (!(w0 + w1 > 0.0f))
         return;
     s->psi = 0.0f;
@@ -254,25 +260,19 @@ VX_INLINE void hn_blend_attributes(VX_GLOBAL const hn_record *records, const hn_
         }
     }
     float f = fminf(fmaxf(st->level_frac, 0.0f), 1.0f);
-    float w0 = wv[0] > 0.0f ? 1.0f - f : 0.0f, w1 = wv[1] > 0.0f ? f : 0.0f;
-    if (!(w0 + w1 > 0.0f)) { /* one level empty: the other alone (as hn_blend_geometry does) */
-        w0 = wv[0] > 0.0f ? 1.0f : 0.0f;
-        w1 = wv[1] > 0.0f ? 1.0f : 0.0f;
-    }
+    float w0, w1;
+    hn_level_weights(f, wv[0] > 0.0f, wv[1] > 0.0f, &w0, &w1);
     if (w0 + w1 > 0.0f) {
         out->var_h = (w0 > 0.0f ? w0 * lv[0].var_h / wv[0] : 0.0f) + (w1 > 0.0f ? w1 * lv[1].var_h / wv[1] : 0.0f);
         out->var_n = (w0 > 0.0f ? w0 * lv[0].var_n / wv[0] : 0.0f) + (w1 > 0.0f ? w1 * lv[1].var_n / wv[1] : 0.0f);
         out->var_h /= w0 + w1;
         out->var_n /= w0 + w1;
     }
-    float c0 = wc[0] > 0.0f ? 1.0f - f : 0.0f, c1 = wc[1] > 0.0f ? f : 0.0f;
     /* One level without colour here: the other alone. Without this, an element on an integer
      * level whose finer cells have no colour at the foot (the ground plane's rim, where only the
      * coarser level reaches) covered bits in black. */
-    if (!(c0 + c1 > 0.0f)) {
-        c0 = wc[0] > 0.0f ? 1.0f : 0.0f;
-        c1 = wc[1] > 0.0f ? 1.0f : 0.0f;
-    }
+    float c0, c1;
+    hn_level_weights(f, wc[0] > 0.0f, wc[1] > 0.0f, &c0, &c1);
     out->a = out->as = v3(0.0f, 0.0f, 0.0f);
     out->f0 = out->var_brdf = 0.0f;
     if (!(c0 + c1 > 0.0f))
