@@ -362,32 +362,56 @@ VX_INLINE vec3 hn_mask_answer(VX_GLOBAL const unsigned int *table, const hn_samp
     vec3 T, B;
     v3_basis(dir, &T, &B);
     float nx = v3_dot(N, T), ny = v3_dot(N, B), nz = v3_dot(N, dir);
-    /* A two-sided sheet is the half-space behind it as seen from the viewer's side (N and D
-     * turned above), so that it renders from either side as a one-sided surface from its front.
-     * (It used to be a slab of half-thickness sigma_h: not the paper's model, whose H7 excludes
-     * thin sheets, and a flat sheet, sigma_h = 0, then covered only where the element's
-     * centre lay within r |nz| of it: the double-sided plate on cell faces lost coverage.) */
+    /* A two-sided sheet is met from the viewer's side (N and D turned above), so that it renders
+     * from either side as a one-sided surface from its front; what lies behind it is bounded
+     * below. (It used to be a slab of half-thickness sigma_h about the plane: not the paper's
+     * model, whose H7 excludes thin sheets, and a flat sheet, sigma_h = 0, then covered only where
+     * the element's centre lay within r |nz| of it: the double-sided plate on cell faces lost
+     * coverage.) */
     float sigma_n = sqrtf(fmaxf(s->var_n, 0.0f));
     /* The silhouette plane rises with the view: only the peaks remain visible at grazing angles
      * (mean visible depth, report §4.4). */
     float lambda_v = hn_lambda(v3_dot(N, q->to_viewer), sigma_n);
-    hn_plane_mask(table, nx, ny, nz, D - hn_visible_depth_offset(sigma_h, lambda_v), r, a->mask);
+    float Dv = D - hn_visible_depth_offset(sigma_h, lambda_v);
+    /* The element's rays meet the surface where a point of their segment lies below the plane
+     * (N, Dv), and, where the surface ends, inside its edge; all at the same point
+     * (hn_constraints_mask). */
+    hn_constraint c[3];
+    int nc = 0;
+    c[nc].A = Dv, c[nc].cx = nx, c[nc].cy = ny, c[nc].b = nz, nc++;
+    float behind = 0.0f;
+    if (two) {
+        /* A sheet, unlike a solid's surface, has nothing behind it: a ray is stopped where it
+         * crosses it, and only if it crosses it inside the sheet's edge, not wherever it lies
+         * behind the plane. Behind a curved sheet's plane lies open space: at the silhouette of a
+         * double-sided sphere the cells just past the rim face away from the viewer, turn around,
+         * and their half-spaces covered the sky beside the rim (+2.2 px at every resolution); and
+         * a ray crossing a tilted sheet's plane just outside its near edge went on under the
+         * sheet, inside the edge. So the point must lie on the plane (below it and above it),
+         * anywhere from one element radius r before the element to its end: the overlap lets the
+         * next element catch a crossing that its neighbour's slightly different plane put just
+         * outside its own segment (a double-sided plate on cell faces stays fully covered; 2r
+         * widened the double-sided sphere's rim by a further 0.04-0.05 px). */
+        c[nc].A = -Dv, c[nc].cx = -nx, c[nc].cy = -ny, c[nc].b = -nz, nc++;
+        behind = 1.0f * r;
+    }
     if (s->edge) {
-        /* Where the surface ends (hn_blend_edge): the half-space psi <= 0, its boundary the line
-         * across the plane where psi crosses 0, linearised at the centre along psi's in-plane
+        /* Where the surface ends (hn_blend_edge): the half-space psi <= 0, its boundary the plane
+         * across the surface where psi crosses 0, linearised at the centre along psi's in-plane
          * gradient. With no in-plane gradient the element is all inside or all beyond. */
         vec3 g = v3_madd(s->gpsi, N, -v3_dot(s->gpsi, N));
         float gl = sqrtf(v3_dot(g, g));
-        unsigned int e[VX_MASK_WORDS];
         if (gl > 1e-3f) {
             vec3 u = v3_scale(g, 1.0f / gl);
-            hn_plane_mask(table, v3_dot(u, T), v3_dot(u, B), v3_dot(u, dir), s->psi / gl, r, e);
-        } else {
-            hn_mask_set(e, s->psi <= 0.0f ? 0xffffffffu : 0u);
+            c[nc].A = s->psi / gl, c[nc].cx = v3_dot(u, T), c[nc].cy = v3_dot(u, B), c[nc].b = v3_dot(u, dir), nc++;
+        } else if (!(s->psi <= 0.0f)) {
+            nc = -1; /* wholly beyond the edge */
         }
-        for (int w = 0; w < VX_MASK_WORDS; w++)
-            a->mask[w] &= e[w];
     }
+    if (nc < 0)
+        hn_mask_set(a->mask, 0u);
+    else
+        hn_constraints_mask(table, c, nc, r, behind, a->mask);
     a->opacity = (float)hn_mask_count(a->mask) / (float)HN_MASK_SAMPLES;
     a->radiance = v3(0.0f, 0.0f, 0.0f);
     return N;

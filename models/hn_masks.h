@@ -81,26 +81,55 @@ VX_INLINE void hn_plane_mask(VX_GLOBAL const unsigned int *table, float nx, floa
     hn_mask_lookup(table, hn_atan2f(ny, nx), num / den, out);
 }
 
-/* Slab mask for a two-sided sheet of half-thickness tau: the rays through the element that cross
- * |x.n + D| <= tau, i.e. v_lo < omega.(cos t, sin t) <= v_hi. */
-VX_INLINE void hn_slab_mask(VX_GLOBAL const unsigned int *table, float nx, float ny, float nz, float D, float r,
-                            float tau, unsigned int *out)
+/* A linear constraint on the element's rays: the point r omega + z e_z (omega in the unit disk across
+ * the footprint, z along the ray) satisfies it when A + r omega.(cx, cy) + b z <= 0. */
+typedef struct {
+    float A, cx, cy, b;
+} hn_constraint;
+
+#define HN_CONSTRAINTS_MAX 4
+
+/* The mask of the rays r omega whose segment z in [-r - behind, r] (the element's, extended toward
+ * the viewer by `behind`) holds one point that meets every constraint at once. Why not the AND of one mask per constraint: each of those says
+ * that *some* point of the segment meets it, and a ray passing beyond a tilted plate's far edge
+ * has a point below the plate's plane (past the edge) and another inside the edge (above the
+ * plane), so it was covered though no point of it touches the plate: about r tan(theta) of
+ * silhouette swelling, tied to the pixel. The exact test eliminates z (Fourier-Motzkin): the
+ * constraints are lower (b < 0) or upper (b > 0) bounds on z, and the segment holds a point iff
+ * every lower bound lies below every upper bound; each such pair, and each constraint with b = 0,
+ * is one half-plane in omega, A_p |b_q| + A_q |b_p| + r omega.(c_p |b_q| + c_q |b_p|) <= 0, read
+ * from the table. The segment's own ends z <= r and -z <= r + behind are two of the bounds. */
+VX_INLINE void hn_constraints_mask(VX_GLOBAL const unsigned int *table, const hn_constraint *c, int n, float r,
+                                   float behind, unsigned int *out)
 {
     r = fmaxf(r, 0.0f);
-    tau = fmaxf(tau, 0.0f);
-    float rho = sqrtf(nx * nx + ny * ny);
-    float reach = r * fabsf(nz) + tau;
-    float den = r * rho;
-    if (!(den > 1e-30f)) {
-        hn_mask_set(out, fabsf(D) <= reach ? 0xffffffffu : 0u);
-        return;
+    behind = fmaxf(behind, 0.0f);
+    hn_constraint all[HN_CONSTRAINTS_MAX + 2];
+    int count = 0;
+    all[count].A = -r, all[count].cx = 0.0f, all[count].cy = 0.0f, all[count].b = 1.0f, count++;
+    all[count].A = -r - behind, all[count].cx = 0.0f, all[count].cy = 0.0f, all[count].b = -1.0f, count++;
+    for (int i = 0; i < n && i < HN_CONSTRAINTS_MAX; i++)
+        all[count++] = c[i];
+    hn_mask_set(out, 0xffffffffu);
+    for (int p = 0; p < count; p++) {
+        if (!(all[p].b > 0.0f))
+            continue; /* p: an upper bound on z */
+        for (int q = 0; q < count; q++) {
+            if (all[q].b > 0.0f || (p == 0 && q == 1))
+                continue; /* q: a lower bound (or b = 0, a constraint on omega alone); the ends always agree */
+            float bp = all[p].b, bq = -all[q].b;
+            float k = all[p].A * bq + all[q].A * bp;
+            float cx = all[p].cx * bq + all[q].cx * bp, cy = all[p].cy * bq + all[q].cy * bp;
+            float den = r * sqrtf(cx * cx + cy * cy);
+            unsigned int m[VX_MASK_WORDS];
+            if (!(den > 1e-30f))
+                hn_mask_set(m, k <= 0.0f ? 0xffffffffu : 0u);
+            else
+                hn_mask_lookup(table, hn_atan2f(cy, cx), -k / den, m);
+            for (int w = 0; w < VX_MASK_WORDS; w++)
+                out[w] &= m[w];
+        }
     }
-    float t = hn_atan2f(ny, nx);
-    unsigned int lo[VX_MASK_WORDS];
-    hn_mask_lookup(table, t, (reach - D) / den, out);
-    hn_mask_lookup(table, t, (-reach - D) / den, lo);
-    for (int w = 0; w < VX_MASK_WORDS; w++)
-        out[w] &= ~lo[w];
 }
 
 #endif
