@@ -393,7 +393,21 @@ VX_INLINE vec3 hn_mask_answer(VX_GLOBAL const unsigned int *table, const hn_samp
          * outside its own segment (a double-sided plate on cell faces stays fully covered; 2r
          * widened the double-sided sphere's rim by a further 0.04-0.05 px). */
         c[nc].A = -Dv, c[nc].cx = -nx, c[nc].cy = -ny, c[nc].b = -nz, nc++;
-        behind = 1.0f * r;
+        behind = r;
+    } else {
+        /* A solid's surface: the point lies below the plane, but by at most r/2 along the ray
+         * (-(x.N + D) <= r/2 |nz|), a layer rather than the whole half-space. Why: the cells'
+         * planes, blended, reach past where the solid is; below the top face's plane extrapolated
+         * past a cube's side lies open air, and so does the prism below a tilted plate beyond its
+         * far edge; a ray that never crossed the surface there went into the half-space anyway
+         * (a rotated cube's silhouette +0.63 px at 128^3 and not shrinking, the plate at 60
+         * degrees +0.42 px; 64^2 images). A ray that does cross the surface reaches the layer in
+         * the element it crosses in, or in the next one. Measured at 128^3, 128^2, against a
+         * 256-spp truth, the layer depth r/2 against the half-space: MSE bunny 4.88e-4 / 4.87e-4,
+         * city 3.80e-3 / 6.01e-3, trees 3.92e-3 / 6.07e-3, island 9.19e-3 / 9.60e-3; the cube's
+         * silhouette +0.11 px, the plate's +0.20 px. Shallower (r/4) opened holes on the bunny
+         * (5.2e-4), deeper (r) widened the cube's silhouette to +0.24 px. */
+        c[nc].A = -Dv - 0.5f * r * fabsf(nz), c[nc].cx = -nx, c[nc].cy = -ny, c[nc].b = -nz, nc++;
     }
     if (s->edge) {
         /* Where the surface ends (hn_blend_edge): the half-space psi <= 0, its boundary the plane
