@@ -60,15 +60,18 @@ the whole pixel is covered). The Embree truth is measured the same way, as a che
        with probability frac(a')), independently of y. Averaged over the interior pixels' actual
        ray directions: ~0.986 at 0 degrees, more when tilted; tolerance +-0.03.
      vmesh: the same Monte Carlo gives the sub-cell opacities of the plate's middle layer (~0.995:
-       the occluding fraction of the rays whose chord crosses each sub-cell, §3.4). The paper's
-       directional opacity then bounds the voxel's projection by a 4x4 window, projects each
-       sub-cell as a disk (its enclosing sphere) and averages, per window cell, the largest
-       opacity x overlap ratio: face-on the 9 middle-layer disks cover the window's cells all but
-       fully, so the paper predicts nearly the sub-cell opacity (asserted: >= 0.9 x the smallest
-       sub-cell opacity); obliquely the voxel's hexagonal projection leaves the square window's
-       corners empty, which the paper's estimator averages in: it predicts a lower coverage, with no
-       closed form we know of (asserted: >= 0.75, the measured values are printed).
-
+       the occluding fraction of the rays whose chord crosses each sub-cell, §3.4; the other layers
+       see no hit: opacity 0). vmesh_opacity implements the paper's directional opacity from its
+       text (a 4x4 window bounding the voxel's projection, sub-cells as disks, per window cell the
+       largest opacity x overlap ratio, the mean; with the normalisation by a solid voxel that
+       models/vmesh_opacity.h documents, and the tracer's frame for the window's orientation, which
+       the paper leaves open), and the expected coverage is 1 - E[(1 - a(d))^n] over the interior
+       pixels' rays as for alpha: ~0.986 / 0.802 / 0.900 at 0 / 35 / 60 degrees (obliquely the
+       voxel's hexagonal projection leaves the square window's corners empty, which the paper's
+       estimator averages in); tolerance +-0.03. Measured 0.964 / 0.792 / 0.893: face-on the model
+       reads 0.02 below the estimator (a far, near-orthographic camera reads 0.971 at 128^3 with
+       voxels from 0.92 up: the bake's 150 rays leave some sub-cells below the Monte Carlo's mean;
+       not explained further), inside the tolerance.
 3. No black or NaN element, on real scenes: trees and island at 128^3 and 256^3, 128x128, 4 spp
    (heitz-neyret: its cone per pixel), against a 64-spp Embree truth. Radiance = mean of R, G, B.
    Local mean = the truth's radiance averaged over a 5x5 window. A pixel is checked when the truth
@@ -398,18 +401,67 @@ def silhouette_closed():
 # --------------------------------------------------------------------------------------------
 # 2. Interior coverage at 0 / 35 / 60 degrees.
 def alpha_expected(cam, inner, rng, a_voxel):
-    """1 - E[(1 - a)^n] over the interior pixels' rays, a = the mean voxel opacity (docstring)."""
+    """1 - E[(1 - a)^n] over the interior pixels' rays, a = the voxel opacity along each ray (a
+    number, or a function of the ray directions) (docstring)."""
     ys, xs = np.nonzero(inner)
     xs = xs + rng.random(xs.size)
     ys = ys + rng.random(ys.size)
     d = pixel_rays(cam, xs, ys)
-    q = 1.0 - a_voxel
+    q = 1.0 - (a_voxel(d) if callable(a_voxel) else a_voxel)
     e = np.ones(len(d))
     for k in (0, 1):
         a = np.abs(d[:, k] / d[:, 2])
         fl, fr = np.floor(a), a - np.floor(a)
         e *= q ** fl * (1 - fr + fr * q)
     return float(np.mean(1 - q * e))
+
+
+def disk_overlap(r1, r2, d):
+    """Area shared by two disks of radii r1, r2 whose centres are d apart (arrays)."""
+    d = np.maximum(d, 1e-12)
+    x1 = np.clip((d * d + r1 * r1 - r2 * r2) / (2 * d * r1), -1, 1)
+    x2 = np.clip((d * d + r2 * r2 - r1 * r1) / (2 * d * r2), -1, 1)
+    lens = r1 * r1 * (np.arccos(x1) - x1 * np.sqrt(1 - x1 * x1)) + r2 * r2 * (np.arccos(x2) - x2 * np.sqrt(1 - x2 * x2))
+    small = math.pi * min(r1, r2) ** 2
+    return np.where(d >= r1 + r2, 0.0, np.where(d <= abs(r1 - r2), small, np.minimum(lens, small)))
+
+
+def vmesh_opacity(dirs, sub):
+    """Brito et al. 2023 §3.4's directional opacity of a voxel (unit cube) with sub-cell opacities
+    sub[i, j, k] (x, y, z), for each direction in dirs, written from the paper: a square window
+    bounding the voxel's parallel projection, 4x4 cells; each sub-cell's enclosing sphere (radius
+    sqrt(3)/6) projected as a disk; per cell the largest opacity x (overlap with the disk inscribed
+    in the cell / that disk's area); the mean of the 16 cells. Two choices the paper leaves open or
+    that voxlab documents (models/vmesh_opacity.h): the square's orientation in the view plane is
+    the tracer's frame (Duff et al.'s branchless basis, tracer/vec.h), and the mean is divided by the
+    same mean for a solid voxel (all 27 opacities 1), so that a solid voxel is opaque from every
+    side."""
+    out = np.empty(len(dirs))
+    ijk = np.array([(i, j, k) for i in range(3) for j in range(3) for k in range(3)], float)
+    centres = (ijk - 1.0) / 3.0
+    alpha = np.array([sub[int(i), int(j), int(k)] for i, j, k in ijk])
+    rs = math.sqrt(3) / 6
+    for n, d in enumerate(dirs):
+        d = d / np.linalg.norm(d)
+        if d[2] < 0:
+            d = -d
+        sign = 1.0
+        a = -1.0 / (sign + d[2])
+        c = d[0] * d[1] * a
+        t = np.array([1 + sign * d[0] * d[0] * a, sign * c, -sign * d[0]])
+        b = np.array([c, sign + d[1] * d[1] * a, -d[1]])
+        half = 0.5 * max(np.abs(t).sum(), np.abs(b).sum())
+        cell = half / 2
+        rc = cell / 2
+        pu, pv = centres @ t, centres @ b
+        g = -half + (np.arange(4) + 0.5) * cell
+        cu, cv = np.meshgrid(g, g)
+        dist = np.hypot(pu[None, None, :] - cu[..., None], pv[None, None, :] - cv[..., None])
+        ratio = disk_overlap(rs, rc, dist) / (math.pi * rc * rc)
+        num = (alpha[None, None, :] * ratio).max(axis=2).mean()
+        den = ratio.max(axis=2).mean()
+        out[n] = min(num / den, 1.0) if den > 0 else 0.0
+    return out
 
 
 def plate_sampler_mc(rng, res=128, voxels=400, rays=1500):
@@ -488,6 +540,8 @@ def plate_tilts():
     vlo, vhi = float(a_s.min()), float(a_s.max())
     print(f"# sampler Monte Carlo: alpha's voxel opacity {a_voxel:.3f}; vmesh middle-layer sub-cell opacities "
           f"{vlo:.3f} .. {vhi:.3f} (centre {a_s[1, 1]:.3f})")
+    sub = np.zeros((3, 3, 3))
+    sub[:, :, 1] = a_s  # the plate lies in the middle layer; the others see no hit, opacity 0 (§3.4)
     measured = {m: [] for m in MODELS}
     for tilt in (0, 35, 60):
         cam = camera_at(tilt)
@@ -504,13 +558,10 @@ def plate_tilts():
                 report(f"plate alpha at {tilt} deg: interior coverage {c:.3f}, expected {a_exp:.3f} +-0.03 "
                        f"(voxel opacity {a_voxel:.3f}, 1-(1-a)^n)", abs(c - a_exp) <= 0.03, f"{c:.4f} vs {a_exp:.4f}")
             elif m == "vmesh":
-                if tilt == 0:
-                    report(f"plate vmesh at 0 deg: interior coverage {c:.3f}, expected {0.9 * vlo:.3f}..{vhi + 0.02:.3f} "
-                           f"(0.9 x the sub-cell opacities {vlo:.3f}..{vhi:.3f})", 0.9 * vlo <= c <= vhi + 0.02,
-                           f"{c:.4f}")
-                else:
-                    report(f"plate vmesh at {tilt} deg: interior coverage {c:.3f} >= 0.75 (the window estimator's "
-                           f"oblique loss)", 0.75 <= c <= vhi + 0.02, f"{c:.4f}")
+                v_exp = alpha_expected(cam, inner, rng, lambda d: vmesh_opacity(d, sub))
+                report(f"plate vmesh at {tilt} deg: interior coverage {c:.3f}, expected {v_exp:.3f} +-0.03 (the "
+                       f"paper's window estimator on the sampler's sub-cell opacities, 1-(1-a(d))^n)",
+                       abs(c - v_exp) <= 0.03, f"{c:.4f} vs {v_exp:.4f}")
             else:
                 print(f"# plate {m} at {tilt} deg: interior coverage {c:.3f} (no expectation for this model)")
     for m, v in measured.items():
