@@ -121,11 +121,17 @@ VX_INLINE void hn_constraints_mask(VX_GLOBAL const unsigned int *table, const hn
             float k = all[p].A * bq + all[q].A * bp;
             float cx = all[p].cx * bq + all[q].cx * bp, cy = all[p].cy * bq + all[q].cy * bp;
             float den = r * sqrtf(cx * cx + cy * cy);
+            /* All or nothing without the angle: most elements lie wholly inside or outside most
+             * bounds, and one empty bound empties the mask. */
+            float v = den > 1e-30f ? -k / den : (k <= 0.0f ? 1.0f : -1.0f);
+            if (!(v > -1.0f)) {
+                hn_mask_set(out, 0u);
+                return;
+            }
+            if (v >= 1.0f)
+                continue;
             unsigned int m[VX_MASK_WORDS];
-            if (!(den > 1e-30f))
-                hn_mask_set(m, k <= 0.0f ? 0xffffffffu : 0u);
-            else
-                hn_mask_lookup(table, hn_atan2f(cy, cx), -k / den, m);
+            hn_mask_lookup(table, hn_atan2f(cy, cx), v, m);
             for (int w = 0; w < VX_MASK_WORDS; w++)
                 out[w] &= m[w];
         }
