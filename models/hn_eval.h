@@ -403,7 +403,9 @@ VX_INLINE vec3 hn_mask_answer(VX_GLOBAL const unsigned int *table, const hn_samp
          * (a rotated cube's silhouette +0.63 px at 128^3 and not shrinking, the plate at 60
          * degrees +0.42 px; 64^2 images). A ray that does cross the surface reaches the layer in
          * the element it crosses in, or in the next one. Measured at 128^3, 128^2, against a
-         * 256-spp truth, the layer depth r/2 against the half-space: MSE bunny 4.88e-4 / 4.87e-4,
+         * 256-spp truth, before the MIP levels kept their edges (heitz_neyret.c,
+         * parent_edge_from_children), the layer depth r/2 against the half-space: MSE bunny
+         * 4.88e-4 / 4.87e-4,
          * city 3.80e-3 / 6.01e-3, trees 3.92e-3 / 6.07e-3, island 9.19e-3 / 9.60e-3; the cube's
          * silhouette +0.11 px, the plate's +0.20 px. Shallower (r/4) opened holes on the bunny
          * (5.2e-4), deeper (r) widened the cube's silhouette to +0.24 px. */

@@ -3,11 +3,14 @@
  * frame) see the mean surface plane within the element. Portable C: reads the precomputed table
  * (a plain array behind VX_GLOBAL, a buffer under OpenCL) and never builds it.
  *
- * The plane x.n + D = 0 in the element's frame (x, y across the footprint, z along the ray, origin
- * at the element's centre, D = signed distance of the centre above the plane) occupies the ray
- * through r omega when either end z = +-r (length = diameter) is below it:
+ * The table holds the half-plane masks omega.(cos t, sin t) <= v for 256 x 256 (t, v). In the
+ * element's frame (x, y across the footprint, z along the ray, origin at the element's centre) a
+ * plane x.n + D = 0 alone (D = signed distance of the centre above it) occupies the ray through
+ * r omega when either end z = +-r (length = diameter) is below it:
  *   r omega.(nx, ny) - r |nz| + D <= 0  <=>  omega.(cos t, sin t) <= v = (r |nz| - D) / (r rho),
- * rho = sqrt(nx^2 + ny^2), t = atan2(ny, nx). The table holds the mask for 256 x 256 (t, v). */
+ * rho = sqrt(nx^2 + ny^2), t = atan2(ny, nx): the paper's mask. Several bounds at once (a plane,
+ * where the surface ends, a sheet's other side) are one half-plane per pair of bounds
+ * (hn_constraints_mask). */
 #ifndef VX_HN_MASKS_H
 #define VX_HN_MASKS_H
 
@@ -62,23 +65,6 @@ VX_INLINE void hn_mask_lookup(VX_GLOBAL const unsigned int *table, float t, floa
     VX_GLOBAL const unsigned int *m = table + ((size_t)ti * HN_TABLE_V + (size_t)vi) * VX_MASK_WORDS;
     for (int w = 0; w < VX_MASK_WORDS; w++)
         out[w] = m[w];
-}
-
-/* Half-space mask: the element (radius r) against the plane with normal (nx, ny, nz) in the ray's
- * frame (unit) and the centre's signed distance D above it. A plane facing the ray head-on
- * (rho = 0) covers all or nothing: no division. */
-VX_INLINE void hn_plane_mask(VX_GLOBAL const unsigned int *table, float nx, float ny, float nz, float D, float r,
-                             unsigned int *out)
-{
-    r = fmaxf(r, 0.0f);
-    float rho = sqrtf(nx * nx + ny * ny);
-    float num = r * fabsf(nz) - D;
-    float den = r * rho;
-    if (!(den > 1e-30f)) {
-        hn_mask_set(out, num >= 0.0f ? 0xffffffffu : 0u);
-        return;
-    }
-    hn_mask_lookup(table, hn_atan2f(ny, nx), num / den, out);
 }
 
 /* A linear constraint on the element's rays: the point r omega + z e_z (omega in the unit disk across

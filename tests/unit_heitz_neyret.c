@@ -340,11 +340,14 @@ static void masks(void)
     }
     CHECK("opposite half-planes cover complementary samples", overlap <= 2 && uni >= 126);
     /* Plane masks: head-on, edge-on. */
-    hn_plane_mask(table, 0.0f, 0.0f, -1.0f, 0.4f, 0.5f, m);
+    /* One plane (A + r omega.c + b z <= 0: the centre 0.4 / 0.6 above a plane facing the ray, r = 0.5). */
+    hn_constraint facing_near = {0.4f, 0.0f, 0.0f, -1.0f}, facing_far = {0.6f, 0.0f, 0.0f, -1.0f};
+    hn_constraint edge_on = {0.0f, 1.0f, 0.0f, 0.0f};
+    hn_constraints_mask(table, &facing_near, 1, 0.5f, 0.0f, m);
     CHECK("plane facing the ray within reach covers all", hn_mask_count(m) == 128);
-    hn_plane_mask(table, 0.0f, 0.0f, -1.0f, 0.6f, 0.5f, m);
+    hn_constraints_mask(table, &facing_far, 1, 0.5f, 0.0f, m);
     CHECK("plane facing the ray out of reach covers nothing", hn_mask_count(m) == 0);
-    hn_plane_mask(table, 1.0f, 0.0f, 0.0f, 0.0f, 0.5f, m);
+    hn_constraints_mask(table, &edge_on, 1, 0.5f, 0.0f, m);
     CHECK("voxel edge-on through the centre covers half", abs(hn_mask_count(m) - 64) <= 4);
     constraints_brute_force(smp, table);
 }
