@@ -49,7 +49,10 @@ void stats_add_bake(cJSON *j, const vx_model *m, const voxel_grid *g, const bake
     cJSON_AddNumberToObject(j, "model_bytes", (double)(bake_record_count(m, g) * m->voxel_bytes));
     cJSON_AddNumberToObject(j, "grid_bytes", (double)grid_bytes(g));
     cJSON_AddNumberToObject(j, "grid_seconds", grid_seconds);
-    cJSON_AddNumberToObject(j, "bake_seconds", c->seconds + c->finish_seconds);
+    if (c->seconds < 0) /* rendered from a .vox file: the bake's time is in that bake's --stats */
+        cJSON_AddNullToObject(j, "bake_seconds");
+    else
+        cJSON_AddNumberToObject(j, "bake_seconds", c->seconds + c->finish_seconds);
     cJSON_AddNumberToObject(j, "bake_rays", (double)c->rays);
     cJSON_AddNumberToObject(j, "rays_per_voxel", rays);
 }
@@ -134,7 +137,6 @@ int cmd_bake(int argc, char **argv)
     h.voxel_bytes = m->voxel_bytes;
     h.record_count = bake_record_count(m, &g);
     h.voxels = grid_count(&g, 0);
-    h.bake_seconds = c.seconds + c.finish_seconds;
     if (voxfile_write(out_path, &h, records, &e)) {
         fprintf(stderr, "voxlab bake: %s\n", e.msg);
         goto done;

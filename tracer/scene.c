@@ -11,6 +11,7 @@
 #include "generator.h"
 #include "json_util.h"
 #include "mesh_load.h"
+#include "readfile.h"
 
 #define MAX_IMAGE_SIDE 16384
 #define MAX_IMAGE_PIXELS (64 * 1024 * 1024)
@@ -35,24 +36,9 @@ const char *effect_name(unsigned effect)
 
 static char *read_file(const char *path, vx_err *e)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        vx_fail(e, "%s: cannot open scene file: %s", path, strerror(errno));
-        return NULL;
-    }
-    fseek(f, 0, SEEK_END);
-    long size = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *text = size >= 0 ? malloc((size_t)size + 1) : NULL;
-    if (!text || fread(text, 1, (size_t)size, f) != (size_t)size) {
-        fclose(f);
-        free(text);
-        vx_fail(e, "%s: cannot read scene file", path);
-        return NULL;
-    }
-    fclose(f);
-    text[size] = 0;
-    return text;
+    size_t size;
+    /* Scene files are small; 64 MiB is far beyond any hand-written or generated one. */
+    return readfile_all(path, "scene file", 64u << 20, &size, e);
 }
 
 /* Resolves a path relative to the scene file's directory (absolute paths stay as they are). */
