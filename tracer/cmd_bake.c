@@ -112,7 +112,8 @@ int cmd_bake(int argc, char **argv)
     }
     vx_err e;
     scene s;
-    if (scene_load(scene_path, &s, &e)) {
+    if (fileio_check_writable(out_path, &e) || (stats_path && fileio_check_writable(stats_path, &e)) ||
+        scene_load(scene_path, &s, &e)) {
         fprintf(stderr, "voxlab bake: %s\n", e.msg);
         return 1;
     }
@@ -121,8 +122,7 @@ int cmd_bake(int argc, char **argv)
     void *records = NULL;
     bake_counts c;
     double grid_seconds;
-    if (fileio_check_writable(out_path, &e) || (stats_path && fileio_check_writable(stats_path, &e)) ||
-        bake_scene(&s, m, res, &o, &g, &records, &c, &grid_seconds, &e)) {
+    if (bake_scene(&s, m, res, &o, &g, &records, &c, &grid_seconds, &e)) {
         fprintf(stderr, "voxlab bake: %s\n", e.msg);
         scene_free(&s);
         return 1;

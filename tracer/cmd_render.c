@@ -143,7 +143,8 @@ int cmd_render(int argc, char **argv)
     }
     vx_err e;
     scene s;
-    if (scene_load(scene_path, &s, &e)) {
+    if (image_check_output(out_path, &e) || (stats_path && fileio_check_writable(stats_path, &e)) ||
+        scene_load(scene_path, &s, &e)) {
         fprintf(stderr, "voxlab render: %s\n", e.msg);
         return 1;
     }
@@ -158,8 +159,7 @@ int cmd_render(int argc, char **argv)
     image img = {0};
     render_counts rcnt;
     opencl_counts ocnt = {0};
-    if ((size && scene_parse_size_string(size, &o.width, &o.height, &e)) || fileio_check_writable(out_path, &e) ||
-        (stats_path && fileio_check_writable(stats_path, &e)))
+    if (size && scene_parse_size_string(size, &o.width, &o.height, &e))
         goto fail;
     if (vox) {
         if (load_baked(&s, vox, model_name, &m, &g, &records, &h, &grid_seconds, &e))

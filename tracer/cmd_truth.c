@@ -100,7 +100,8 @@ int cmd_truth(int argc, char **argv)
     }
     vx_err e;
     scene s;
-    if (scene_load(scene_path, &s, &e)) {
+    if (image_check_output(out_path, &e) || (stats_path && fileio_check_writable(stats_path, &e)) ||
+        scene_load(scene_path, &s, &e)) {
         fprintf(stderr, "voxlab truth: %s\n", e.msg);
         return 1;
     }
@@ -110,8 +111,6 @@ int cmd_truth(int argc, char **argv)
     rt_scene rt = {0};
     image img = {0};
     if (size && scene_parse_size_string(size, &o.width, &o.height, &e))
-        goto fail;
-    if (fileio_check_writable(out_path, &e) || (stats_path && fileio_check_writable(stats_path, &e)))
         goto fail;
     if (rt_build(&rt, &s, &e))
         goto fail;

@@ -5,6 +5,11 @@
 // loader are thrown as load_error and turned into a vx_err at the C boundary, which also catches
 // anything else C++ may throw (std::bad_alloc from tinygltf's vectors, for instance).
 #include "mesh_load.h"
+#include "readfile.h"
+
+#include <climits>
+#include <cstdlib>
+#include <unistd.h>
 
 #include <tiny_gltf.h>
 
@@ -437,6 +442,62 @@ bool ends_with_nocase(const std::string &s, const char *suffix)
     return true;
 }
 
+// External files a glTF names (buffer URIs) are read only from inside the glTF's own folder: a URI
+// such as "../../etc/passwd" must not make a scene read, and echo facts about, any file on the
+// machine. The folder is compared by real path, so symbolic links cannot lead out of it either.
+struct uri_fs {
+    std::string folder; // realpath of the glTF's folder, with a trailing '/'
+    std::string refused; // the first URI refused, for the message
+};
+
+bool inside(const uri_fs &fs, const std::string &file)
+{
+    char *real = realpath(file.c_str(), nullptr);
+    if (!real)
+        return false;
+    bool ok = std::strncmp(real, fs.folder.c_str(), fs.folder.size()) == 0;
+    std::free(real);
+    return ok;
+}
+
+bool fs_exists(const std::string &file, void *user)
+{
+    auto *fs = static_cast<uri_fs *>(user);
+    if (access(file.c_str(), F_OK) != 0)
+        return false;
+    if (!inside(*fs, file)) {
+        if (fs->refused.empty())
+            fs->refused = file;
+        return false;
+    }
+    return true;
+}
+
+std::string fs_expand(const std::string &file, void *) { return file; } // no ~ or $VAR expansion
+
+bool fs_read(std::vector<unsigned char> *out, std::string *err, const std::string &file, void *user)
+{
+    auto *fs = static_cast<uri_fs *>(user);
+    if (!inside(*fs, file)) {
+        if (err)
+            *err += file + " is outside the glTF's folder\n";
+        return false;
+    }
+    vx_err e;
+    size_t size = 0;
+    char *buf = readfile_all(file.c_str(), "glTF buffer", READFILE_MAX_BYTES, &size, &e);
+    if (!buf) {
+        if (err)
+            *err += std::string(e.msg) + "\n";
+        return false;
+    }
+    out->assign(buf, buf + size);
+    std::free(buf);
+    return true;
+}
+
+bool fs_write(std::string *, const std::string &, const std::vector<unsigned char> &, void *) { return false; }
+
 void load(const char *path, mesh *out, uint32_t material)
 {
     std::string file(path);
@@ -452,8 +513,36 @@ void load(const char *path, mesh *out, uint32_t material)
     tinygltf::TinyGLTF ctx;
     ctx.SetImageLoader(skip_image, nullptr);
     std::string err, warn;
-    bool ok = binary ? ctx.LoadBinaryFromFile(&model, &err, &warn, file)
-                     : ctx.LoadASCIIFromFile(&model, &err, &warn, file);
+    // The file itself through readfile_all (a regular file only: not a directory, FIFO or device).
+    vx_err re;
+    size_t size = 0;
+    char *text = readfile_all(path, binary ? "glTF binary" : "glTF file", READFILE_MAX_BYTES, &size, &re);
+    if (!text)
+        throw load_error{std::string(re.msg).substr(file.size() + 2)}; // mesh_load_gltf prefixes the path
+    std::string dir = file.find('/') == std::string::npos ? "." : file.substr(0, file.rfind('/') + 1);
+    if (dir.empty())
+        dir = "/";
+    uri_fs fs;
+    if (char *real = realpath(dir.c_str(), nullptr)) {
+        fs.folder = real;
+        std::free(real);
+        if (fs.folder.back() != '/')
+            fs.folder += '/';
+    }
+    ctx.SetFsCallbacks(tinygltf::FsCallbacks{fs_exists, fs_expand, fs_read, fs_write, &fs});
+    bool ok;
+    try {
+        ok = binary ? ctx.LoadBinaryFromMemory(&model, &err, &warn, reinterpret_cast<unsigned char *>(text),
+                                               unsigned(size), dir)
+                    : ctx.LoadASCIIFromString(&model, &err, &warn, text, unsigned(size), dir);
+    } catch (...) {
+        std::free(text);
+        throw;
+    }
+    std::free(text);
+    if (!ok && !fs.refused.empty())
+        fail("buffer URI " + fs.refused + " lies outside the glTF's folder " + fs.folder +
+             " (external files must be inside it)");
     if (!ok) {
         std::string msg = "tinygltf could not load the file: " + trimmed(err);
         if (!trimmed(warn).empty())

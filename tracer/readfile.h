@@ -9,6 +9,10 @@
 
 #include "error.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* Largest input file read whole (scene JSON, PLY, glTF, .vox): 8 GiB. */
 #define READFILE_MAX_BYTES (8ULL << 30)
 
@@ -24,5 +28,9 @@ char *readfile_all(const char *path, const char *what, unsigned long long max_by
 /* Only the checks of readfile_open (regular file, size cap), for readers that open the file
  * themselves (OpenImageIO). */
 int readfile_check(const char *path, const char *what, unsigned long long max_bytes, vx_err *e);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif

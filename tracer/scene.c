@@ -224,6 +224,15 @@ static int parse_camera(scene *s, const cJSON *root, vx_err *e)
     }
     camera *c = &s->camera;
     c->position = pos;
+    /* Coordinates this large overflow the direction's length (2.9e38 once read as "up parallel to
+     * the viewing direction"): say which field is out of range instead. */
+    const float big = 1e18f;
+    const vec3 ends[2] = {pos, at};
+    for (int k = 0; k < 2; k++)
+        if (!(fabsf(ends[k].x) <= big && fabsf(ends[k].y) <= big && fabsf(ends[k].z) <= big))
+            return vx_fail(e, "%s.%s: (%g, %g, %g) is out of range (expected coordinates within +-1e18)", where,
+                           k ? "look_at" : (orbit ? "orbit" : "position"), (double)ends[k].x, (double)ends[k].y,
+                           (double)ends[k].z);
     vec3 fwd = v3_sub(at, pos);
     if (v3_length(fwd) < 1e-12f)
         return vx_fail(e, "%s: look_at equals the position", where);
