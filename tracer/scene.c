@@ -497,8 +497,10 @@ int scene_load(const char *path, scene *s, vx_err *e)
     memset(s, 0, sizeof *s);
     s->path = strdup(path);
     char *text = read_file(path, e);
-    if (!text)
+    if (!text) {
+        scene_free(s); /* s->path: every failure leaves nothing allocated */
         return -1;
+    }
     cJSON *root = cJSON_Parse(text);
     if (!root) {
         const char *at = cJSON_GetErrorPtr();
@@ -506,6 +508,7 @@ int scene_load(const char *path, scene *s, vx_err *e)
         for (const char *c = text; at && c < at; c++)
             line += *c == '\n';
         free(text);
+        scene_free(s);
         return vx_fail(e, "%s: malformed JSON near line %d", path, line);
     }
     free(text);
