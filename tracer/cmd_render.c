@@ -7,6 +7,7 @@
 #include "bake.h"
 #include "cli.h"
 #include "commands.h"
+#include "estimate.h"
 #include "fileio.h"
 #include "opencl_backend.h"
 #include "parallel.h"
@@ -16,14 +17,15 @@
 
 static const char usage[] =
     "usage: voxlab render SCENE --model M (--res N [--rays K] | --vox FILE) [--spp N] [--size WxH] [--seed S]\n"
-    "                     [--threads T] [--no-cache] [--no-shadow-skip] [--backend c|opencl] -o OUT.exr|OUT.png\n"
-    "                     [--stats S.json]\n";
+    "                     [--threads T] [--no-cache] [--no-shadow-skip] [--backend c|opencl] [--dry-run]\n"
+    "                     -o OUT.exr|OUT.png [--stats S.json]\n";
 
 int cmd_render(int argc, char **argv)
 {
     const char *scene_path = NULL, *out_path = NULL, *stats_path = NULL, *model_name = NULL, *vox = NULL,
                *size = NULL;
     int opencl = 0; /* --backend opencl */
+    int dry_run = 0;
     render_options o;
     render_default_options(&o);
     bake_options bo = {.rays = 150, .seed = 1, .progress = 1};
@@ -37,6 +39,10 @@ int cmd_render(int argc, char **argv)
         }
         if (strcmp(a, "--no-shadow-skip") == 0) {
             o.shadow_skip = 0;
+            continue;
+        }
+        if (strcmp(a, "--dry-run") == 0) {
+            dry_run = 1;
             continue;
         }
         if (a[0] == '-' && !(val = cli_value("render", argc, argv, &i)))
@@ -116,6 +122,18 @@ int cmd_render(int argc, char **argv)
     render_counts rcnt;
     opencl_counts ocnt = {0};
     if (size && scene_parse_size_string(size, &o.width, &o.height, &e))
+        goto fail;
+    /* With --vox the resolution is the file's: the estimate covers the scene and the image, and the
+     * records are allocated at the file's size (which the file system already holds). */
+    vx_estimate est;
+    estimate_voxels(&s, m ? m : model_all()[0], vox ? 1 : res, vox ? 0 : bo.rays, o.width, o.height, o.spp, o.cache,
+                    o.threads, &est);
+    if (dry_run) {
+        estimate_print(stdout, "render", &est);
+        rc = estimate_check(&est, &e) ? (fprintf(stdout, "  refused: %s\n", e.msg), 1) : 0;
+        goto done;
+    }
+    if (estimate_check(&est, &e))
         goto fail;
     if (vox) {
         if (vox_load(&s, vox, model_name, &m, &g, &records, &h, &grid_seconds, &e))
