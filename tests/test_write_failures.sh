@@ -49,6 +49,22 @@ done
 check_status efbig_vox 1 "^voxlab bake: $W/a\.vox: write failed: File too large" \
   limited "$VOXLAB" bake "$S" --model alpha --res 16 --rays 8 -o "$W/a.vox"
 check_only efbig_vox-nothing_left "$W"
+# A full disk (ENOSPC): a 8 KiB tmpfs, when this machine lets us mount one (root, not every container).
+FULL=$T/full && mkdir -p "$FULL"
+if mount -t tmpfs -o size=8k tmpfs "$FULL" 2>/dev/null; then
+  for ext in exr png; do
+    check_status "enospc_truth_$ext" 1 "^voxlab truth: cannot write $FULL/x\.$ext: .*No space left on device" \
+      "$VOXLAB" truth "$S" --spp 1 --size 256x256 -o "$FULL/x.$ext"
+    check_only "enospc_truth_$ext-nothing_left" "$FULL"
+  done
+  check_status enospc_vox 1 "^voxlab bake: $FULL/a\.vox: write failed: No space left on device" \
+    "$VOXLAB" bake "$S" --model vmesh --res 32 --rays 4 -o "$FULL/a.vox"
+  check_only enospc_vox-nothing_left "$FULL"
+  umount "$FULL"
+else
+  echo "# skipped the full-disk cases: cannot mount a tmpfs here"
+fi
+
 # SIGXFSZ not ignored: the run ends by the signal (128 + 25) and its handler removes the temporary.
 check_status sigxfsz_ends_the_run 153 "" bash -c 'ulimit -f 0; exec "$@"' _ "$VOXLAB" bake "$S" --model alpha \
   --res 16 --rays 8 -o "$W/a.vox"
