@@ -126,6 +126,8 @@ done
 check_status gltf_uri_outside_refused 1 "objects\[0\].*outside\.gltf: buffer URI .*secret\.bin lies outside the glTF's folder .*/g/sub/" \
   "$VOXLAB" truth "$T/uri_outside.json" --spp 1 -o "$W/o.exr"
 check gltf_uri_inside_loads "$VOXLAB" truth "$T/uri_inside.json" --spp 1 -o "$T/inside.exr"
+sed 's#"material": "grey"}#"material": "grey", "uris_outside_folder": true}#' "$T/uri_outside.json" >"$T/uri_allowed.json"
+check gltf_uri_outside_allowed_by_the_scene "$VOXLAB" truth "$T/uri_allowed.json" --spp 1 -o "$T/allowed.exr"
 check_status vox_is_fifo 1 "^voxlab render: $T/fifo\.ply: cannot open \.vox file|cannot read \.vox file: it is a FIFO" \
   timeout 60 "$VOXLAB" render "$S" --vox "$T/fifo.ply" --spp 1 -o "$W/o.exr"
 check_status compare_fifo 1 "^voxlab compare: .*fifo\.ply.*FIFO" timeout 60 "$VOXLAB" compare "$T/fifo.ply" "$T/ok.exr"

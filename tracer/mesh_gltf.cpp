@@ -448,10 +448,13 @@ bool ends_with_nocase(const std::string &s, const char *suffix)
 struct uri_fs {
     std::string folder; // realpath of the glTF's folder, with a trailing '/'
     std::string refused; // the first URI refused, for the message
+    bool anywhere = false; // the scene allows URIs outside the folder
 };
 
 bool inside(const uri_fs &fs, const std::string &file)
 {
+    if (fs.anywhere)
+        return true;
     char *real = realpath(file.c_str(), nullptr);
     if (!real)
         return false;
@@ -498,7 +501,7 @@ bool fs_read(std::vector<unsigned char> *out, std::string *err, const std::strin
 
 bool fs_write(std::string *, const std::string &, const std::vector<unsigned char> &, void *) { return false; }
 
-void load(const char *path, mesh *out, uint32_t material)
+void load(const char *path, mesh *out, uint32_t material, bool uris_anywhere)
 {
     std::string file(path);
     bool binary;
@@ -523,6 +526,7 @@ void load(const char *path, mesh *out, uint32_t material)
     if (dir.empty())
         dir = "/";
     uri_fs fs;
+    fs.anywhere = uris_anywhere;
     if (char *real = realpath(dir.c_str(), nullptr)) {
         fs.folder = real;
         std::free(real);
@@ -542,7 +546,7 @@ void load(const char *path, mesh *out, uint32_t material)
     std::free(text);
     if (!ok && !fs.refused.empty())
         fail("buffer URI " + fs.refused + " lies outside the glTF's folder " + fs.folder +
-             " (external files must be inside it)");
+             " (external files must be inside it, unless the scene's object says \"uris_outside_folder\": true)");
     if (!ok) {
         std::string msg = "tinygltf could not load the file: " + trimmed(err);
         if (!trimmed(warn).empty())
@@ -585,10 +589,15 @@ void load(const char *path, mesh *out, uint32_t material)
 
 extern "C" int mesh_load_gltf(const char *path, mesh *out, uint32_t material, vx_err *e)
 {
+    return mesh_load_gltf_uris(path, out, material, 0, e);
+}
+
+extern "C" int mesh_load_gltf_uris(const char *path, mesh *out, uint32_t material, int uris_anywhere, vx_err *e)
+{
     size_t v0 = out->vertex_count, t0 = out->triangle_count;
     int rc = 0;
     try {
-        load(path, out, material);
+        load(path, out, material, uris_anywhere != 0);
     } catch (const load_error &err) {
         rc = vx_fail(e, "%s: %s", path, err.msg.c_str());
     } catch (const std::exception &ex) {

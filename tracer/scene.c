@@ -402,7 +402,7 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
         char where[512];
         snprintf(where, sizeof where, "%s: objects[%d]", s->path, i++);
         static const char *const known[] = {"generator", "seed", "params", "materials", "material",
-                                            "ply", "gltf", "transform", NULL};
+                                            "ply", "gltf", "transform", "uris_outside_folder", NULL};
         if (!cJSON_IsObject(o))
             return vx_fail(e, "%s: expected an object", where);
         if (json_only_fields(o, where, known, e))
@@ -423,10 +423,14 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
             int mat = find_material(s, matname, where, e);
             if (mat < 0)
                 return -1;
+            int anywhere = 0; /* a glTF's external buffers only from its own folder unless allowed */
+            if (cJSON_GetObjectItemCaseSensitive(o, "uris_outside_folder") &&
+                json_bool(o, "uris_outside_folder", where, &anywhere, e))
+                return -1;
             char path[4096];
             resolve_path(s->path, file, path, sizeof path);
             int rc = is_ply ? mesh_load_ply(path, &s->mesh, (uint32_t)mat, e)
-                            : mesh_load_gltf(path, &s->mesh, (uint32_t)mat, e);
+                            : mesh_load_gltf_uris(path, &s->mesh, (uint32_t)mat, anywhere, e);
             if (rc)
                 return vx_wrap(e, "%s.%s", where, is_ply ? "ply" : "gltf");
         }
