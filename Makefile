@@ -1,21 +1,29 @@
 # voxlab — build, test, benchmark and demo targets. `make` builds build/voxlab.
 # SANITIZE=1 builds everything into build-asan/ with AddressSanitizer + UndefinedBehaviorSanitizer.
 
+# SANITIZE=fuzz builds the library with Debian's clang for libFuzzer into build-fuzz/ (see `make fuzz`).
+
 SANITIZE ?= 0
+# Error messages are built with snprintf into fixed buffers; truncating a very long path is fine.
+NOWARN = -Wno-format-truncation
+CC = gcc
+CXX = g++
 ifeq ($(SANITIZE),1)
 BUILD ?= build-asan
 SANFLAGS = -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
+OPT = -O1
+else ifeq ($(SANITIZE),fuzz)
+BUILD ?= build-fuzz
+CC = clang
+CXX = clang++
+NOWARN =
+SANFLAGS = -fsanitize=fuzzer-no-link,address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
 OPT = -O1
 else
 BUILD ?= build
 SANFLAGS =
 OPT = -O2
 endif
-
-# Error messages are built with snprintf into fixed buffers; truncating a very long path is fine.
-NOWARN = -Wno-format-truncation
-CC = gcc
-CXX = g++
 INCLUDES = -Itracer -Imodels -Iscenes/generators -I/usr/include/embree3 -I/usr/include/OpenEXR
 CFLAGS = -std=c11 $(OPT) -g -march=x86-64-v2 -Wall -Wextra -Werror $(NOWARN) -D_GNU_SOURCE -pthread -MMD -MP $(INCLUDES) $(SANFLAGS)
 CXXFLAGS = -std=c++17 $(OPT) -g -Wall -Wextra -Werror -pthread -MMD -MP $(INCLUDES) $(SANFLAGS)
@@ -32,18 +40,25 @@ UNIT_BIN = $(patsubst tests/%.c,$(BUILD)/tests/%,$(UNIT_SRC))
 BENCH_SRC = $(wildcard tests/bench_*.c)
 BENCH_BIN = $(patsubst tests/%.c,$(BUILD)/tests/%,$(BENCH_SRC))
 
+# libFuzzer harnesses (tests/fuzz/fuzz_NAME.c), built with SANITIZE=fuzz.
+FUZZ_NAMES = scene ply gltf vox image
+FUZZ_BIN = $(patsubst %,$(BUILD)/fuzz/fuzz_%,$(FUZZ_NAMES))
+FUZZ_SECONDS ?= 60
+# Debian's clang and its libFuzzer runtime, for `make fuzz` only.
+FUZZ_DEPS = clang libclang-rt-14-dev
+
 # Debian packages voxlab needs to build and test (see README).
 DEPS = build-essential libembree-dev libopenexr-dev libopenimageio-dev libtinygltf-dev libcjson-dev \
        ocl-icd-opencl-dev opencl-headers pocl-opencl-icd \
        python3-numpy python3-skimage python3-matplotlib python3-openimageio python3-mpmath
 
-.PHONY: all deps test test-asan bench bench-build demo clean
+.PHONY: all deps test test-asan bench bench-build demo clean fuzz fuzz-build
 all: $(BUILD)/voxlab
 
 $(BUILD)/voxlab: $(BUILD)/tracer/main.c.o $(LIB_OBJ) | $(PLUGIN)
 	$(CXX) $(LDFLAGS) -o $@ $^ $(LDLIBS)
 
-$(PLUGIN): tracer/image_oiio.cpp tracer/image.h tracer/error.h
+$(PLUGIN): tracer/image_oiio.cpp tracer/image.h tracer/error.h tracer/readfile.h
 	@mkdir -p $(dir $@)
 	$(CXX) $(CXXFLAGS) -fPIC -shared -o $@ $< -lOpenImageIO -lOpenImageIO_Util
 
@@ -60,9 +75,16 @@ $(BUILD)/tests/%: tests/%.c $(LIB_OBJ) | $(PLUGIN)
 	$(CC) $(CFLAGS) -Itests -c -o $@.o $<
 	$(CXX) $(LDFLAGS) -o $@ $@.o $(LIB_OBJ) $(LDLIBS)
 
+# The fuzz harnesses link libFuzzer's main; the image harness also links the OpenImageIO shim
+# directly (voxlab itself loads it as a plugin).
+$(BUILD)/fuzz/fuzz_%: tests/fuzz/fuzz_%.c tests/fuzz/fuzz_common.h $(LIB_OBJ) $(BUILD)/tracer/image_oiio.cpp.o | $(PLUGIN)
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS) -Itests/fuzz -c -o $@.o $<
+	$(CXX) $(LDFLAGS) -fsanitize=fuzzer -o $@ $@.o $(LIB_OBJ) $(if $(findstring image,$*),$(BUILD)/tracer/image_oiio.cpp.o -lOpenImageIO -lOpenImageIO_Util) $(LDLIBS)
+
 # Installs missing Debian packages; costs well under a second when everything is present.
 deps:
-	@missing=$$(for p in $(DEPS); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q 'ok installed' || echo $$p; done); \
+	@missing=$$(for p in $(DEPS) $(EXTRA_DEPS); do dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q 'ok installed' || echo $$p; done); \
 	if [ -n "$$missing" ]; then \
 	  echo "installing:" $$missing >&2; \
 	  export DEBIAN_FRONTEND=noninteractive; \
@@ -75,6 +97,16 @@ test: deps
 
 test-asan:
 	@$(MAKE) --no-print-directory SANITIZE=1 test
+
+# Every libFuzzer harness and the experiment-declaration mutation loop for FUZZ_SECONDS each
+# (tests/fuzz/run.sh); reproducers of any crash in build/fuzz/crashes/.
+fuzz:
+	@$(MAKE) --no-print-directory deps EXTRA_DEPS="$(FUZZ_DEPS)"
+	@$(MAKE) --no-print-directory build/voxlab
+	@$(MAKE) --no-print-directory SANITIZE=fuzz fuzz-build
+	@FUZZ_SECONDS=$(FUZZ_SECONDS) FUZZ_BUILD=build-fuzz VOXLAB=$(CURDIR)/build/voxlab tests/fuzz/run.sh
+
+fuzz-build: $(FUZZ_BIN)
 
 bench: deps bench-build
 	@BUILD=$(BUILD) tests/bench.sh
@@ -93,7 +125,7 @@ demo: deps
 	@echo "demo: images, table.md and strip_64.png are in results/demo/"
 
 clean:
-	rm -rf build build-asan
+	rm -rf build build-asan build-fuzz
 
 # Experiment targets (table1, pareto, figures, dashboard, regress) live beside their scripts.
 include experiments/experiments.mk

@@ -469,6 +469,7 @@ def write_variant(base_path, name, settings, out_dir):
 NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.+=-]*$")
 RUN_DEFAULTS = {"models": "all", "size": "res", "spp": [4], "rays": [150], "cache": [True], "shadow_skip": [True]}
 TOLERANCE_FIELDS = {"better", "rel", "abs", "gate"}
+MAX_CONFIGS = 100000  # scene variants of one entry, or configurations of one run
 
 
 class _Check:
@@ -599,6 +600,13 @@ def load_declaration(path):
                 c.fail(f"{where}.vary.{k}", f"expected a non-empty list of values, got {c.show(vals)}")
         out = []
         keys = list(vary)
+        # Counted before they are made: a few long lists multiply into more variants than any
+        # experiment could run (and once hung the loader building them).
+        combos = 1
+        for k in keys:
+            combos *= len(vary[k])
+        if combos > MAX_CONFIGS:
+            c.fail(f"{where}.vary", f"{combos} combinations of values (more than {MAX_CONFIGS})")
         for combo in itertools.product(*(vary[k] for k in keys)) if keys else [()]:
             settings = dict(sets)
             settings.update(zip(keys, combo))
@@ -655,6 +663,13 @@ def load_declaration(path):
             "shadow_skip": c.list_(r["shadow_skip"], f"{w}.shadow_skip", c.bool_),
             "scenes": scene_subset(r["scenes"], f"{w}.scenes") if "scenes" in r else [s["name"] for s in scenes],
         })
+    for i, r in enumerate(runs):
+        n = len(r["scenes"]) * (len(r["models"]) if r["models"] != "all" else 1)
+        for k in ("res", "spp", "rays", "cache", "shadow_skip"):
+            n *= len(r[k])
+        if n > MAX_CONFIGS:
+            c.fail(f"runs[{i}]", f"{n} configurations (scenes x models x res x spp x rays x cache x shadow_skip; "
+                                 f"more than {MAX_CONFIGS})")
     decl["runs"] = runs
     tc = d.get("truth_curve")
     if tc is not None:

@@ -5,6 +5,7 @@
  * means over the front-facing hits; front-to-back alpha blending. */
 #include "alpha_eval.h" /* the record and its evaluation (portable C, shared with OpenCL) */
 #include "average_bake.h"
+#include "average_validate.h"
 
 static void alpha_bake(const vx_voxel *v, const vx_sample *samples, int n, void *out)
 {
@@ -18,6 +19,17 @@ static void alpha_bake(const vx_voxel *v, const vx_sample *samples, int n, void 
     average_front_hits(samples, n, r->color, r->normal, &r->specular, &r->roughness, &r->double_sided);
 }
 
+static int alpha_validate(const void *record, const vx_record_context *c, char *why, size_t why_size)
+{
+    (void)c;
+    const alpha_record *r = record;
+    if (!(r->opacity >= 0.0f && r->opacity <= 1.0f)) { /* a fraction of the sample rays */
+        snprintf(why, why_size, "opacity: %g (expected 0..1)", (double)r->opacity);
+        return -1;
+    }
+    return average_validate_fields(r->color, r->normal, r->specular, r->roughness, r->double_sided, why, why_size);
+}
+
 const vx_model model_alpha = {
     .name = "alpha",
     .description = "averages: one colour, normal and opacity (occluding fraction of the samples) per voxel; front-to-back alpha",
@@ -29,4 +41,5 @@ const vx_model model_alpha = {
     .cl_source = "alpha_eval.h",
     .cl_opacity = "alpha_eval_opacity",
     .cl_shade = "alpha_eval_shade",
+    .validate_record = alpha_validate,
 };

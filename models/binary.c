@@ -3,12 +3,24 @@
  * lookup, first-hit compositing. */
 #include "binary_eval.h" /* the record and its evaluation (portable C, shared with OpenCL) */
 #include "average_bake.h"
+#include "average_validate.h"
 
 static void binary_bake(const vx_voxel *v, const vx_sample *samples, int n, void *out)
 {
     (void)v;
     binary_record *r = out;
     r->opaque = average_front_hits(samples, n, r->color, r->normal, &r->specular, &r->roughness, &r->double_sided) > 0;
+}
+
+static int binary_validate(const void *record, const vx_record_context *c, char *why, size_t why_size)
+{
+    (void)c;
+    const binary_record *r = record;
+    if (r->opaque > 1u) {
+        snprintf(why, why_size, "opaque: %u (expected 0 or 1)", r->opaque);
+        return -1;
+    }
+    return average_validate_fields(r->color, r->normal, r->specular, r->roughness, r->double_sided, why, why_size);
 }
 
 const vx_model model_binary = {
@@ -22,4 +34,5 @@ const vx_model model_binary = {
     .cl_source = "binary_eval.h",
     .cl_opacity = "binary_eval_opacity",
     .cl_shade = "binary_eval_shade",
+    .validate_record = binary_validate,
 };

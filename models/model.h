@@ -137,6 +137,13 @@ typedef struct {
 struct voxel_grid;
 
 #ifndef __OPENCL_VERSION__
+/* Where a record read back from a .vox file sits, for validate_record. */
+typedef struct {
+    int level;       /* its MIP level (0 for models without levels) */
+    float cell_size; /* edge length of that level's cells (world units) */
+    int rays;        /* sample rays per voxel of the bake (a bound on any per-voxel sample count) */
+} vx_record_context;
+
 typedef struct vx_model {
     const char *name;
     const char *description;
@@ -179,6 +186,11 @@ typedef struct vx_model {
      * precomputed masks), built once on the host; the tracer hands it to cone_element on the C
      * backend and uploads it as a buffer on OpenCL. Returns the table and its size in bytes. */
     const void *(*table)(size_t *bytes);
+    /* Optional (may be NULL): states what a record may hold, for records read from a .vox file
+     * (a checksum only guards against accidents; a crafted or buggy file must not reach the
+     * evaluation with NaN, infinities or out-of-range codes). Returns 0 when the record is one the
+     * bake could have written, else writes "FIELD: what is wrong" into why and returns -1. */
+    int (*validate_record)(const void *record, const vx_record_context *c, char *why, size_t why_size);
 } vx_model;
 
 /* The registry (models/registry.c). */

@@ -81,6 +81,10 @@ good_scene "$T/size_huge.json" "$quad"
 sed -i 's/"size": \[8, 8\]/"size": [100000, 100000]/' "$T/size_huge.json"
 expect_error size_huge "size_huge\.json\.size: 100000x100000 is not a valid image size" "$T/size_huge.json"
 
+good_scene "$T/far_camera.json" "$quad"
+sed -i 's/"position": \[0, 3, 3\]/"position": [0, 2.9e38, 3]/' "$T/far_camera.json"
+expect_error camera_out_of_range "far_camera\.json: camera\.position: \(0, 2\.9e\+38, 3\) is out of range" "$T/far_camera.json"
+
 good_scene "$T/ok.json" "$quad"
 expect_error size_option_zero "--size 0x0: expected WxH" "$T/ok.json" --size 0x0
 expect_error spp_zero "--spp 0: expected an integer from 1" "$T/ok.json" --spp 0

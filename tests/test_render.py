@@ -112,7 +112,7 @@ for what, vox, words in cases:
     p = voxlab("render", SPHERES, "--model", "alpha", "--vox", vox, *SMALL, "-o", out,
                "--stats", os.path.join(out_dir, "out.json"), check=False)
     err = p.stderr.strip()
-    report(f"bad vox fails: {what}", p.returncode != 0, f"rc {p.returncode}")
+    report(f"bad vox fails with status 1: {what}", p.returncode == 1, f"rc {p.returncode}")
     report(f"bad vox message names the file and the problem: {what}",
            vox in err and all(w in err for w in words) and err.startswith("voxlab render: "), err)
     report(f"bad vox leaves no output: {what}", leftovers(out_dir, "out") == [], str(leftovers(out_dir, "out")))

@@ -131,6 +131,13 @@ def main():
         ("bad_field", {"runs": [{"models": "all", "resolution": [32]}]}, "runs[0].resolution", "unknown field"),
         ("bad_scene", {"scenes": ["no_such_scene"]}, "scenes[0]", "no_such_scene"),
         ("bad_spp", {"truth_spp": 0}, "truth_spp", "expected an integer"),
+        # Found while writing the declaration fuzzer (tests/fuzz/fuzz_declaration.py): four lists of
+        # 60 values once hung the loader building 13 million variants.
+        ("too_many_variants", {"scenes": [{"base": "spheres", "vary": {k: list(range(60)) for k in
+                                                                       ("a", "b", "c", "d")}}]},
+         "scenes[0].vary", "12960000 combinations"),
+        ("too_many_configs", {"runs": [{"models": "all", "res": list(range(1, 101)), "spp": list(range(1, 101)),
+                                        "rays": list(range(1, 101))}]}, "runs[0]", "1000000 configurations"),
     ]
     for name, fields, where, what in bad_cases:
         path = declare(name, **fields)

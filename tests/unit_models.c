@@ -608,6 +608,14 @@ static void run_geometry(const vx_model *m, const bake_case *c, const geometry *
         }
     if (memcmp(rec, rec2, m->voxel_bytes) != 0)
         fail(vp, "baking the same samples twice gave different records");
+    /* What the bake writes must be what the model says a record may hold: otherwise a genuine .vox
+     * file would be refused on load (tracer/record_check.c). */
+    if (m->validate_record) {
+        vx_record_context rctx = {.level = 0, .cell_size = (float)geo->size, .rays = c->n};
+        char why[256] = "";
+        if (m->validate_record(rec, &rctx, why, sizeof why) != 0)
+            fail(vp, "its own bake's record fails validate_record: %s", why);
+    }
     unsigned char *copy = malloc(m->voxel_bytes);
     memcpy(copy, rec, m->voxel_bytes);
 

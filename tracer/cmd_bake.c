@@ -8,6 +8,7 @@
 #include "bake.h"
 #include "cli.h"
 #include "commands.h"
+#include "estimate.h"
 #include "fileio.h"
 #include "parallel.h"
 #include "voxfile.h"
@@ -49,7 +50,10 @@ void stats_add_bake(cJSON *j, const vx_model *m, const voxel_grid *g, const bake
     cJSON_AddNumberToObject(j, "model_bytes", (double)(bake_record_count(m, g) * m->voxel_bytes));
     cJSON_AddNumberToObject(j, "grid_bytes", (double)grid_bytes(g));
     cJSON_AddNumberToObject(j, "grid_seconds", grid_seconds);
-    cJSON_AddNumberToObject(j, "bake_seconds", c->seconds + c->finish_seconds);
+    if (c->seconds < 0) /* rendered from a .vox file: the bake's time is in that bake's --stats */
+        cJSON_AddNullToObject(j, "bake_seconds");
+    else
+        cJSON_AddNumberToObject(j, "bake_seconds", c->seconds + c->finish_seconds);
     cJSON_AddNumberToObject(j, "bake_rays", (double)c->rays);
     cJSON_AddNumberToObject(j, "rays_per_voxel", rays);
 }
@@ -57,13 +61,18 @@ void stats_add_bake(cJSON *j, const vx_model *m, const voxel_grid *g, const bake
 int cmd_bake(int argc, char **argv)
 {
     static const char usage[] =
-        "usage: voxlab bake SCENE --model M --res N [--rays K] [--seed S] [--threads T] -o OUT.vox [--stats S.json]\n";
+        "usage: voxlab bake SCENE --model M --res N [--rays K] [--seed S] [--threads T] [--dry-run] -o OUT.vox\n"
+        "                   [--stats S.json]\n";
     const char *scene_path = NULL, *out_path = NULL, *stats_path = NULL, *model_name = NULL;
     bake_options o = {.rays = 150, .seed = 1, .progress = 1};
-    int res = 0;
+    int res = 0, dry_run = 0;
     long long v;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *val = NULL;
+        if (strcmp(a, "--dry-run") == 0) {
+            dry_run = 1;
+            continue;
+        }
         if (a[0] == '-' && !(val = cli_value("bake", argc, argv, &i)))
             return 1;
         if (strcmp(a, "--model") == 0)
@@ -109,7 +118,8 @@ int cmd_bake(int argc, char **argv)
     }
     vx_err e;
     scene s;
-    if (scene_load(scene_path, &s, &e)) {
+    if (fileio_check_writable(out_path, &e) || (stats_path && fileio_check_writable(stats_path, &e)) ||
+        scene_load(scene_path, &s, &e)) {
         fprintf(stderr, "voxlab bake: %s\n", e.msg);
         return 1;
     }
@@ -118,8 +128,15 @@ int cmd_bake(int argc, char **argv)
     void *records = NULL;
     bake_counts c;
     double grid_seconds;
-    if (fileio_check_writable(out_path, &e) || (stats_path && fileio_check_writable(stats_path, &e)) ||
-        bake_scene(&s, m, res, &o, &g, &records, &c, &grid_seconds, &e)) {
+    vx_estimate est;
+    estimate_voxels(&s, m, res, o.rays, 0, 0, 0, 0, o.threads, &est);
+    if (dry_run) {
+        estimate_print(stdout, "bake", &est);
+        rc = estimate_check(&est, &e) ? (fprintf(stdout, "  refused: %s\n", e.msg), 1) : 0;
+        scene_free(&s);
+        return rc;
+    }
+    if (estimate_check(&est, &e) || bake_scene(&s, m, res, &o, &g, &records, &c, &grid_seconds, &e)) {
         fprintf(stderr, "voxlab bake: %s\n", e.msg);
         scene_free(&s);
         return 1;
@@ -134,7 +151,6 @@ int cmd_bake(int argc, char **argv)
     h.voxel_bytes = m->voxel_bytes;
     h.record_count = bake_record_count(m, &g);
     h.voxels = grid_count(&g, 0);
-    h.bake_seconds = c.seconds + c.finish_seconds;
     if (voxfile_write(out_path, &h, records, &e)) {
         fprintf(stderr, "voxlab bake: %s\n", e.msg);
         goto done;

@@ -62,6 +62,10 @@ int cmd_compare(int argc, char **argv)
     image a = {0}, b = {0}, heat = {0};
     vx_err e;
     int rc = 1;
+    if (heatmap && image_check_output(heatmap, &e) != 0) { /* before the reads: fail before any work */
+        fail("%s", e.msg);
+        goto done;
+    }
     if (image_read(paths[0], &a, &e) != 0 || image_read(paths[1], &b, &e) != 0) {
         fail("%s", e.msg);
         goto done;

@@ -7,52 +7,25 @@
 #include "bake.h"
 #include "cli.h"
 #include "commands.h"
+#include "estimate.h"
 #include "fileio.h"
 #include "opencl_backend.h"
 #include "parallel.h"
 #include "render.h"
+#include "vox_load.h"
 #include "voxfile.h"
 
 static const char usage[] =
     "usage: voxlab render SCENE --model M (--res N [--rays K] | --vox FILE) [--spp N] [--size WxH] [--seed S]\n"
-    "                     [--threads T] [--no-cache] [--no-shadow-skip] [--backend c|opencl] -o OUT.exr|OUT.png\n"
-    "                     [--stats S.json]\n";
-
-/* Loads a .vox file for scene s: the model it names, the grid rebuilt at its resolution, its records. */
-static int load_baked(const scene *s, const char *path, const char *model_name, const vx_model **m,
-                      voxel_grid *g, void **records, voxfile_header *h, double *grid_seconds, vx_err *e)
-{
-    if (voxfile_read(path, s->identity, h, records, e))
-        return -1;
-    *m = model_find(h->model);
-    if (!*m || (model_name && strcmp(model_name, h->model) != 0)) {
-        free(*records);
-        if (!*m)
-            return vx_fail(e, "%s: baked with model \"%s\", which this voxlab does not have", path, h->model);
-        return vx_fail(e, "%s: baked with model \"%s\", not --model %s", path, h->model, model_name);
-    }
-    double t0 = now_seconds();
-    if (grid_build(g, &s->mesh, h->n, e)) {
-        free(*records);
-        return -1;
-    }
-    *grid_seconds = now_seconds() - t0;
-    if (h->voxel_bytes != (*m)->voxel_bytes || h->record_count != bake_record_count(*m, g) ||
-        h->voxels != grid_count(g, 0)) {
-        free(*records);
-        grid_free(g);
-        return vx_fail(e, "%s: records do not match model %s on this grid (%llu records of %llu bytes, expected %zu of %zu)",
-                       path, h->model, (unsigned long long)h->record_count, (unsigned long long)h->voxel_bytes,
-                       bake_record_count(*m, g), (*m)->voxel_bytes);
-    }
-    return 0;
-}
+    "                     [--threads T] [--no-cache] [--no-shadow-skip] [--backend c|opencl] [--dry-run]\n"
+    "                     -o OUT.exr|OUT.png [--stats S.json]\n";
 
 int cmd_render(int argc, char **argv)
 {
     const char *scene_path = NULL, *out_path = NULL, *stats_path = NULL, *model_name = NULL, *vox = NULL,
                *size = NULL;
     int opencl = 0; /* --backend opencl */
+    int dry_run = 0;
     render_options o;
     render_default_options(&o);
     bake_options bo = {.rays = 150, .seed = 1, .progress = 1};
@@ -66,6 +39,10 @@ int cmd_render(int argc, char **argv)
         }
         if (strcmp(a, "--no-shadow-skip") == 0) {
             o.shadow_skip = 0;
+            continue;
+        }
+        if (strcmp(a, "--dry-run") == 0) {
+            dry_run = 1;
             continue;
         }
         if (a[0] == '-' && !(val = cli_value("render", argc, argv, &i)))
@@ -128,7 +105,8 @@ int cmd_render(int argc, char **argv)
     }
     vx_err e;
     scene s;
-    if (scene_load(scene_path, &s, &e)) {
+    if (image_check_output(out_path, &e) || (stats_path && fileio_check_writable(stats_path, &e)) ||
+        scene_load(scene_path, &s, &e)) {
         fprintf(stderr, "voxlab render: %s\n", e.msg);
         return 1;
     }
@@ -143,13 +121,24 @@ int cmd_render(int argc, char **argv)
     image img = {0};
     render_counts rcnt;
     opencl_counts ocnt = {0};
-    if ((size && scene_parse_size_string(size, &o.width, &o.height, &e)) || fileio_check_writable(out_path, &e) ||
-        (stats_path && fileio_check_writable(stats_path, &e)))
+    if (size && scene_parse_size_string(size, &o.width, &o.height, &e))
+        goto fail;
+    /* With --vox the resolution is the file's: the estimate covers the scene and the image, and the
+     * records are allocated at the file's size (which the file system already holds). */
+    vx_estimate est;
+    estimate_voxels(&s, m ? m : model_all()[0], vox ? 1 : res, vox ? 0 : bo.rays, o.width, o.height, o.spp, o.cache,
+                    o.threads, &est);
+    if (dry_run) {
+        estimate_print(stdout, "render", &est);
+        rc = estimate_check(&est, &e) ? (fprintf(stdout, "  refused: %s\n", e.msg), 1) : 0;
+        goto done;
+    }
+    if (estimate_check(&est, &e))
         goto fail;
     if (vox) {
-        if (load_baked(&s, vox, model_name, &m, &g, &records, &h, &grid_seconds, &e))
+        if (vox_load(&s, vox, model_name, &m, &g, &records, &h, &grid_seconds, &e))
             goto fail;
-        bc.seconds = h.bake_seconds;
+        bc.seconds = -1; /* not baked by this run */
         bo.rays = h.rays;
     } else if ((opencl && opencl_model_check(m, &e)) || bake_scene(&s, m, res, &bo, &g, &records, &bc, &grid_seconds, &e)) {
         goto fail;

@@ -6,12 +6,14 @@
 
 #include "cli.h"
 #include "commands.h"
+#include "estimate.h"
 #include "fileio.h"
 #include "parallel.h"
 #include "truth.h"
 
 static const char usage[] =
-    "usage: voxlab truth SCENE [--spp N] [--size WxH] [--seed S] [--threads T] -o OUT.exr|OUT.png [--stats S.json]\n";
+    "usage: voxlab truth SCENE [--spp N] [--size WxH] [--seed S] [--threads T] [--dry-run] -o OUT.exr|OUT.png\n"
+    "                    [--stats S.json]\n";
 
 cJSON *stats_scene_fields(const scene *s)
 {
@@ -63,10 +65,13 @@ int cmd_truth(int argc, char **argv)
 {
     const char *scene_path = NULL, *out_path = NULL, *stats_path = NULL, *size = NULL;
     truth_options o = {.spp = 1024, .seed = 1, .progress = 1};
+    int dry_run = 0;
     long long v;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *val;
-        if (strcmp(a, "--spp") == 0 || strcmp(a, "--seed") == 0 || strcmp(a, "--threads") == 0) {
+        if (strcmp(a, "--dry-run") == 0)
+            dry_run = 1;
+        else if (strcmp(a, "--spp") == 0 || strcmp(a, "--seed") == 0 || strcmp(a, "--threads") == 0) {
             if (!(val = cli_value("truth", argc, argv, &i)))
                 return 1;
             int is_seed = strcmp(a, "--seed") == 0;
@@ -100,7 +105,8 @@ int cmd_truth(int argc, char **argv)
     }
     vx_err e;
     scene s;
-    if (scene_load(scene_path, &s, &e)) {
+    if (image_check_output(out_path, &e) || (stats_path && fileio_check_writable(stats_path, &e)) ||
+        scene_load(scene_path, &s, &e)) {
         fprintf(stderr, "voxlab truth: %s\n", e.msg);
         return 1;
     }
@@ -111,9 +117,14 @@ int cmd_truth(int argc, char **argv)
     image img = {0};
     if (size && scene_parse_size_string(size, &o.width, &o.height, &e))
         goto fail;
-    if (fileio_check_writable(out_path, &e) || (stats_path && fileio_check_writable(stats_path, &e)))
-        goto fail;
-    if (rt_build(&rt, &s, &e))
+    vx_estimate est;
+    estimate_truth(&s, o.width, o.height, o.spp, o.threads, &est);
+    if (dry_run) {
+        estimate_print(stdout, "truth", &est);
+        rc = estimate_check(&est, &e) ? (fprintf(stdout, "  refused: %s\n", e.msg), 1) : 0;
+        goto done;
+    }
+    if (estimate_check(&est, &e) || rt_build(&rt, &s, &e))
         goto fail;
     truth_counts counts;
     if (truth_render(&rt, &o, &img, &counts, &e) || image_write(&img, out_path, &e))

@@ -1,5 +1,5 @@
 /* Whole-file output that never leaves a partial file: write to a temporary name beside the target,
- * then rename. */
+ * then rename. Every temporary file is removed on failure, and on the signals that end a run. */
 #ifndef VX_FILEIO_H
 #define VX_FILEIO_H
 
@@ -13,6 +13,8 @@
  * reason (e.g. the directory is missing or not writable). For writers that open the file by name
  * (the OpenEXR and OpenImageIO writers). */
 int fileio_temp_create(const char *path, char *tmp, size_t tmp_size, vx_err *e);
+/* Removes a temporary file after a failure (and forgets it: see fileio_install_signal_cleanup). */
+void fileio_temp_discard(const char *tmp);
 /* Renames a finished temporary file to path; removes it when that fails. */
 int fileio_temp_commit(const char *tmp, const char *path, vx_err *e);
 
@@ -23,7 +25,12 @@ int fileio_commit(FILE *f, const char *tmp_path, const char *path, vx_err *e);
 /* Closes f and removes tmp_path (after a failure). */
 void fileio_abort(FILE *f, const char *tmp_path);
 int fileio_write_text(const char *path, const char *text, vx_err *e);
-/* Fails early, before long work, when `path` cannot be created (creates and removes a temp file). */
+/* Fails early, before long work, when `path` cannot be created (creates and removes a temp file)
+ * or is a directory. */
 int fileio_check_writable(const char *path, vx_err *e);
+
+/* Installs handlers for SIGINT, SIGTERM, SIGHUP and SIGXFSZ (those not ignored) that remove every
+ * temporary file being written and then end the process by the same signal. Called once by main. */
+void fileio_install_signal_cleanup(void);
 
 #endif

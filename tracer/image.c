@@ -49,6 +49,16 @@ static const char *extension(const char *path)
     return dot ? dot : "";
 }
 
+int image_check_output(const char *path, vx_err *e)
+{
+    const char *ext = extension(path);
+    if (fileio_check_writable(path, e)) /* first: a directory is named as one, not as an extension */
+        return -1;
+    if (strcasecmp(ext, ".exr") != 0 && strcasecmp(ext, ".png") != 0)
+        return vx_fail(e, "%s: unsupported image extension '%s' (expected .exr or .png)", path, ext);
+    return 0;
+}
+
 int image_write(const image *img, const char *path, vx_err *e)
 {
     const char *ext = extension(path);
@@ -104,7 +114,7 @@ int image_write_png(const image *img, const char *path, vx_err *e)
         if (rc == 0)
             rc = fileio_temp_commit(tmp, path, e);
         else
-            unlink(tmp);
+            fileio_temp_discard(tmp);
     }
     free(px);
     return rc;

@@ -21,9 +21,17 @@ void image_free(image *img);
  * Writes to a temporary name in the same directory and renames, so a failure never leaves a partial file. */
 int image_write(const image *img, const char *path, vx_err *e);
 int image_write_exr(const image *img, const char *path, vx_err *e);
+/* Whether image_write could write path (supported extension, not a directory, a writable folder),
+ * checked before any work so that a bad -o fails at once rather than after the render. */
+int image_check_output(const char *path, vx_err *e);
 int image_write_png(const image *img, const char *path, vx_err *e);
 
-/* Reads any format OpenImageIO knows, as float values as stored (no colour conversion). */
+/* Largest image read (compare's inputs, textures): 64 Mpixels, 1 GiB as RGBA floats. A small
+ * compressed file can declare a huge image; it is refused before anything is allocated. */
+#define IMAGE_MAX_PIXELS (64LL * 1024 * 1024)
+
+/* Reads any format OpenImageIO knows, as float values as stored (no colour conversion); a regular
+ * file only, of at most IMAGE_MAX_PIXELS pixels. */
 int image_read(const char *path, image *out, vx_err *e);
 
 /* --- Pieces the writers share (image.c, image_exr.c, image_oiio.cpp); usable by tests. --- */

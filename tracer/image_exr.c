@@ -15,13 +15,16 @@ typedef struct {
     char msg[512];
 } exr_capture;
 
+/* The capture of the write in progress on this thread. Not exr_get_user_data: the library calls the
+ * handler while holding the context's lock, and exr_get_user_data takes that lock again, so a
+ * failed write (a full disk, the file-size limit) deadlocked. */
+static _Thread_local exr_capture *current_capture;
+
 static void capture_error(exr_const_context_t ctxt, exr_result_t code, const char *msg)
 {
-    void *ud = NULL;
-    if (exr_get_user_data(ctxt, &ud) != EXR_ERR_SUCCESS || !ud)
-        return;
-    exr_capture *cap = ud;
-    if (!cap->msg[0])
+    (void)ctxt;
+    exr_capture *cap = current_capture;
+    if (cap && !cap->msg[0])
         snprintf(cap->msg, sizeof cap->msg, "%s (%s)", msg ? msg : "", exr_get_error_code_as_string(code));
 }
 
@@ -37,7 +40,7 @@ static exr_result_t write_file(const image *img, const char *tmp, exr_capture *c
 {
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = capture_error;
-    init.user_data = cap;
+    current_capture = cap;
     exr_context_t f = NULL;
     exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
     int have_enc = 0;
@@ -94,6 +97,7 @@ static exr_result_t write_file(const image *img, const char *tmp, exr_capture *c
         if (rv == EXR_ERR_SUCCESS)
             rv = frv;
     }
+    current_capture = NULL;
     return rv;
 }
 
@@ -108,7 +112,7 @@ int image_write_exr(const image *img, const char *path, vx_err *e)
     exr_capture cap = {{0}};
     exr_result_t rv = write_file(img, tmp, &cap);
     if (rv != EXR_ERR_SUCCESS) {
-        unlink(tmp);
+        fileio_temp_discard(tmp);
         return vx_fail(e, "cannot write %s: OpenEXR error: %s", path,
                        cap.msg[0] ? cap.msg : exr_get_default_error_message(rv));
     }

@@ -11,9 +11,18 @@
 #include <cerrno>
 #include <cstring>
 #include <string>
+#include <cstdio>
+#include <cstdlib>
+#include <fcntl.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
+#include <unistd.h>
+#include <vector>
+
+#include <OpenImageIO/filesystem.h>
 
 #include "image.h"
+#include "readfile.h"
 
 using namespace OIIO;
 
@@ -28,15 +37,65 @@ static std::string one_line(std::string s)
     return s.empty() ? std::string("unknown error") : s;
 }
 
+// libpng's default error handler (OIIO's PNG reader installs no other) prints "libpng error: ..."
+// to stderr before OIIO reports the same failure, which we print as one line of our own. While a
+// reader runs, stderr goes to a memory file; afterwards everything but libpng's lines is passed on.
+// VOXLAB_LIBRARY_STDERR=1 leaves stderr alone (for debugging a reader).
+class libpng_lines_dropped {
+public:
+    libpng_lines_dropped()
+    {
+        const char *keep = std::getenv("VOXLAB_LIBRARY_STDERR");
+        if (keep && *keep && *keep != '0')
+            return;
+        std::fflush(stderr);
+        mem_ = memfd_create("voxlab-stderr", MFD_CLOEXEC);
+        saved_ = mem_ >= 0 ? dup(2) : -1;
+        if (saved_ < 0 || dup2(mem_, 2) < 0) {
+            if (saved_ >= 0)
+                close(saved_);
+            if (mem_ >= 0)
+                close(mem_);
+            mem_ = saved_ = -1;
+        }
+    }
+    ~libpng_lines_dropped()
+    {
+        if (mem_ < 0)
+            return;
+        std::fflush(stderr);
+        dup2(saved_, 2);
+        close(saved_);
+        std::string text;
+        char buf[4096];
+        ssize_t n;
+        for (off_t at = 0; (n = pread(mem_, buf, sizeof buf, at)) > 0; at += n)
+            text.append(buf, size_t(n));
+        close(mem_);
+        size_t start = 0;
+        while (start < text.size()) {
+            size_t end = text.find('\n', start);
+            end = end == std::string::npos ? text.size() : end + 1;
+            if (text.compare(start, 14, "libpng error: ") != 0 && text.compare(start, 16, "libpng warning: ") != 0)
+                (void)!write(2, text.data() + start, end - start);
+            start = end;
+        }
+    }
+    libpng_lines_dropped(const libpng_lines_dropped &) = delete;
+    libpng_lines_dropped &operator=(const libpng_lines_dropped &) = delete;
+
+private:
+    int mem_ = -1, saved_ = -1;
+};
+
 extern "C" int vx_oiio_read(const char *path, image *out, vx_err *e)
 {
+    libpng_lines_dropped quiet;
     std::memset(out, 0, sizeof *out);
-    // OIIO words a missing file as "no format reader"; check first for the real reason.
-    struct stat st;
-    if (stat(path, &st) != 0)
-        return vx_fail(e, "cannot read %s: %s", path, std::strerror(errno));
-    if (S_ISDIR(st.st_mode))
-        return vx_fail(e, "cannot read %s: it is a directory", path);
+    // OIIO words a missing file as "no format reader"; check first for the real reason. Only
+    // regular files: OIIO would block on a FIFO and read a device forever.
+    if (readfile_check(path, "image", READFILE_MAX_BYTES, e))
+        return -1;
     // Ask readers to leave unassociated alpha alone: by default OIIO premultiplies PNG/TIFF colour
     // by alpha on read, which would not be "values as stored".
     ImageSpec config;
@@ -49,6 +108,9 @@ extern "C" int vx_oiio_read(const char *path, image *out, vx_err *e)
         return vx_fail(e, "cannot read %s: deep images are not supported", path);
     if (spec.depth > 1)
         return vx_fail(e, "cannot read %s: volume images (depth %d) are not supported", path, spec.depth);
+    if ((long long)spec.width * spec.height > IMAGE_MAX_PIXELS)
+        return vx_fail(e, "cannot read %s: %dx%d is %lld pixels, more than the limit of %lld", path, spec.width,
+                       spec.height, (long long)spec.width * spec.height, IMAGE_MAX_PIXELS);
     // Anything past 4 channels (AOVs, depth...) has no place in an RGBA image; keep the first four.
     int channels = spec.nchannels < 4 ? spec.nchannels : 4;
     vx_err alloc_err;
@@ -60,6 +122,29 @@ extern "C" int vx_oiio_read(const char *path, image *out, vx_err *e)
         return vx_fail(e, "cannot read %s: %s", path, msg.c_str());
     }
     in->close();
+    return 0;
+}
+
+// Writes all of buf to path, reporting the errno of any failure (ENOSPC, EFBIG, EIO...).
+static int write_bytes(const std::vector<unsigned char> &buf, const char *path, const char *what, vx_err *e)
+{
+    int fd = open(path, O_WRONLY | O_TRUNC | O_CLOEXEC);
+    if (fd < 0)
+        return vx_fail(e, "cannot write %s: %s", what, std::strerror(errno));
+    size_t done = 0;
+    while (done < buf.size()) {
+        ssize_t n = write(fd, buf.data() + done, buf.size() - done);
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n <= 0) {
+            int err = n < 0 ? errno : EIO;
+            close(fd);
+            return vx_fail(e, "cannot write %s: %s", what, std::strerror(err));
+        }
+        done += size_t(n);
+    }
+    if (close(fd) != 0)
+        return vx_fail(e, "cannot write %s: %s", what, std::strerror(errno));
     return 0;
 }
 
@@ -78,7 +163,12 @@ extern "C" int vx_oiio_write_png8(const unsigned char *px, int width, int height
     // colour by it; the colour space tag only labels what image.c already encoded.
     spec.attribute("oiio:UnassociatedAlpha", 1);
     spec.attribute("oiio:ColorSpace", "sRGB");
-    if (!out->open(path, spec))
+    // Encoded into memory and written by write_bytes: OIIO's PNG writer ignores the errors of its
+    // own file writes (a full disk or the file-size limit gave exit 0 and an empty or truncated
+    // file), so the bytes reach the disk through calls whose every error we see.
+    std::vector<unsigned char> buf;
+    Filesystem::IOVecOutput proxy(buf);
+    if (!out->set_ioproxy(&proxy) || !out->open(path, spec))
         return vx_fail(e, "cannot write %s: %s", what, one_line(out->geterror()).c_str());
     bool ok = out->write_image(TypeDesc::UINT8, px);
     std::string msg = ok ? std::string() : one_line(out->geterror());
@@ -88,5 +178,5 @@ extern "C" int vx_oiio_write_png8(const unsigned char *px, int width, int height
     }
     if (!ok)
         return vx_fail(e, "cannot write %s: %s", what, msg.c_str());
-    return 0;
+    return write_bytes(buf, path, what, e);
 }

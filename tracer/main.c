@@ -3,6 +3,7 @@
 #include <string.h>
 
 #include "commands.h"
+#include "fileio.h"
 
 static const char usage[] =
     "voxlab — voxel appearance models against an Embree ground truth\n"
@@ -23,6 +24,7 @@ int main(int argc, char **argv)
         fputs(usage, argc < 2 ? stderr : stdout);
         return argc < 2 ? 1 : 0;
     }
+    fileio_install_signal_cleanup(); /* no temporary file outlives Ctrl-C, SIGTERM or the file-size limit */
     static const struct {
         const char *name;
         int (*run)(int, char **);

@@ -5,6 +5,11 @@
 // loader are thrown as load_error and turned into a vx_err at the C boundary, which also catches
 // anything else C++ may throw (std::bad_alloc from tinygltf's vectors, for instance).
 #include "mesh_load.h"
+#include "readfile.h"
+
+#include <climits>
+#include <cstdlib>
+#include <unistd.h>
 
 #include <tiny_gltf.h>
 
@@ -437,7 +442,66 @@ bool ends_with_nocase(const std::string &s, const char *suffix)
     return true;
 }
 
-void load(const char *path, mesh *out, uint32_t material)
+// External files a glTF names (buffer URIs) are read only from inside the glTF's own folder: a URI
+// such as "../../etc/passwd" must not make a scene read, and echo facts about, any file on the
+// machine. The folder is compared by real path, so symbolic links cannot lead out of it either.
+struct uri_fs {
+    std::string folder; // realpath of the glTF's folder, with a trailing '/'
+    std::string refused; // the first URI refused, for the message
+    bool anywhere = false; // the scene allows URIs outside the folder
+};
+
+bool inside(const uri_fs &fs, const std::string &file)
+{
+    if (fs.anywhere)
+        return true;
+    char *real = realpath(file.c_str(), nullptr);
+    if (!real)
+        return false;
+    bool ok = std::strncmp(real, fs.folder.c_str(), fs.folder.size()) == 0;
+    std::free(real);
+    return ok;
+}
+
+bool fs_exists(const std::string &file, void *user)
+{
+    auto *fs = static_cast<uri_fs *>(user);
+    if (access(file.c_str(), F_OK) != 0)
+        return false;
+    if (!inside(*fs, file)) {
+        if (fs->refused.empty())
+            fs->refused = file;
+        return false;
+    }
+    return true;
+}
+
+std::string fs_expand(const std::string &file, void *) { return file; } // no ~ or $VAR expansion
+
+bool fs_read(std::vector<unsigned char> *out, std::string *err, const std::string &file, void *user)
+{
+    auto *fs = static_cast<uri_fs *>(user);
+    if (!inside(*fs, file)) {
+        if (err)
+            *err += file + " is outside the glTF's folder\n";
+        return false;
+    }
+    vx_err e;
+    size_t size = 0;
+    char *buf = readfile_all(file.c_str(), "glTF buffer", READFILE_MAX_BYTES, &size, &e);
+    if (!buf) {
+        if (err)
+            *err += std::string(e.msg) + "\n";
+        return false;
+    }
+    out->assign(buf, buf + size);
+    std::free(buf);
+    return true;
+}
+
+bool fs_write(std::string *, const std::string &, const std::vector<unsigned char> &, void *) { return false; }
+
+void load(const char *path, mesh *out, uint32_t material, bool uris_anywhere)
 {
     std::string file(path);
     bool binary;
@@ -452,8 +516,37 @@ void load(const char *path, mesh *out, uint32_t material)
     tinygltf::TinyGLTF ctx;
     ctx.SetImageLoader(skip_image, nullptr);
     std::string err, warn;
-    bool ok = binary ? ctx.LoadBinaryFromFile(&model, &err, &warn, file)
-                     : ctx.LoadASCIIFromFile(&model, &err, &warn, file);
+    // The file itself through readfile_all (a regular file only: not a directory, FIFO or device).
+    vx_err re;
+    size_t size = 0;
+    char *text = readfile_all(path, binary ? "glTF binary" : "glTF file", READFILE_MAX_BYTES, &size, &re);
+    if (!text)
+        throw load_error{std::string(re.msg).substr(file.size() + 2)}; // mesh_load_gltf prefixes the path
+    std::string dir = file.find('/') == std::string::npos ? "." : file.substr(0, file.rfind('/') + 1);
+    if (dir.empty())
+        dir = "/";
+    uri_fs fs;
+    fs.anywhere = uris_anywhere;
+    if (char *real = realpath(dir.c_str(), nullptr)) {
+        fs.folder = real;
+        std::free(real);
+        if (fs.folder.back() != '/')
+            fs.folder += '/';
+    }
+    ctx.SetFsCallbacks(tinygltf::FsCallbacks{fs_exists, fs_expand, fs_read, fs_write, &fs});
+    bool ok;
+    try {
+        ok = binary ? ctx.LoadBinaryFromMemory(&model, &err, &warn, reinterpret_cast<unsigned char *>(text),
+                                               unsigned(size), dir)
+                    : ctx.LoadASCIIFromString(&model, &err, &warn, text, unsigned(size), dir);
+    } catch (...) {
+        std::free(text);
+        throw;
+    }
+    std::free(text);
+    if (!ok && !fs.refused.empty())
+        fail("buffer URI " + fs.refused + " lies outside the glTF's folder " + fs.folder +
+             " (external files must be inside it, unless the scene's object says \"uris_outside_folder\": true)");
     if (!ok) {
         std::string msg = "tinygltf could not load the file: " + trimmed(err);
         if (!trimmed(warn).empty())
@@ -496,10 +589,15 @@ void load(const char *path, mesh *out, uint32_t material)
 
 extern "C" int mesh_load_gltf(const char *path, mesh *out, uint32_t material, vx_err *e)
 {
+    return mesh_load_gltf_uris(path, out, material, 0, e);
+}
+
+extern "C" int mesh_load_gltf_uris(const char *path, mesh *out, uint32_t material, int uris_anywhere, vx_err *e)
+{
     size_t v0 = out->vertex_count, t0 = out->triangle_count;
     int rc = 0;
     try {
-        load(path, out, material);
+        load(path, out, material, uris_anywhere != 0);
     } catch (const load_error &err) {
         rc = vx_fail(e, "%s: %s", path, err.msg.c_str());
     } catch (const std::exception &ex) {

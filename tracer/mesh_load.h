@@ -26,6 +26,9 @@ int mesh_load_ply(const char *path, mesh *out, uint32_t material, vx_err *e);
  * COLOR_0, if any) becomes the vertex colour. A file with no triangle primitive, an accessor outside
  * its buffer, a non-finite position or compressed geometry (Draco, meshopt) is an error. */
 int mesh_load_gltf(const char *path, mesh *out, uint32_t material, vx_err *e);
+/* The same; external files (buffer URIs) are read only from inside the glTF's own folder unless
+ * uris_anywhere is set (the scene's "uris_outside_folder": true). */
+int mesh_load_gltf_uris(const char *path, mesh *out, uint32_t material, int uris_anywhere, vx_err *e);
 
 #ifdef __cplusplus
 }

@@ -3,6 +3,7 @@
  * with confidence, intensity, per-vertex lists and extra elements in arbitrary order, and the only
  * safe way to skip what we do not use is to know every property's type. */
 #include "mesh_load.h"
+#include "readfile.h"
 
 #include <errno.h>
 #include <math.h>
@@ -481,33 +482,11 @@ static int read_body(ply_reader *r, const ply_header *h, const ply_element *vert
     return 0;
 }
 
-/* Reads the whole file in one fread (the bunny is 1.3 MB; parsing from memory is what keeps loads
- * far below a frame) and NUL-terminates it so ASCII numbers can be parsed with strtod. */
+/* Reads the whole file at once (the bunny is 1.3 MB; parsing from memory is what keeps loads far
+ * below a frame), NUL-terminated so ASCII numbers can be parsed with strtod. */
 static char *read_file(const char *path, size_t *size, vx_err *e)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        vx_fail(e, "%s: cannot open (%s)", path, strerror(errno));
-        return NULL;
-    }
-    char *buf = NULL;
-    long len = -1;
-    if (fseek(f, 0, SEEK_END) == 0)
-        len = ftell(f);
-    if (len < 0 || fseek(f, 0, SEEK_SET) != 0) {
-        vx_fail(e, "%s: cannot determine the file size (expected a regular file)", path);
-    } else if (!(buf = malloc((size_t)len + 1))) {
-        vx_fail(e, "%s: out of memory reading %ld bytes", path, len);
-    } else if (fread(buf, 1, (size_t)len, f) != (size_t)len) {
-        vx_fail(e, "%s: read error (%s)", path, ferror(f) ? strerror(errno) : "file shrank");
-        free(buf);
-        buf = NULL;
-    } else {
-        buf[len] = '\0';
-        *size = (size_t)len;
-    }
-    fclose(f);
-    return buf;
+    return readfile_all(path, "PLY file", READFILE_MAX_BYTES, size, e);
 }
 
 int mesh_load_ply(const char *path, mesh *out, uint32_t material, vx_err *e)

@@ -11,6 +11,7 @@
 #include "generator.h"
 #include "json_util.h"
 #include "mesh_load.h"
+#include "readfile.h"
 
 #define MAX_IMAGE_SIDE 16384
 #define MAX_IMAGE_PIXELS (64 * 1024 * 1024)
@@ -35,24 +36,9 @@ const char *effect_name(unsigned effect)
 
 static char *read_file(const char *path, vx_err *e)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        vx_fail(e, "%s: cannot open scene file: %s", path, strerror(errno));
-        return NULL;
-    }
-    fseek(f, 0, SEEK_END);
-    long size = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *text = size >= 0 ? malloc((size_t)size + 1) : NULL;
-    if (!text || fread(text, 1, (size_t)size, f) != (size_t)size) {
-        fclose(f);
-        free(text);
-        vx_fail(e, "%s: cannot read scene file", path);
-        return NULL;
-    }
-    fclose(f);
-    text[size] = 0;
-    return text;
+    size_t size;
+    /* Scene files are small; 64 MiB is far beyond any hand-written or generated one. */
+    return readfile_all(path, "scene file", 64u << 20, &size, e);
 }
 
 /* Resolves a path relative to the scene file's directory (absolute paths stay as they are). */
@@ -238,6 +224,15 @@ static int parse_camera(scene *s, const cJSON *root, vx_err *e)
     }
     camera *c = &s->camera;
     c->position = pos;
+    /* Coordinates this large overflow the direction's length (2.9e38 once read as "up parallel to
+     * the viewing direction"): say which field is out of range instead. */
+    const float big = 1e18f;
+    const vec3 ends[2] = {pos, at};
+    for (int k = 0; k < 2; k++)
+        if (!(fabsf(ends[k].x) <= big && fabsf(ends[k].y) <= big && fabsf(ends[k].z) <= big))
+            return vx_fail(e, "%s.%s: (%g, %g, %g) is out of range (expected coordinates within +-1e18)", where,
+                           k ? "look_at" : (orbit ? "orbit" : "position"), (double)ends[k].x, (double)ends[k].y,
+                           (double)ends[k].z);
     vec3 fwd = v3_sub(at, pos);
     if (v3_length(fwd) < 1e-12f)
         return vx_fail(e, "%s: look_at equals the position", where);
@@ -407,7 +402,7 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
         char where[512];
         snprintf(where, sizeof where, "%s: objects[%d]", s->path, i++);
         static const char *const known[] = {"generator", "seed", "params", "materials", "material",
-                                            "ply", "gltf", "transform", NULL};
+                                            "ply", "gltf", "transform", "uris_outside_folder", NULL};
         if (!cJSON_IsObject(o))
             return vx_fail(e, "%s: expected an object", where);
         if (json_only_fields(o, where, known, e))
@@ -428,10 +423,14 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
             int mat = find_material(s, matname, where, e);
             if (mat < 0)
                 return -1;
+            int anywhere = 0; /* a glTF's external buffers only from its own folder unless allowed */
+            if (cJSON_GetObjectItemCaseSensitive(o, "uris_outside_folder") &&
+                json_bool(o, "uris_outside_folder", where, &anywhere, e))
+                return -1;
             char path[4096];
             resolve_path(s->path, file, path, sizeof path);
             int rc = is_ply ? mesh_load_ply(path, &s->mesh, (uint32_t)mat, e)
-                            : mesh_load_gltf(path, &s->mesh, (uint32_t)mat, e);
+                            : mesh_load_gltf_uris(path, &s->mesh, (uint32_t)mat, anywhere, e);
             if (rc)
                 return vx_wrap(e, "%s.%s", where, is_ply ? "ply" : "gltf");
         }
@@ -502,8 +501,10 @@ int scene_load(const char *path, scene *s, vx_err *e)
     memset(s, 0, sizeof *s);
     s->path = strdup(path);
     char *text = read_file(path, e);
-    if (!text)
+    if (!text) {
+        scene_free(s); /* s->path: every failure leaves nothing allocated */
         return -1;
+    }
     cJSON *root = cJSON_Parse(text);
     if (!root) {
         const char *at = cJSON_GetErrorPtr();
@@ -511,6 +512,7 @@ int scene_load(const char *path, scene *s, vx_err *e)
         for (const char *c = text; at && c < at; c++)
             line += *c == '\n';
         free(text);
+        scene_free(s);
         return vx_fail(e, "%s: malformed JSON near line %d", path, line);
     }
     free(text);

@@ -9,7 +9,9 @@
 
 #include "error.h"
 
-#define VOXFILE_VERSION 1
+/* Version 2: no bake timing in the header, so that a file is a pure function of its inputs (the
+ * same scene, model, resolution, rays and seed give the same bytes); timings are in --stats. */
+#define VOXFILE_VERSION 2
 
 typedef struct {
     uint32_t version;
@@ -21,11 +23,12 @@ typedef struct {
     uint64_t voxel_bytes; /* one record */
     uint64_t record_count;
     uint64_t voxels;      /* non-empty level-0 voxels (checked against the rebuilt grid) */
-    double bake_seconds;
 } voxfile_header;
 
 int voxfile_write(const char *path, const voxfile_header *h, const void *records, vx_err *e);
-/* Reads and verifies a file; *records is malloc'ed. scene_identity must match the header's. */
+/* Reads and verifies a file (a regular file only); *records is malloc'ed, NULL on failure.
+ * scene_identity must match the header's. The records' contents are the model's to validate
+ * (tracer/record_check.h). */
 int voxfile_read(const char *path, uint64_t scene_identity, voxfile_header *h, void **records, vx_err *e);
 
 #endif

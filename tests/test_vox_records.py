@@ -1,0 +1,140 @@
+"""What a .vox file may hold, checked on load: every record is validated by its model
+(vx_model.validate_record), so a crafted file with a valid checksum but NaN, infinite or
+out-of-range fields is refused with the voxel index and the field, exit status 1, no output. Also
+the exit status and exact message of a model mismatch (it once freed the records twice), header
+fields that name the file, and that a bake's file is a pure function of its inputs.
+
+The files are crafted here from the layout in tracer/voxfile.h (magic, header, records, FNV-1a
+checksum), independently of voxlab's reader; the checksum is recomputed so that only the record
+validation can catch them."""
+import os
+import random
+import struct
+
+from testlib import REPO, TMP, finish, report, voxlab
+
+SPHERES = os.path.join(REPO, "scenes", "spheres.json")
+SMALL = ["--size", "16x16", "--spp", "1"]
+HEADER = 96  # 8 magic bytes + voxfile_header (version 2): records start here
+# voxfile_header offsets (after the magic): n at 48, voxel_bytes 64, record_count 72, voxels 80
+OFF_N, OFF_VOXEL_BYTES, OFF_RECORDS, OFF_VOXELS = 8 + 48, 8 + 64, 8 + 72, 8 + 80
+
+
+def path(name):
+    return os.path.join(TMP, name)
+
+
+def fnv1a(data):
+    h = 0xCBF29CE484222325
+    for b in data:
+        h = ((h ^ b) * 0x100000001B3) & 0xFFFFFFFFFFFFFFFF
+    return h
+
+
+def with_checksum(body):
+    return body + struct.pack("<Q", fnv1a(body))
+
+
+def u64(raw, off):
+    return struct.unpack_from("<Q", raw, off)[0]
+
+
+def craft(name, raw, patch):
+    """raw with patch(bytearray of everything before the checksum) applied, checksum recomputed."""
+    body = bytearray(raw[:-8])
+    patch(body)
+    p = path(name)
+    with open(p, "wb") as f:
+        f.write(with_checksum(bytes(body)))
+    return p
+
+
+def render_fails(name, vox, pattern_words, model=None):
+    out = path(name + ".exr")
+    args = ["render", SPHERES, "--vox", vox, *SMALL, "-o", out]
+    if model:
+        args += ["--model", model]
+    p = voxlab(*args, check=False)
+    err = p.stderr.strip()
+    report(f"{name}: exit status 1", p.returncode == 1, f"rc {p.returncode}: {err}")
+    report(f"{name}: one line naming the file and the problem",
+           err.startswith("voxlab render: " + vox + ": ") and "\n" not in err and all(w in err for w in pattern_words),
+           err)
+    report(f"{name}: no output", not any(f.startswith(name + ".exr") for f in os.listdir(TMP)), str(os.listdir(TMP)))
+    return err
+
+
+# ---------- one small bake per model ----------
+bakes = {}
+for model in ("binary", "alpha", "vmesh", "heitz-neyret"):
+    bakes[model] = path(f"{model}.vox")
+    voxlab("bake", SPHERES, "--model", model, "--res", "16", "--rays", "16", "-o", bakes[model])
+    raw = open(bakes[model], "rb").read()
+    p = voxlab("render", SPHERES, "--vox", bakes[model], *SMALL, "-o", path(f"{model}_ok.exr"), check=False)
+    report(f"a genuine {model} bake passes its record validation", p.returncode == 0, p.stderr)
+
+# ---------- the model mismatch that freed the records twice ----------
+p = voxlab("render", SPHERES, "--vox", bakes["alpha"], "--model", "binary", *SMALL, "-o", path("mismatch.exr"),
+           check=False)
+report("model mismatch: exit status 1 (not a crash)", p.returncode == 1, f"rc {p.returncode}: {p.stderr}")
+report("model mismatch: exactly the one message",
+       p.stderr == f'voxlab render: {bakes["alpha"]}: baked with model "alpha", not --model binary\n', repr(p.stderr))
+
+# ---------- crafted records with a valid checksum ----------
+# (model, field offset in the record, bytes written there, words the message must hold)
+NAN, INF = struct.pack("<f", float("nan")), struct.pack("<f", float("inf"))
+cases = [
+    ("binary", 0, NAN, ["color[0]"]),
+    ("binary", 12, INF, ["normal[0]"]),
+    ("binary", 32, struct.pack("<I", 7), ["opaque"]),
+    ("alpha", 24, struct.pack("<f", 1.5), ["opacity"]),
+    ("alpha", 24, NAN, ["opacity"]),
+    ("alpha", 12, struct.pack("<3f", 1, 1, 1), ["normal", "length"]),
+    ("vmesh", 0, b"\x80", ["axis[0][0]"]),
+    ("heitz-neyret", 0, NAN, ["field h"]),
+    ("heitz-neyret", 0, INF, ["field h"]),
+    ("heitz-neyret", 10, struct.pack("<H", 0x7E00), ["var_h"]),  # a half NaN
+]
+for model, off, data, words in cases:
+    raw = open(bakes[model], "rb").read()
+    vb, count = u64(raw, OFF_VOXEL_BYTES), u64(raw, OFF_RECORDS)
+    k = min(5, count - 1)  # a record other than the first, so that the index is checked
+
+    def patch(b, at=HEADER + k * vb + off, data=data):
+        b[at:at + len(data)] = data
+
+    name = f"crafted_{model}_{off}_{data.hex()}"
+    render_fails(name, craft(name + ".vox", raw, patch), [f"voxel {k} ", f"{model} record field"] + words)
+
+# Random record bytes: whatever they are, the file is refused or renders; never a crash. Records are
+# validated one by one, so random bytes in every record of a model with float fields are refused.
+rng = random.Random(13)
+for model in ("binary", "alpha", "heitz-neyret", "vmesh"):
+    raw = open(bakes[model], "rb").read()
+
+    def patch(b):
+        for i in range(HEADER, len(b)):
+            b[i] = rng.randrange(256)
+
+    name = f"random_{model}"
+    render_fails(name, craft(name + ".vox", raw, patch), ["voxel 0 ", "record field"])
+
+# ---------- header fields that once gave misleading messages ----------
+raw = open(bakes["alpha"], "rb").read()
+name = "bad_resolution"
+render_fails(name, craft(name + ".vox", raw, lambda b: b.__setitem__(slice(OFF_N, OFF_N + 4), struct.pack("<i", 100000))),
+             ["header field n", "100000", "1..1024"])
+name = "voxel_count_mismatch"
+voxels = u64(raw, OFF_VOXELS)
+err = render_fails(name, craft(name + ".vox", raw, lambda b: struct.pack_into("<Q", b, OFF_VOXELS, voxels + 1)),
+                   ["do not match"])
+report("count mismatch: says what this grid expects (not 'expected 0')",
+       f"expected {u64(raw, OFF_RECORDS)} of {u64(raw, OFF_VOXEL_BYTES)} for {voxels}" in err, err)
+
+# ---------- a bake is a pure function of its inputs ----------
+for model in ("alpha", "heitz-neyret"):
+    again = path(f"{model}_again.vox")
+    voxlab("bake", SPHERES, "--model", model, "--res", "16", "--rays", "16", "--threads", "1", "-o", again)
+    report(f"two bakes of the same inputs are byte-identical ({model})",
+           open(again, "rb").read() == open(bakes[model], "rb").read())
+finish()

@@ -1,0 +1,169 @@
+#include "estimate.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+
+#include "grid.h"
+#include "parallel.h"
+
+/* Embree's BVH over triangles costs of the order of 100 bytes a triangle; with the mesh's own
+ * arrays (positions, normals, uvs, colours, indices, materials) about 200 in all. */
+static double scene_bytes(const scene *s)
+{
+    return 200.0 * (double)s->mesh.triangle_count + 48.0 * (double)s->mesh.vertex_count;
+}
+
+/* Non-empty voxels at resolution res: the larger of two estimates, capped at res^3. Fine meshes:
+ * the distinct cells holding a vertex (a hash set over the vertices). Coarse meshes: the surface's
+ * area over a cell's face, times 1.5 (a plane crossing the grid at an angle meets up to sqrt(3) times
+ * as many cells as its area in faces). Measured against the real grid on the shipped scenes at
+ * 64^3 and 256^3, within a factor of about 2 either way. */
+static double voxel_estimate(const scene *s, int res)
+{
+    vec3 lo = s->bounds_lo, hi = s->bounds_hi;
+    double ext = fmax(fmax(hi.x - lo.x, hi.y - lo.y), hi.z - lo.z);
+    if (!(ext > 0))
+        return 1;
+    double vs = ext / res, area = 0;
+    const mesh *m = &s->mesh;
+    for (size_t t = 0; t < m->triangle_count; t++) {
+        const float *p[3];
+        for (int k = 0; k < 3; k++)
+            p[k] = &m->positions[3 * (size_t)m->indices[3 * t + (size_t)k]];
+        double e1[3], e2[3];
+        for (int a = 0; a < 3; a++) {
+            e1[a] = p[1][a] - p[0][a];
+            e2[a] = p[2][a] - p[0][a];
+        }
+        double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2],
+               cz = e1[0] * e2[1] - e1[1] * e2[0];
+        area += 0.5 * sqrt(cx * cx + cy * cy + cz * cz);
+    }
+    double by_area = 1.5 * area / (vs * vs);
+    /* Distinct vertex cells; without memory for the set, the vertex count bounds them. */
+    double by_vertex = (double)m->vertex_count;
+    size_t slots = 1024;
+    while (slots < 2 * m->vertex_count)
+        slots *= 2;
+    uint64_t *set = calloc(slots, sizeof *set);
+    if (set) {
+        size_t distinct = 0;
+        for (size_t v = 0; v < m->vertex_count; v++) {
+            uint64_t key = 1; /* 0 marks an empty slot */
+            for (int a = 0; a < 3; a++) {
+                double c = floor((m->positions[3 * v + (size_t)a] - (&lo.x)[a]) / vs);
+                key = key * 2048 + (uint64_t)fmin(fmax(c, 0), res - 1);
+            }
+            size_t h = (size_t)((key * 0x9e3779b97f4a7c15ULL) >> 20) & (slots - 1);
+            while (set[h] && set[h] != key)
+                h = (h + 1) & (slots - 1);
+            if (!set[h]) {
+                set[h] = key;
+                distinct++;
+            }
+        }
+        free(set);
+        by_vertex = (double)distinct;
+    }
+    return fmin(fmax(by_area, by_vertex), (double)res * res * res);
+}
+
+static void finish(vx_estimate *e, int threads)
+{
+    e->total_bytes = e->scene_bytes + e->grid_bytes + e->record_bytes + e->work_bytes + e->image_bytes;
+    e->seconds = e->rays / (ESTIMATE_RAYS_PER_CORE_SECOND * parallel_threads(threads));
+}
+
+static double shadow_lights(const scene *s) { return (s->effects & EFFECT_SHADOWS) ? s->light_count : 0; }
+
+void estimate_truth(const scene *s, int width, int height, int spp, int threads, vx_estimate *out)
+{
+    memset(out, 0, sizeof *out);
+    double px = (double)width * height;
+    out->scene_bytes = scene_bytes(s);
+    out->image_bytes = px * 4 * sizeof(float) + px * 4; /* RGBA floats, 8-bit PNG samples */
+    out->rays = px * spp * (1 + shadow_lights(s));
+    finish(out, threads);
+}
+
+void estimate_voxels(const scene *s, const vx_model *m, int res, int rays, int width, int height, int spp,
+                     int cache, int threads, vx_estimate *out)
+{
+    memset(out, 0, sizeof *out);
+    double n = res, v = voxel_estimate(s, res);
+    out->voxels = v;
+    out->scene_bytes = scene_bytes(s);
+    /* The build's dense bits (n^3 bits, plus an eighth for the next level), the columns of every
+     * level (n^2 words, plus a third for the coarser ones), and per voxel its coordinates and bits. */
+    out->grid_bytes = n * n * n / 8 * 1.15 + n * n * 8 * 1.34 + v * 1.15 * 8;
+    out->record_bytes = v * (double)m->voxel_bytes * (m->uses_levels ? 1.15 : 1.0);
+    out->work_bytes = (double)parallel_threads(threads) * rays * sizeof(vx_sample);
+    if (width > 0) {
+        double px = (double)width * height;
+        out->image_bytes = px * 4 * sizeof(float) + px * 4;
+        if (cache)
+            out->work_bytes += v * 64; /* the shading cache: one entry per voxel */
+        out->rays = px * spp * (1 + shadow_lights(s));
+    }
+    out->rays += v * rays; /* the bake (none when rendering a .vox: the caller passes rays = 0) */
+    finish(out, threads);
+    /* A bake also costs per voxel, whatever its rays: its own triangles' list and the model's fit
+     * (about 60 us of one core per voxel on the development machine). */
+    if (rays > 0)
+        out->seconds += v * ESTIMATE_BAKE_CORE_SECONDS_PER_VOXEL / parallel_threads(threads);
+}
+
+double estimate_budget_bytes(void)
+{
+    double budget = INFINITY;
+    FILE *f = fopen("/proc/meminfo", "r");
+    if (f) {
+        char line[256];
+        unsigned long long kb;
+        while (fgets(line, sizeof line, f))
+            if (sscanf(line, "MemAvailable: %llu kB", &kb) == 1)
+                budget = (double)kb * 1024.0;
+        fclose(f);
+    }
+    struct rlimit rl;
+    if (getrlimit(RLIMIT_AS, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY)
+        budget = fmin(budget, (double)rl.rlim_cur);
+    const char *env = getenv("VOXLAB_MEMORY_BUDGET");
+    if (env && *env) {
+        char *end;
+        double b = strtod(env, &end);
+        if (end != env && b > 0)
+            budget = fmin(budget, b);
+    }
+    return budget;
+}
+
+static double gib(double b) { return b / (1024.0 * 1024.0 * 1024.0); }
+
+int estimate_check(const vx_estimate *est, vx_err *e)
+{
+    double budget = estimate_budget_bytes();
+    if (est->total_bytes <= budget)
+        return 0;
+    return vx_fail(e, "needs about %.2f GiB of memory (scene %.2f, grid %.2f, records %.2f, work %.2f, image %.2f), "
+                      "more than the %.2f GiB available: lower --res, --size or --rays (`--dry-run` shows the estimate)",
+                   gib(est->total_bytes), gib(est->scene_bytes), gib(est->grid_bytes), gib(est->record_bytes),
+                   gib(est->work_bytes), gib(est->image_bytes), gib(budget));
+}
+
+void estimate_print(FILE *f, const char *command, const vx_estimate *est)
+{
+    fprintf(f, "voxlab %s: dry run, nothing computed or written\n", command);
+    if (est->voxels > 0)
+        fprintf(f, "  voxels (estimate)  %.0f\n", est->voxels);
+    fprintf(f, "  memory (estimate)  %.3f GiB: scene %.3f, grid %.3f, records %.3f, work %.3f, image %.3f\n",
+            gib(est->total_bytes), gib(est->scene_bytes), gib(est->grid_bytes), gib(est->record_bytes),
+            gib(est->work_bytes), gib(est->image_bytes));
+    fprintf(f, "  available          %.3f GiB\n", gib(estimate_budget_bytes()));
+    fprintf(f, "  rays               %.0f\n", est->rays);
+    fprintf(f, "  time (estimate)    %.1f s (order of magnitude: %.0f rays/s per core; marching costs depend on "
+               "the model)\n", est->seconds, ESTIMATE_RAYS_PER_CORE_SECOND);
+}

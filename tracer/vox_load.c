@@ -1,0 +1,52 @@
+#include "vox_load.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "bake.h"
+#include "parallel.h"
+#include "record_check.h"
+
+/* Loads a .vox file for scene s: the model it names, the grid rebuilt at its resolution, its records.
+ * On failure *records is NULL and nothing is left allocated (see vox_load.h). */
+int vox_load(const scene *s, const char *path, const char *model_name, const vx_model **m,
+             voxel_grid *g, void **records, voxfile_header *h, double *grid_seconds, vx_err *e)
+{
+    if (voxfile_read(path, s->identity, h, records, e))
+        return -1;
+    *m = model_find(h->model);
+    int rc = 0;
+    if (!*m)
+        rc = vx_fail(e, "%s: baked with model \"%s\", which this voxlab does not have", path, h->model);
+    else if (model_name && strcmp(model_name, h->model) != 0)
+        rc = vx_fail(e, "%s: baked with model \"%s\", not --model %s", path, h->model, model_name);
+    else if (h->n < 1 || h->n > GRID_MAX_N) /* said here, not by grid_build, so that the file is named */
+        rc = vx_fail(e, "%s: header field n (grid resolution) is %d, outside 1..%d", path, (int)h->n, GRID_MAX_N);
+    if (rc == 0) {
+        double t0 = now_seconds();
+        if (grid_build(g, &s->mesh, h->n, e))
+            rc = -1;
+        *grid_seconds = now_seconds() - t0;
+    }
+    if (rc == 0) {
+        /* Counted before the grid is freed: the message must say what this grid expects. */
+        size_t expected = bake_record_count(*m, g);
+        unsigned long long voxels = (unsigned long long)grid_count(g, 0);
+        if (h->voxel_bytes != (*m)->voxel_bytes || h->record_count != expected || h->voxels != voxels) {
+            rc = vx_fail(e, "%s: records do not match model %s on this grid (%llu records of %llu bytes for %llu "
+                            "voxels, expected %zu of %zu for %llu)",
+                         path, h->model, (unsigned long long)h->record_count, (unsigned long long)h->voxel_bytes,
+                         (unsigned long long)h->voxels, expected, (*m)->voxel_bytes, voxels);
+            grid_free(g);
+        }
+    }
+    if (rc == 0 && record_check_all(*m, g, *records, (size_t)h->record_count, h->rays, path, e)) {
+        grid_free(g);
+        rc = -1;
+    }
+    if (rc) {
+        free(*records);
+        *records = NULL; /* cmd_render frees it again on every exit */
+    }
+    return rc;
+}
