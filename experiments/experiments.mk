@@ -56,7 +56,7 @@ regress-run:
 	-$(EXP_PY) experiments/regress.py $(EXP_ARGS)
 
 dashboard: regress-run table1 figures pareto
-	$(EXP_PY) experiments/dashboard.py --voxlab $(EXP_VOXLAB) --screenshot
+	$(EXP_PY) experiments/dashboard.py --voxlab $(EXP_VOXLAB) --screenshot --record-history
 
 dashboard-page:
 	$(EXP_PY) experiments/dashboard.py --voxlab $(EXP_VOXLAB) --screenshot
