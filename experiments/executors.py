@@ -24,6 +24,7 @@ import sys
 import tempfile
 import time
 
+import dask_task
 import jobexec
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -62,9 +63,10 @@ class DaskExecutor:
     """Jobs as tasks on a running Dask distributed scheduler (`dask scheduler`, `dask worker`).
 
     Each worker thread is a slot; workers are grouped by host, and a job is pinned to the workers of
-    the host the sweep placed it on. jobexec travels to the workers by value (cloudpickle), so a
-    worker needs only Python 3 with numpy, OpenImageIO and PIL, the voxlab snapshot and the scene
-    files under the same paths (a shared file system)."""
+    the host the sweep placed it on. The task (dask_task.run) travels to the workers by value and
+    imports jobexec from this checkout's experiments/, so a worker needs only Python 3 with numpy,
+    OpenImageIO and PIL, and this checkout, the cache (voxlab's snapshot among it) and the scene files
+    under the same paths (a shared file system)."""
 
     name = "dask"
     exclusive_by_sweep = True
@@ -77,7 +79,7 @@ class DaskExecutor:
             from distributed import Client
         except ImportError as e:
             raise ExecutorError(f"--executor dask: {e} (Debian: apt-get install python3-distributed)")
-        cloudpickle.register_pickle_by_value(jobexec)
+        cloudpickle.register_pickle_by_value(dask_task)
         try:
             self.client = Client(scheduler, timeout=timeout)
         except (OSError, TimeoutError) as e:
@@ -95,7 +97,7 @@ class DaskExecutor:
         return {h: v["slots"] for h, v in self.hosts.items()}
 
     def submit(self, spec, place):
-        return self.client.submit(jobexec.execute, spec, key=f"voxlab-{spec['kind']}-{spec['key'][:16]}-{time.time()}",
+        return self.client.submit(dask_task.run, spec, HERE, key=f"voxlab-{spec['kind']}-{spec['key'][:16]}-{time.time()}",
                                   workers=self.hosts[place]["workers"], allow_other_workers=False, pure=False)
 
     def wait(self, futures):
