@@ -180,6 +180,7 @@ SlurmctldHost={host}(127.0.0.1)
 SlurmctldPort={ctld}
 SlurmdPort={slurmd}
 AuthType=auth/munge
+AuthInfo=socket={sock}
 CryptoType=crypto/munge
 MpiDefault=none
 ProctrackType=proctrack/linuxproc
@@ -196,7 +197,7 @@ SchedulerType=sched/backfill
 SelectType=select/cons_tres
 SelectTypeParameters=CR_Core
 JobCompType=jobcomp/none
-AccountingStorageType=accounting/none
+AccountingStorageType=accounting_storage/none
 JobAcctGatherType=jobacct_gather/none
 SlurmctldLogFile={d}/slurmctld.log
 SlurmdLogFile={d}/slurmd.log
@@ -230,7 +231,7 @@ def slurm_part(local):
     host = socket.gethostname().split(".")[0]
     conf = os.path.join(d, "slurm.conf")
     with open(conf, "w") as f:
-        f.write(SLURM_CONF.format(host=host, ctld=free_port(), slurmd=free_port(), d=d, cpus=os.cpu_count()))
+        f.write(SLURM_CONF.format(host=host, ctld=free_port(), slurmd=free_port(), d=d, cpus=os.cpu_count(), sock=sock))
     env = {**os.environ, "SLURM_CONF": conf}
     os.environ["SLURM_CONF"] = conf  # sbatch and squeue, run by the sweep, read it
     # munge's clients find the daemon's socket through this (the slurm plugins use libmunge).
@@ -244,14 +245,14 @@ def slurm_part(local):
         p = subprocess.run(["sinfo", "-h", "-o", "%T"], capture_output=True, text=True, env=env)
         return p.returncode == 0 and p.stdout.strip() in ("idle", "mixed")
 
-    ok = wait_for(idle, 60)
+    ok = wait_for(lambda: idle() or any(p.poll() is not None for p in STARTED), 60) and idle()
     report("one-node SLURM cluster comes up (sinfo: idle)", ok,
            "".join(open(os.path.join(d, n)).read()[-600:] for n in ("slurmctld.out", "slurmd.out")))
     if not ok:
         return
     results = os.path.join(TMP, "slurm-results")
     t0 = time.monotonic()
-    p = sweep(results, "--executor", "slurm", "--slurm-args", "--time=10", timeout=600)
+    p = sweep(results, "--executor", "slurm", "--slurm-args=--time=10", timeout=600)
     print(f"# slurm sweep took {time.monotonic() - t0:.1f} s; its stderr:\n# " + p.stderr.strip().replace("\n", "\n# "))
     report("sweep through SLURM job arrays exits 0", p.returncode == 0, p.stderr[-1500:])
     if p.returncode == 0:
