@@ -32,13 +32,16 @@ INCLUDE_DIRS = ["tracer", "models", "scenes/generators"]  # the Makefile's -I or
 EMBREE_HEADER = "/usr/include/embree3/rtcore_config.h"
 
 # Translation units only voxel jobs (bake, render, compare) run: never part of a truth's key.
-VOXEL_ONLY = ["tracer/bake.c", "tracer/cmd_bake.c", "tracer/cmd_render.c", "tracer/cmd_compare.c",
+# (cmd_bake.c stays in: it defines peak_rss_bytes, which the truth's stats report; the linker check in
+# tests/test_cache_keys.py found it.)
+VOXEL_ONLY = ["tracer/bake.c", "tracer/cmd_render.c", "tracer/cmd_compare.c",
               "tracer/cone_light_cache.c", "tracer/cone_skip.c", "tracer/grid.c", "tracer/grid_traverse.c",
               "tracer/metrics.c", "tracer/opencl_backend.c", "tracer/opencl_cone.c", "tracer/opencl_program.c",
               "tracer/opencl_runtime.c", "tracer/render.c", "tracer/render_cone.c", "tracer/tribox.c",
               "tracer/voxfile.c", "tracer/cl/*"]
 # Translation units only the truth runs: never part of a model job's key.
-TRUTH_ONLY = ["tracer/truth.c", "tracer/truth.h", "tracer/cmd_truth.c"]
+# (cmd_truth.c is not: it defines the --stats helpers every command uses.)
+TRUTH_ONLY = ["tracer/truth.c", "tracer/truth.h"]
 SOURCE_EXT = (".c", ".h", ".cpp", ".cl")
 _INCLUDE_RE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)
 _memo, _lock = {}, threading.Lock()
