@@ -10,17 +10,21 @@
 #   make experiments-clean-cache   delete results/cache (every cached voxlab job)
 #   make test-slurm  the cluster test on a one-node SLURM cluster it brings up on localhost
 #
-# Variables: EXP_JOBS=2 (voxlab processes at once), FRESH=1 (recompute every job: fresh timings),
-# EXP_VOXLAB=path (the binary to run; default build/voxlab).
-# Every job is cached under results/cache by the hash of its inputs (voxlab binary, scene files,
-# options), so a second run costs seconds; a rebuilt voxlab recomputes what it may change.
+# Variables: EXP_JOBS=2 (untimed jobs at once), FRESH=1 (recompute every job: fresh timings),
+# EXP_VOXLAB=path (the binary to run; default build/voxlab; it must be built from this checkout),
+# EXP_ARGS_EXTRA (e.g. "--executor dask --scheduler tcp://HOST:PORT", "--executor slurm").
+# Every job is cached under results/cache by the hash of what decides its output (scene files,
+# options, the sources of its code path: experiments/README.md), so a second run costs seconds and
+# a change reruns only the jobs whose code path it touches.
 
 EXP_PY := /usr/bin/python3
 EXP_JOBS ?= 2
 # EXP_VOXLAB: another binary, e.g. a snapshot in results/cache/bin/<hash>/voxlab, to finish a set of
-# results with the binary that started it while build/voxlab is being rebuilt.
+# results with the binary that started it while build/voxlab is being rebuilt; a sweep refuses a
+# binary older than the checkout's sources (the cache keys hash the sources, not the binary).
 EXP_VOXLAB ?= $(BUILD)/voxlab
-EXP_ARGS = --jobs $(EXP_JOBS) --voxlab $(EXP_VOXLAB) $(if $(filter 1,$(FRESH)),--fresh)
+# EXP_ARGS_EXTRA: more options for every script, e.g. "--executor dask --scheduler tcp://node1:8786".
+EXP_ARGS = --jobs $(EXP_JOBS) --voxlab $(EXP_VOXLAB) $(if $(filter 1,$(FRESH)),--force) $(EXP_ARGS_EXTRA)
 BASELINE_EXPERIMENTS ?= regress
 
 # chromium: tests/test_dashboard.py and the dashboard screenshot (headless); time: GNU time measures
