@@ -11,12 +11,14 @@ Three layers:
    and a bad field is a DeclarationError that names the file and the field.
 3. The sweep engine (Sweep, run_experiment): the declared configurations become truth / bake /
    render / compare jobs; each job's outputs live in a cache directory keyed by the sha256 of
-   everything that can change them (the voxlab binary, the scene file and every file it references,
-   the options), so a second run with the same inputs does no work, and the expensive ground truth
-   is computed once per scene, size, spp and seed and shared by every experiment. Jobs run on a
-   thread pool (--jobs at a time, nproc / jobs voxlab threads each, so timings stay comparable);
-   progress for the whole sweep (done / total, elapsed, estimate) goes to stderr; a failing job is
-   recorded in its rows (status "failed" and voxlab's message) and never aborts the sweep.
+   everything that decides them (the scene file and every file it references, the options, the
+   sources of the job's code path: code_keys.py), so a second run with the same inputs does no work,
+   adding a model reruns only its jobs, and the expensive ground truth is computed once per scene,
+   size, spp and seed and shared by every experiment. Jobs run through an executor (executors.py:
+   this machine, Dask or SLURM; jobexec.py runs one job); a timed job (truth, bake, render) runs
+   alone on its machine with every core and repeats R times; progress for the whole sweep (done /
+   total, elapsed, estimate) goes to stderr; a failing job is recorded in its rows (status "failed"
+   and voxlab's message) and never aborts the sweep.
 """
 import concurrent.futures as cf
 import csv
@@ -751,6 +753,7 @@ class Sweep:
         self.models = models_info(self.voxlab)
         self.all = {}  # key -> Job
         self.invalidated = []  # [{kind, label, changed}] reported by run()
+        self.legacy_entries = 0
         self.baseline_rss = None
 
     def _read_source(self, dest):
@@ -901,6 +904,8 @@ class Sweep:
                     rec = load_json(os.path.join(self.cache_dir, j.kind, n, "job.json"))
                 except (OSError, ValueError):
                     continue
+                if "identity" not in rec and rec.get("key") != j.key:
+                    self.legacy_entries += 1  # keyed by the whole binary (before code_keys.py)
                 if rec.get("identity") == j.identity and rec.get("key") != j.key:
                     changed = code_keys.changed_files(rec.get("code_files", {}), j.code_files)
                     out.append({"kind": j.kind, "label": j.label, "entry": n,
@@ -909,6 +914,10 @@ class Sweep:
         return out
 
     def _report_invalidated(self, inv):
+        if self.legacy_entries:
+            print(f"{self.name}: {self.legacy_entries} cache entr(ies) keyed by the whole voxlab binary (an older "
+                  f"version of this script) are not reused", file=sys.stderr, flush=True)
+            self.legacy_entries = 0
         groups = {}
         for x in inv:
             groups.setdefault((x["kind"], tuple(x["changed"][:4]), len(x["changed"])), []).append(x["label"])

@@ -121,7 +121,7 @@ def main():
             text = f.read()
         head = subprocess.run(["git", "-C", REPO, "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
         with open(hist, "w") as f:
-            f.write(text.replace(head, "0" * 40) if head else text)
+            f.write(text.replace(head[:8], "0" * 8) if head else text)  # the commit and its run id
     p = subprocess.run(dash, capture_output=True, text=True)
     index = os.path.join(out, "index.html")
     report("dashboard builds", p.returncode == 0 and os.path.isfile(index), p.stderr[-1500:])
