@@ -908,9 +908,11 @@ class Sweep:
                     self.legacy_entries += 1  # keyed by the whole binary (before code_keys.py)
                 if rec.get("identity") == j.identity and rec.get("key") != j.key:
                     changed = code_keys.changed_files(rec.get("code_files", {}), j.code_files)
-                    out.append({"kind": j.kind, "label": j.label, "entry": n,
-                                "changed": changed or ["(inputs recomputed: " + ", ".join(
-                                    sorted({d.kind for d in j.deps})) + ")"]})
+                    redo = sorted({d.kind for d in j.deps if d.status == "pending"})
+                    out.append({"kind": j.kind, "label": j.label, "entry": n, "changed": changed,
+                                "reason": f"{', '.join(changed[:4])}{' and more' if len(changed) > 4 else ''} "
+                                          f"changed" if changed else
+                                          f"its input {' and '.join(redo) or 'job'} is recomputed"})
         return out
 
     def _report_invalidated(self, inv):
@@ -920,11 +922,12 @@ class Sweep:
             self.legacy_entries = 0
         groups = {}
         for x in inv:
-            groups.setdefault((x["kind"], tuple(x["changed"][:4]), len(x["changed"])), []).append(x["label"])
-        for (kind, changed, n), labels in groups.items():
-            files = ", ".join(changed) + (f" and {n - len(changed)} more" if n > len(changed) else "")
-            print(f"{self.name}: invalidated {len(labels)} cached {kind} job(s) ({', '.join(labels[:3])}"
-                  f"{', ...' if len(labels) > 3 else ''}): {files} changed", file=sys.stderr, flush=True)
+            groups.setdefault((x["kind"], x["reason"]), []).append(x["label"])
+        for (kind, reason), labels in groups.items():
+            jobs = list(dict.fromkeys(labels))  # a job may have entries from several older versions
+            entries = f"{len(labels)} cached entries of " if len(labels) > len(jobs) else ""
+            print(f"{self.name}: invalidated {entries}{len(jobs)} cached {kind} job(s) ({', '.join(jobs[:3])}"
+                  f"{', ...' if len(jobs) > 3 else ''}): {reason}", file=sys.stderr, flush=True)
 
     def _place(self, job, places, busy, draining):
         """Where a ready job may start now, or None. A timed job needs a place where nothing runs;
