@@ -20,7 +20,6 @@ Three layers:
    total, elapsed, estimate) goes to stderr; a failing job is recorded in its rows (status "failed"
    and voxlab's message) and never aborts the sweep.
 """
-import concurrent.futures as cf
 import csv
 import datetime
 import fcntl
@@ -33,14 +32,10 @@ import os
 import platform
 import re
 import shutil
-import signal
 import subprocess
 import sys
-import tempfile
 import threading
 import time
-
-import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import code_keys  # noqa: E402
@@ -682,8 +677,8 @@ class Progress:
     job's predicted work (pixels x samples, voxels x rays) by the measured speed of finished jobs of
     the same kind and model, so a few slow vmesh bakes do not make the compares look slow."""
 
-    def __init__(self, name, jobs, workers):
-        self.name, self.jobs, self.workers = name, jobs, workers
+    def __init__(self, name, jobs, workers, machines=1):
+        self.name, self.jobs, self.workers, self.machines = name, jobs, workers, machines
         self.total, self.done, self.failed = len(jobs), 0, 0
         self.start = time.monotonic()
         self.lock = threading.Lock()
@@ -716,7 +711,9 @@ class Progress:
             left = [j for j in self.jobs if j.status == "pending"]
             est = [self._estimate(j) for j in left]
             if left and all(e is not None for e in est):
-                eta = f"~{fmt_duration(sum(est) / self.workers)} left"
+                # Timed jobs run one at a time per machine; untimed ones share the slots.
+                timed = sum(e for j, e in zip(left, est) if j.timed) / max(1, self.machines)
+                eta = f"~{fmt_duration(timed + sum(e for j, e in zip(left, est) if not j.timed) / self.workers)} left"
             else:
                 eta = "done" if not left else "estimating"
             elapsed = fmt_duration(time.monotonic() - self.start)
@@ -981,7 +978,7 @@ class Sweep:
               f"({', '.join(f'{p}: {n}' for p, n in places.items()) if ex.exclusive_by_sweep else 'SLURM places'}); "
               f"timed jobs alone on their machine, all its cores; voxlab sha256 {self.voxlab_sha256[:12]}",
               file=sys.stderr, flush=True)
-        prog = Progress(self.name, todo, slots)
+        prog = Progress(self.name, todo, slots, len(places) if ex.exclusive_by_sweep else slots)
         pending = list(todo)
         running = {}  # future -> (job, place)
         busy = {p: {"jobs": set(), "timed": False} for p in places}
@@ -1255,7 +1252,7 @@ def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
             row.update(status="failed", error=err)
             rows.append(row)
             continue
-        bs, rs, ms = stats(b), stats(r), stats(c, "metrics.json")
+        rs, ms = stats(r), stats(c, "metrics.json")
         row.update(
             status="ok", error="", mse=ms.get("mse"), psnr=ms.get("psnr"), ssim=ms.get("ssim"),
             **timing_columns(r, "render_ms", 1000.0), **timing_columns(b, "bake_s", 1.0),
