@@ -3,7 +3,7 @@
 
     /usr/bin/python3 experiments/dashboard.py [--results results] [--baseline results/baseline.json]
         [--history results/history.csv] [--experiments regress,table1] [--out results/dashboard]
-        [--voxlab build/voxlab] [--screenshot]
+        [--voxlab build/voxlab] [--screenshot] [--record-history]
 
 Reads what the other targets wrote (it runs nothing itself; `make dashboard` runs them first):
 <results>/<experiment>/rows.json for each experiment named, the baseline, the history, and the
@@ -20,6 +20,10 @@ can be copied or archived as it is. The page has:
     plots and figures when they exist;
   - the history over commits (results/history.csv): a chart drawn by matplotlib as inline SVG, and a
     table of the latest runs.
+
+--record-history (what `make dashboard` passes) first writes the shown experiments' current rows into
+the history, for those whose declaration says "history": true: one line per commit and configuration,
+a rerun at the same commit replacing its lines. Nothing else writes the history.
 
 The page is written into a temporary folder that replaces <out> when complete. --screenshot also
 saves <out>/screenshot.png with headless Chromium (Debian's chromium package) when it is installed.
@@ -267,13 +271,19 @@ def build(a):
     out = os.path.abspath(a.out or os.path.join(results_root, "dashboard"))
     tol = vr.load_declaration(a.tolerances)["tolerances"]
     baseline = vr.load_json(a.baseline) if a.baseline and os.path.exists(a.baseline) else None
-    history = vr.read_history(a.history or os.path.join(results_root, "history.csv"))
+    history_path = a.history or os.path.join(results_root, "history.csv")
     exps = [e.strip() for e in a.experiments.split(",") if e.strip()]
     loaded = {}
     for e in exps:
         p = os.path.join(results_root, e, "rows.json")
         if os.path.exists(p):
             loaded[e] = vr.load_json(p)
+    if a.record_history:
+        runs = [(d["meta"], d["rows"]) for d in loaded.values() if (d["meta"].get("settings") or {}).get("history")]
+        n = vr.record_history(history_path, runs, os.path.join(results_root, "cache"))
+        print(f"dashboard: history: {', '.join(m['experiment'] for m, _ in runs) or 'nothing'} recorded; "
+              f"{vr._rel(history_path, vr.REPO)} has {n} line(s)", file=sys.stderr)
+    history = vr.read_history(history_path)
     parent = os.path.dirname(out)
     os.makedirs(parent, exist_ok=True)
     tmp = tempfile.mkdtemp(prefix=os.path.basename(out) + ".tmp.", dir=parent)
@@ -355,8 +365,8 @@ def build(a):
                          f"</span></p>")
         page.add("<h2 id=history>History over commits</h2>")
         if not history:
-            page.add("<p class=small>no history yet (results/history.csv has no rows: <code>make regress</code> "
-                     "adds one per configuration and run)</p>")
+            page.add("<p class=small>no history yet (results/history.csv has no rows: <code>make dashboard</code> "
+                     "records one per commit and configuration)</p>")
         for e in dict.fromkeys(h["experiment"] for h in history):
             svg = history_svg(history, e)
             if svg:
@@ -418,6 +428,8 @@ def main(argv=None):
     ap.add_argument("--out", help="default <results>/dashboard")
     ap.add_argument("--voxlab", default=os.path.join(vr.REPO, "build", "voxlab"))
     ap.add_argument("--screenshot", action="store_true", help="also save <out>/screenshot.png (headless Chromium)")
+    ap.add_argument("--record-history", action="store_true",
+                    help="write the shown experiments' rows into the history first (make dashboard)")
     a = ap.parse_args(argv)
 
     def go():

@@ -8,25 +8,34 @@
 #   make dashboard-page  only the page, from whatever results exist (seconds)
 #   make baseline    store the regress run as the baseline (BASELINE_EXPERIMENTS="regress table1" for both)
 #   make experiments-clean-cache   delete results/cache (every cached voxlab job)
+#   make test-slurm  the cluster test on a one-node SLURM cluster it brings up on localhost
 #
-# Variables: EXP_JOBS=2 (voxlab processes at once), FRESH=1 (recompute every job: fresh timings),
-# EXP_VOXLAB=path (the binary to run; default build/voxlab).
-# Every job is cached under results/cache by the hash of its inputs (voxlab binary, scene files,
-# options), so a second run costs seconds; a rebuilt voxlab recomputes what it may change.
+# Variables: EXP_JOBS=2 (untimed jobs at once), FRESH=1 (recompute every job: fresh timings),
+# EXP_VOXLAB=path (the binary to run; default build/voxlab; it must be built from this checkout),
+# EXP_ARGS_EXTRA (e.g. "--executor dask --scheduler tcp://HOST:PORT", "--executor slurm").
+# Every job is cached under results/cache by the hash of what decides its output (scene files,
+# options, the sources of its code path: experiments/README.md), so a second run costs seconds and
+# a change reruns only the jobs whose code path it touches.
 
 EXP_PY := /usr/bin/python3
 EXP_JOBS ?= 2
 # EXP_VOXLAB: another binary, e.g. a snapshot in results/cache/bin/<hash>/voxlab, to finish a set of
-# results with the binary that started it while build/voxlab is being rebuilt.
+# results with the binary that started it while build/voxlab is being rebuilt; a sweep refuses a
+# binary older than the checkout's sources (the cache keys hash the sources, not the binary).
 EXP_VOXLAB ?= $(BUILD)/voxlab
-EXP_ARGS = --jobs $(EXP_JOBS) --voxlab $(EXP_VOXLAB) $(if $(filter 1,$(FRESH)),--fresh)
+# EXP_ARGS_EXTRA: more options for every script, e.g. "--executor dask --scheduler tcp://node1:8786".
+EXP_ARGS = --jobs $(EXP_JOBS) --voxlab $(EXP_VOXLAB) $(if $(filter 1,$(FRESH)),--force) $(EXP_ARGS_EXTRA)
 BASELINE_EXPERIMENTS ?= regress
 
 # chromium: tests/test_dashboard.py and the dashboard screenshot (headless); time: GNU time measures
-# the ground truth's peak memory (voxlab truth's stats do not report it).
-DEPS += chromium time
+# the ground truth's peak memory (voxlab truth's stats do not report it); python3-distributed: the
+# Dask executor (--executor dask) and tests/test_cluster.py's scheduler and workers.
+DEPS += chromium time python3-distributed
+# Only for `make test-slurm` (and --executor slurm on a machine that is its own cluster): SLURM's
+# daemons and clients, and munge for their authentication.
+SLURM_DEPS = slurm-wlm munge
 
-.PHONY: table1 pareto figures regress regress-run dashboard dashboard-page baseline experiments-clean-cache
+.PHONY: table1 pareto figures regress regress-run dashboard dashboard-page baseline experiments-clean-cache test-slurm
 
 # Every target first makes sure the packages and the binary are there (as `make test` does).
 define exp_prepare
@@ -56,7 +65,7 @@ regress-run:
 	-$(EXP_PY) experiments/regress.py $(EXP_ARGS)
 
 dashboard: regress-run table1 figures pareto
-	$(EXP_PY) experiments/dashboard.py --voxlab $(EXP_VOXLAB) --screenshot
+	$(EXP_PY) experiments/dashboard.py --voxlab $(EXP_VOXLAB) --screenshot --record-history
 
 dashboard-page:
 	$(EXP_PY) experiments/dashboard.py --voxlab $(EXP_VOXLAB) --screenshot
@@ -69,3 +78,13 @@ baseline:
 
 experiments-clean-cache:
 	rm -rf results/cache
+
+# A one-node SLURM cluster on localhost (munged, slurmctld, slurmd; config written by the test, torn
+# down after) runs the tiny declaration of tests/test_cluster.py; rows must equal the local
+# executor's. As root; about a minute. Not part of `make test` (it starts system daemons).
+test-slurm:
+	@$(MAKE) --no-print-directory deps DEPS="$(SLURM_DEPS)"
+	@$(MAKE) --no-print-directory deps
+	@$(MAKE) --no-print-directory $(BUILD)/voxlab
+	@t=$$(mktemp -d); VOXLAB=$(CURDIR)/$(BUILD)/voxlab TEST_TMP=$$t $(EXP_PY) tests/test_cluster.py --slurm; \
+	  rc=$$?; rm -rf $$t; exit $$rc

@@ -425,12 +425,13 @@ def main(argv=None):
         decls = {"grids": a.experiment, "view_angle": a.view_angle, "coverage": a.coverage, "dof": a.dof}
         loaded = {k: vr.load_declaration(decls[k]) for k in only}  # every declaration checked before any work
         cache = a.cache or os.path.join(results, "cache")
-        sw = vr.Sweep(a.voxlab, cache, jobs=a.jobs, fresh=a.fresh, name="figures")
+        sw = vr.Sweep(a.voxlab, cache, jobs=a.jobs, fresh=a.fresh, name="figures", executor=a.executor,
+                      scheduler=a.scheduler, slurm_args=a.slurm_args, repeats=a.repeats)
         md = ["# Figures", ""]
         for k in only:
             decl = loaded[k]
             sw.timeout = decl["timeout_s"]
-            meta, rows = vr.run_experiment(decl, results=results, cache_dir=cache, sweep=sw, record_history=False)
+            meta, rows = vr.run_experiment(decl, results=results, cache_dir=cache, sweep=sw)
             notes = []
             if k == "grids":
                 paths = grids(meta, rows, results, out)

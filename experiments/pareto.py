@@ -33,7 +33,8 @@ import voxlab_runner as vr  # noqa: E402
 AXES = [("render_ms", "mse"), ("render_ms", "one_minus_ssim"), ("mb", "mse"), ("mb", "one_minus_ssim")]
 LABEL = {"render_ms": "render time per frame (ms)", "mb": "memory (MB)", "mse": "MSE",
          "one_minus_ssim": "1 − SSIM"}
-CSV_FIELDS = ["scene", "series", "model", "res", "spp", "rays", "cache", "width", "height", "render_ms", "bake_s",
+CSV_FIELDS = ["scene", "series", "model", "res", "spp", "rays", "cache", "width", "height", "render_ms", "render_ms_min",
+              "render_ms_spread", "repeats", "loaded", "bake_s",
               "mb", "mse", "ssim", "one_minus_ssim", "psnr", "label", "status", "error"] + \
              [f"on_front_{x}_{y}" for x, y in AXES] + ["dominated_by_truth"]
 
@@ -62,9 +63,34 @@ def pareto_front(points, x, y):
     return front
 
 
+def truth_time_violations(truth):
+    """Pairs of truth points whose render time falls as spp rises beyond what the timing noise
+    explains: the higher spp's slowest repeat (min + spread) is faster than the lower spp's fastest
+    (its min). Physics says the time grows with the samples; [] when it does (within the spread)."""
+    pts = sorted((p for p in truth if p.get("render_ms_min") is not None), key=lambda p: p["spp"])
+    bad = []
+    for a in pts:
+        for b in pts:
+            if b["spp"] > a["spp"] and b["render_ms_min"] + (b["render_ms_spread"] or 0) < a["render_ms_min"]:
+                bad.append((a, b))
+    return bad
+
+
 def dominated_by_truth(p, truth):
     return any(t["render_ms"] <= p["render_ms"] and t["mse"] <= p["mse"] and t["one_minus_ssim"] <= p["one_minus_ssim"]
                for t in truth)
+
+
+def time_bars(ax, pts, x, y, colour):
+    """Horizontal bars over the range of a point's timed repeats (min to max) around its median."""
+    if x != "render_ms":
+        return
+    pts = [p for p in pts if p.get("render_ms_min") is not None and p.get("render_ms_spread") is not None]
+    if pts:
+        lo = [max(0.0, p["render_ms"] - p["render_ms_min"]) for p in pts]
+        hi = [max(0.0, p["render_ms_min"] + p["render_ms_spread"] - p["render_ms"]) for p in pts]
+        ax.errorbar([p[x] for p in pts], [p[y] for p in pts], xerr=[lo, hi], fmt="none", ecolor=colour, elinewidth=1,
+                    capsize=2.5, alpha=0.8)
 
 
 def plot_scene(scene, pts, models, out_stem, meta, decl):
@@ -84,6 +110,7 @@ def plot_scene(scene, pts, models, out_stem, meta, decl):
             line = sorted((p for p in mp if p["spp"] == 4 and p["rays"] == 150 and p["cache"]), key=lambda p: p["res"])
             if line:
                 ax.plot([p[x] for p in line], [p[y] for p in line], "-o", color=colours[m], ms=5, lw=1.3, label=m)
+                time_bars(ax, line, x, y, colours[m])
                 for p in line:
                     ax.annotate(f"{p['res']}", (p[x], p[y]), textcoords="offset points", xytext=(4, 3), fontsize=7,
                                 color=colours[m])
@@ -93,6 +120,7 @@ def plot_scene(scene, pts, models, out_stem, meta, decl):
                 marker = "s" if p["spp"] != 4 else "^" if p["rays"] != 150 else "D"
                 face = "none" if not p["cache"] else colours[m]
                 ax.plot(p[x], p[y], marker, color=colours[m], mfc=face, ms=6)
+                time_bars(ax, [p], x, y, colours[m])
                 short = " ".join(t for t in (f"{p['spp']}spp" if p["spp"] != 4 else "",
                                              f"{p['rays']}rays" if p["rays"] != 150 else "",
                                              "nocache" if not p["cache"] else "") if t)
@@ -102,6 +130,7 @@ def plot_scene(scene, pts, models, out_stem, meta, decl):
         if tr:
             ax.plot([p[x] for p in tr], [p[y] for p in tr], "-*", color="black", ms=8, lw=1.5,
                     label=f"truth (triangles), {tr[0]['spp']}–{tr[-1]['spp']} spp")
+            time_bars(ax, tr, x, y, "black")
             for p in tr:
                 ax.annotate(f"{p['spp']} spp", (p[x], p[y]), textcoords="offset points", xytext=(4, 4), fontsize=7)
         front = [usable[i] for i in pareto_front(usable, x, y)]
@@ -142,7 +171,8 @@ def build(meta, rows, decl, out):
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
     csv_rows, md = [], [f"# Error against cost ({meta['experiment']})", ""]
     md += [f"- {x}" for x in vr.settings_text(meta)]
-    md += ["", "Time = render ms per frame (bake excluded); memory = records + sparse grid (truth: see pareto.py). "
+    md += ["", "Time = render ms per frame (bake excluded; the median of the timed repeats, bars from the fastest "
+               "to the slowest); memory = records + sparse grid (truth: see pareto.py). "
                "A point is on a front when no other point is both cheaper and more accurate.", ""]
     for sc in scenes:
         pts = []
@@ -151,7 +181,9 @@ def build(meta, rows, decl, out):
                 continue
             p = {"scene": sc, "series": "truth" if r["kind"] == "truth" else r["model"], "model": r["model"],
                  "res": r["res"], "spp": r["spp"], "rays": r["rays"], "cache": r["cache"], "width": r["width"],
-                 "height": r["height"], "render_ms": r.get("render_ms"), "bake_s": r.get("bake_s"), "mb": r.get("mb"),
+                 "height": r["height"], "render_ms": r.get("render_ms"), "render_ms_min": r.get("render_ms_min"),
+                 "render_ms_spread": r.get("render_ms_spread"), "repeats": r.get("repeats"), "loaded": r.get("loaded"),
+                 "bake_s": r.get("bake_s"), "mb": r.get("mb"),
                  "mse": r.get("mse"), "ssim": r.get("ssim"),
                  "one_minus_ssim": 1.0 - r["ssim"] if r.get("ssim") is not None else None, "psnr": r.get("psnr"),
                  "label": point_label(r), "status": r["status"], "error": r.get("error", ""), "kind": r["kind"]}
@@ -174,6 +206,15 @@ def build(meta, rows, decl, out):
         md.append(f"- beaten by the brute-force truth (a truth render that is faster, lower MSE and higher SSIM): "
                   f"{', '.join(beaten) if beaten else 'none'}")
         md.append(f"- not beaten by any truth render: {', '.join(worth) if worth else 'none'}")
+        if len(truth) > 1:
+            bad = truth_time_violations(truth)
+            md.append("- truth render time against spp: " + (
+                "monotone within the spread (" + ", ".join(f"{p['spp']} spp {p['render_ms']:.3g} ms ± "
+                                                           f"{p['render_ms_spread'] or 0:.2g}" for p in
+                                                           sorted(truth, key=lambda p: p["spp"])) + ")"
+                if not bad else "NOT monotone beyond the spread: " + "; ".join(
+                    f"{b['spp']} spp ({b['render_ms_min']:.3g}–{b['render_ms_min'] + (b['render_ms_spread'] or 0):.3g}"
+                    f" ms) faster than {a['spp']} spp ({a['render_ms_min']:.3g} ms at best)" for a, b in bad)))
         failed = [p for p in pts if p["status"] != "ok"]
         if failed:
             md.append("- failed: " + "; ".join(f"{p['label']}: {p['error']}" for p in failed))
@@ -192,8 +233,7 @@ def main(argv=None):
 
     def go():
         decl = vr.load_declaration(a.experiment)
-        meta, rows = vr.run_experiment(decl, results=a.results, cache_dir=a.cache, voxlab=a.voxlab, jobs=a.jobs,
-                                       fresh=a.fresh)
+        meta, rows = vr.run_experiment(decl, **vr.sweep_args(a))
         out = os.path.join(os.path.abspath(a.results), decl["name"])
         build(meta, rows, decl, out)
         print(f"pareto: wrote {vr._rel(out, vr.REPO)}/pareto.csv, pareto.md, pareto_<scene>.png/.svg", file=sys.stderr)

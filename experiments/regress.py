@@ -82,7 +82,6 @@ def main(argv=None):
     vr.add_common_args(ap, experiment=DEFAULT_TOLERANCES)
     ap.add_argument("--baseline", default=os.path.join(vr.REPO, "results", "baseline.json"))
     ap.add_argument("--write-baseline", action="store_true", help="store this run as the baseline; do not compare")
-    ap.add_argument("--history", help="history CSV (default <results>/history.csv)")
     ap.add_argument("--allow-dirty", action="store_true",
                     help="let --write-baseline store a run of a checkout with uncommitted changes (its numbers "
                          "then belong to no commit: a fresh clone cannot reproduce them)")
@@ -107,8 +106,7 @@ def main(argv=None):
         elif not a.write_baseline:
             raise vr.VoxlabError(f"no baseline {a.baseline}: run `make baseline` (or this script with "
                                  f"--write-baseline) on a known-good commit and commit the file")
-        meta, rows = vr.run_experiment(decl, results=a.results, cache_dir=a.cache, voxlab=a.voxlab, jobs=a.jobs,
-                                       fresh=a.fresh, history=a.history)
+        meta, rows = vr.run_experiment(decl, **vr.sweep_args(a))
         out = os.path.join(os.path.abspath(a.results), decl["name"])
         if a.write_baseline:
             bad = [r for r in rows if r["status"] != "ok"]

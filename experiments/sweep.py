@@ -2,7 +2,8 @@
 """Runs one declared experiment (experiments/*.json) and writes its rows.
 
     /usr/bin/python3 experiments/sweep.py experiments/table1.json [--results results] [--cache DIR]
-        [--jobs 2] [--voxlab build/voxlab] [--fresh] [--out DIR] [--history FILE] [--check]
+        [--jobs 2] [--voxlab build/voxlab] [--force] [--repeats R] [--executor local|dask|slurm]
+        [--scheduler tcp://HOST:PORT] [--slurm-args ARGS] [--out DIR] [--check]
 
 Writes <out> (default <results>/<name>/): rows.csv and rows.json, one row per configuration (scene x
 model x resolution x parameters) with MSE, SSIM, timings and memory, or status "failed" and voxlab's
@@ -24,8 +25,6 @@ def main(argv=None):
     ap.add_argument("declaration", help="experiment declaration (JSON)")
     vr.add_common_args(ap)
     ap.add_argument("--out", help="output directory (default <results>/<name>)")
-    ap.add_argument("--history", help="history CSV to append to when the declaration asks (default "
-                                      "<results>/history.csv)")
     ap.add_argument("--check", action="store_true", help="only validate the declaration")
     a = ap.parse_args(argv)
 
@@ -34,8 +33,7 @@ def main(argv=None):
         if a.check:
             print(f"{decl['shown']}: ok ({len(decl['scenes'])} scene(s), {len(decl['runs'])} run(s))")
             return 0
-        vr.run_experiment(decl, results=a.results, cache_dir=a.cache, voxlab=a.voxlab, jobs=a.jobs, fresh=a.fresh,
-                          out_dir=a.out, history=a.history)
+        vr.run_experiment(decl, **vr.sweep_args(a), out_dir=a.out)
         return 0
 
     return vr.main_wrapper(go, "sweep")

@@ -26,8 +26,9 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import voxlab_runner as vr  # noqa: E402
 
 T1_FIELDS = ["scene", "res", "model", "mse", "ssim", "psnr", "best_mse", "best_ssim", "status", "error"]
-T2_FIELDS = ["scene", "res", "triangles", "voxels", "truth_s", "model", "bytes_per_voxel", "mb", "bake_s",
-             "render_ms", "peak_rss_mb", "status", "error"]
+T2_FIELDS = ["scene", "res", "triangles", "voxels", "truth_s", "truth_s_spread", "model", "bytes_per_voxel", "mb",
+             "bake_s", "bake_s_spread", "render_ms", "render_ms_min", "render_ms_spread", "repeats", "load", "loaded",
+             "peak_rss_mb", "status", "error"]
 
 
 def fmt_mse(v):
@@ -40,6 +41,13 @@ def fmt_ssim(v):
 
 def fmt_num(v, digits):
     return f"{v:.{digits}f}" if v is not None else "–"
+
+
+def fmt_spread(v, spread, digits, pm="±"):
+    """The median with its spread (max - min over the timed repeats) when there is one."""
+    if v is None:
+        return "–"
+    return f"{v:.{digits}f}" + (f" {pm} {spread:.{digits}f}" if spread else "")
 
 
 def tex_escape(s):
@@ -134,8 +142,11 @@ def build(meta, rows, decl, out):
     t2 = []
     for r in rows:
         t2.append({"scene": r["scene"], "res": r["res"], "triangles": r.get("triangles"), "voxels": r.get("voxels"),
-                   "truth_s": r.get("truth_s"), "model": r["model"], "bytes_per_voxel": r.get("bytes_per_voxel"),
-                   "mb": r.get("mb"), "bake_s": r.get("bake_s"), "render_ms": r.get("render_ms"),
+                   "truth_s": r.get("truth_s"), "truth_s_spread": r.get("truth_s_spread"), "model": r["model"],
+                   "bytes_per_voxel": r.get("bytes_per_voxel"), "mb": r.get("mb"), "bake_s": r.get("bake_s"),
+                   "bake_s_spread": r.get("bake_s_spread"), "render_ms": r.get("render_ms"),
+                   "render_ms_min": r.get("render_ms_min"), "render_ms_spread": r.get("render_ms_spread"),
+                   "repeats": r.get("repeats"), "load": r.get("load"), "loaded": r.get("loaded"),
                    "peak_rss_mb": r["peak_rss_bytes"] / 1e6 if r.get("peak_rss_bytes") else None,
                    "status": r["status"], "error": r.get("error", "")})
     vr.write_csv(os.path.join(out, "table2.csv"), t2, T2_FIELDS)
@@ -147,7 +158,8 @@ def build(meta, rows, decl, out):
     md2 += ["", "Triangles of the scene; voxels = non-empty voxels at that resolution; truth s = the "
                 f"ground truth's render time ({decl['truth_spp']} spp, same image size, same threads); per model: "
                 "MB = per-voxel records + sparse grid (10^6 bytes), bake s = sampling rays + building the "
-                "records, render ms = one frame (the voxel render alone, bake excluded).", ""]
+                "records, render ms = one frame (the voxel render alone, bake excluded). Times are the median of the "
+                "timed repeats ± their spread (max − min); * = measured under a load above the machine's cores.", ""]
     md2.append("| scene | res | triangles | voxels | truth s | " +
                " | ".join(f"{m} MB | {m} bake s | {m} render ms" for m in models) + " |")
     md2.append("|---|---:|---:|---:|---:|" + "---:|---:|---:|" * len(models))
@@ -173,6 +185,7 @@ def build(meta, rows, decl, out):
             vox = next((cell[(sc, n, m)]["voxels"] for m in models if (sc, n, m) in cell and
                         cell[(sc, n, m)].get("voxels") is not None), None)
             truth_s = any_r.get("truth_s") if any_r else None
+            truth_spread = any_r.get("truth_s_spread") if any_r else None
             mc, tc = [], []
             for m in models:
                 r = cell.get((sc, n, m))
@@ -184,13 +197,15 @@ def build(meta, rows, decl, out):
                     mc += [f, "", ""]
                     tc += [r"\multicolumn{3}{c}{failed$^{" + f.split("[")[1].rstrip("]") + "}$}"]
                 else:
-                    v = [fmt_num(r["mb"], 2), fmt_num(r["bake_s"], 2), fmt_num(r["render_ms"], 1)]
-                    mc += v
-                    tc += v
+                    star = "*" if r.get("loaded") else ""
+                    mc += [fmt_num(r["mb"], 2), fmt_spread(r["bake_s"], r.get("bake_s_spread"), 2) + star,
+                           fmt_spread(r["render_ms"], r.get("render_ms_spread"), 1) + star]
+                    tc += [fmt_num(r["mb"], 2), fmt_spread(r["bake_s"], r.get("bake_s_spread"), 2, r"$\pm$") + star,
+                           fmt_spread(r["render_ms"], r.get("render_ms_spread"), 1, r"$\pm$") + star]
             cells = [f"{tri:,}" if tri is not None else "–", f"{vox:,}" if vox is not None else "–",
-                     fmt_num(truth_s, 3)]
+                     fmt_spread(truth_s, truth_spread, 3)]
             md2.append(f"| {sc} | {n}³ | " + " | ".join(cells + mc) + " |")
-            tex2.append(f"{tex_escape(sc)} & {n}$^3$ & " + " & ".join(c.replace(",", "{,}") for c in cells) + " & "
+            tex2.append(f"{tex_escape(sc)} & {n}$^3$ & " + " & ".join(c.replace(",", "{,}").replace("±", r"$\pm$") for c in cells) + " & "
                         + " & ".join(tc) + r" \\")
     md2.append("")
     md2.append("Bytes per voxel: " + ", ".join(f"{m} {bpv.get(m, '?')}" for m in models) + ".")
@@ -216,8 +231,7 @@ def main(argv=None):
 
     def go():
         decl = vr.load_declaration(a.experiment)
-        meta, rows = vr.run_experiment(decl, results=a.results, cache_dir=a.cache, voxlab=a.voxlab, jobs=a.jobs,
-                                       fresh=a.fresh)
+        meta, rows = vr.run_experiment(decl, **vr.sweep_args(a))
         out = os.path.join(os.path.abspath(a.results), decl["name"])
         build(meta, rows, decl, out)
         print(f"table1: wrote {vr._rel(out, vr.REPO)}/table1.{{csv,md,tex}} and table2.{{csv,md,tex}}",

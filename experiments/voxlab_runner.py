@@ -11,14 +11,15 @@ Three layers:
    and a bad field is a DeclarationError that names the file and the field.
 3. The sweep engine (Sweep, run_experiment): the declared configurations become truth / bake /
    render / compare jobs; each job's outputs live in a cache directory keyed by the sha256 of
-   everything that can change them (the voxlab binary, the scene file and every file it references,
-   the options), so a second run with the same inputs does no work, and the expensive ground truth
-   is computed once per scene, size, spp and seed and shared by every experiment. Jobs run on a
-   thread pool (--jobs at a time, nproc / jobs voxlab threads each, so timings stay comparable);
-   progress for the whole sweep (done / total, elapsed, estimate) goes to stderr; a failing job is
-   recorded in its rows (status "failed" and voxlab's message) and never aborts the sweep.
+   everything that decides them (the scene file and every file it references, the options, the
+   sources of the job's code path: code_keys.py), so a second run with the same inputs does no work,
+   adding a model reruns only its jobs, and the expensive ground truth is computed once per scene,
+   size, spp and seed and shared by every experiment. Jobs run through an executor (executors.py:
+   this machine, Dask or SLURM; jobexec.py runs one job); a timed job (truth, bake, render) runs
+   alone on its machine with every core and repeats R times; progress for the whole sweep (done /
+   total, elapsed, estimate) goes to stderr; a failing job is recorded in its rows (status "failed"
+   and voxlab's message) and never aborts the sweep.
 """
-import concurrent.futures as cf
 import csv
 import datetime
 import fcntl
@@ -31,14 +32,15 @@ import os
 import platform
 import re
 import shutil
-import signal
 import subprocess
 import sys
-import tempfile
 import threading
 import time
 
-import numpy as np
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import code_keys  # noqa: E402
+import executors  # noqa: E402
+import jobexec  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SEED = 1
@@ -139,70 +141,10 @@ def run_voxlab(voxlab, args):
     return p.stdout
 
 
-GNU_TIME = "/usr/bin/time"  # Debian's `time` package (experiments.mk adds it to DEPS)
-_running = set()  # process groups of running children, killed if the script is interrupted
-_running_lock = threading.Lock()
-
-
-def kill_running():
-    with _running_lock:
-        for pid in list(_running):
-            try:
-                os.killpg(pid, signal.SIGKILL)
-            except OSError:
-                pass
-
-
-def run_measured(cmd, timeout=None):
-    """Runs cmd; returns (stdout, stderr, exit status, wall seconds, peak RSS bytes or None).
-
-    The peak RSS comes from GNU time, not from our own wait4: a child forked from this Python process
-    inherits its high-water mark (numpy, matplotlib, OpenImageIO: 150 MB) before it execs voxlab,
-    and ru_maxrss keeps that. GNU time forks voxlab from a small process. Output goes through
-    temporary files, not pipes, so a chatty child never blocks on a full pipe. Each child gets its
-    own process group so that a timeout (status -SIGKILL) or an interrupted script can kill
-    voxlab and not just the time wrapper."""
-    with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err, \
-            tempfile.NamedTemporaryFile(mode="r", suffix=".rss") as rss_file:
-        timed = os.access(GNU_TIME, os.X_OK)
-        full = [GNU_TIME, "-f", "%M", "-o", rss_file.name, *cmd] if timed else list(cmd)
-        t0 = time.monotonic()
-        p = subprocess.Popen(full, stdout=out, stderr=err, stdin=subprocess.DEVNULL, start_new_session=True)
-        with _running_lock:
-            _running.add(p.pid)
-        killed = []
-
-        def kill():
-            killed.append(True)
-            try:
-                os.killpg(p.pid, signal.SIGKILL)
-            except OSError:
-                pass
-
-        timer = threading.Timer(timeout, kill) if timeout else None
-        if timer:
-            timer.start()
-        try:
-            rc = p.wait()
-        finally:
-            if timer:
-                timer.cancel()
-            with _running_lock:
-                _running.discard(p.pid)
-        wall = time.monotonic() - t0
-        lines = rss_file.read().split("\n") if timed else []
-        rss = None
-        for line in lines:
-            if line.strip().isdigit():
-                rss = int(line) * 1024  # kilobytes
-            m = re.match(r"Command terminated by signal (\d+)", line)
-            if m:
-                rc = -int(m[1])  # GNU time reports the child's signal as 128 + N; say it like Popen
-        if killed:
-            rc = -signal.SIGKILL
-        out.seek(0)
-        err.seek(0)
-        return out.read().decode(errors="replace"), err.read().decode(errors="replace"), rc, wall, rss
+# Running a job (GNU time, process groups, timeouts) lives in jobexec, which every executor calls.
+GNU_TIME = jobexec.GNU_TIME
+run_measured = jobexec.run_measured
+kill_running = jobexec.kill_running
 
 
 def models_info(voxlab):
@@ -227,30 +169,9 @@ def list_models(voxlab):
 # Images
 
 
-def read_exr(path):
-    import OpenImageIO as oiio
-
-    inp = oiio.ImageInput.open(path)
-    if inp is None:
-        raise VoxlabError(f"cannot read {path}: {oiio.geterror()}")
-    px = np.asarray(inp.read_image(oiio.FLOAT), dtype=np.float64)
-    inp.close()
-    return px
-
-
-def srgb8(linear):
-    """Linear RGB -> 8-bit sRGB, the same curve and rounding as voxlab's PNG writer
-    (image_linear_to_srgb8), so previews match `voxlab ... -o x.png`."""
-    x = np.nan_to_num(linear[..., :3], nan=0.0)
-    x = np.clip(x, 0.0, 1.0)
-    s = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
-    return np.floor(s * 255.0 + 0.5).astype(np.uint8)
-
-
-def exr_to_png(exr, png):
-    from PIL import Image
-
-    save_png(Image.fromarray(srgb8(read_exr(exr)), "RGB"), png)
+read_exr = jobexec.read_exr
+srgb8 = jobexec.srgb8
+exr_to_png = jobexec.exr_to_png
 
 
 def label_font(size):
@@ -555,7 +476,7 @@ def load_declaration(path):
     except ValueError as e:
         raise DeclarationError(f"{shown}: not valid JSON: {e}")
     known = {"name", "description", "seed", "truth_spp", "scenes", "runs", "truth_curve", "history", "timeout_s",
-             "tolerances", "figure", "comment"}
+             "tolerances", "figure", "comment", "repeats", "bake_repeats"}
     c.obj(d, "", known, required=("name", "scenes", "runs"))
     decl = {
         "path": path,
@@ -566,6 +487,8 @@ def load_declaration(path):
         "truth_spp": c.int_(d.get("truth_spp", 1024), "truth_spp", 1, 1 << 20),
         "history": c.bool_(d.get("history", False), "history"),
         "timeout_s": c.num(d.get("timeout_s", 1800), "timeout_s", 1),
+        "repeats": c.int_(d.get("repeats", 5), "repeats", 1, 100),  # timed truth and render runs
+        "bake_repeats": c.int_(d.get("bake_repeats", 1), "bake_repeats", 1, 100),
         "figure": d.get("figure", {}),
         "raw": d,
     }
@@ -728,13 +651,28 @@ def expand_configs(decl, model_names):
 # The sweep engine
 
 
-class Job:
-    """One voxlab invocation whose outputs live in a cache directory named by its inputs' hash."""
+TIMED_KINDS = ("truth", "bake", "render")  # their times enter tables and plots: measured alone
+TIMING_FIELD = {"truth": "seconds", "bake": "bake_seconds", "render": "seconds"}  # in voxlab's --stats
 
-    def __init__(self, kind, label, inputs, deps, cost, calib):
+
+class Job:
+    """One voxlab invocation whose outputs live in a cache directory named by its inputs' hash.
+
+    key: sha256 of everything that decides the outputs (kind, options, scene fingerprint, the code
+    path's sources, the keys of the jobs it reads). identity: the same without the code and with the
+    dependencies' identities: an entry with this identity and another key is an invalidated one."""
+
+    def __init__(self, kind, label, inputs, deps, cost, calib, code):
         self.kind, self.label, self.inputs, self.deps = kind, label, inputs, deps
-        self.key = sha256_of({"kind": kind, **inputs})
+        self.code_hash, self.code_files = code[0], code[1]
+        ids = {d.key: d.identity for d in deps}
+        public = {k: ids.get(v, v) if isinstance(v, str) else v for k, v in inputs.items() if not k.startswith("_")}
+        self.identity = sha256_of({"kind": kind, **public})
+        self.key = sha256_of({"kind": kind, "code": self.code_hash, **{k: v for k, v in inputs.items()
+                                                                        if not k.startswith("_")}})
         self.cost, self.calib = cost, calib  # estimated work and the group whose speed predicts it
+        self.timed = kind in TIMED_KINDS
+        self.repeats = 1
         self.dir = None
         self.status = "pending"  # pending | cached | ok | failed | skipped
         self.error = None
@@ -744,14 +682,18 @@ class Job:
     def path(self, name):
         return os.path.join(self.dir, name)
 
+    def timing(self):
+        """{runs, min, median, spread} of the job's timed runs (seconds), else None."""
+        return (self.record or {}).get("timing")
+
 
 class Progress:
     """Done / total, elapsed and an estimate for the jobs that have to run. The estimate scales each
     job's predicted work (pixels x samples, voxels x rays) by the measured speed of finished jobs of
     the same kind and model, so a few slow vmesh bakes do not make the compares look slow."""
 
-    def __init__(self, name, jobs, workers):
-        self.name, self.jobs, self.workers = name, jobs, workers
+    def __init__(self, name, jobs, workers, machines=1):
+        self.name, self.jobs, self.workers, self.machines = name, jobs, workers, machines
         self.total, self.done, self.failed = len(jobs), 0, 0
         self.start = time.monotonic()
         self.lock = threading.Lock()
@@ -784,7 +726,9 @@ class Progress:
             left = [j for j in self.jobs if j.status == "pending"]
             est = [self._estimate(j) for j in left]
             if left and all(e is not None for e in est):
-                eta = f"~{fmt_duration(sum(est) / self.workers)} left"
+                # Timed jobs run one at a time per machine; untimed ones share the slots.
+                timed = sum(e for j, e in zip(left, est) if j.timed) / max(1, self.machines)
+                eta = f"~{fmt_duration(timed + sum(e for j, e in zip(left, est) if not j.timed) / self.workers)} left"
             else:
                 eta = "done" if not left else "estimating"
             elapsed = fmt_duration(time.monotonic() - self.start)
@@ -799,15 +743,29 @@ class Sweep:
     loads from beside itself): colleagues rebuild build/voxlab all day, and one sweep must not mix two
     binaries, nor hash one binary and run another."""
 
-    def __init__(self, voxlab, cache_dir, jobs=2, fresh=False, name="sweep", timeout=1800):
+    def __init__(self, voxlab, cache_dir, jobs=2, fresh=False, name="sweep", timeout=1800, executor="local",
+                 scheduler=None, slurm_args="", repeats=None):
         self.cache_dir = os.path.abspath(cache_dir)
         self.jobs = max(1, jobs)
-        self.threads = max(1, (os.cpu_count() or 1) // self.jobs)
+        # Untimed jobs (compares) run with one thread; a timed job has its machine to itself and
+        # every core of it (jobexec).
+        self.threads = os.cpu_count() or 1
         self.fresh, self.name, self.timeout = fresh, name, timeout
+        self.repeats_override = repeats
+        self.executor_name, self.scheduler, self.slurm_args = executor, scheduler, slurm_args
+        self.executor = None  # made on the first run(): a Dask client connects then
         self.source = None
+        stale = code_keys.newer_sources(os.path.abspath(voxlab))
+        if stale:
+            # The keys hash the sources: a binary older than them would file its outputs under code it
+            # does not contain.
+            raise VoxlabError(f"--voxlab {voxlab} is older than {len(stale)} source file(s) ({', '.join(stale[:3])}"
+                              f"{', ...' if len(stale) > 3 else ''}): run `make` first")
         self.voxlab, self.voxlab_sha256 = self._snapshot(os.path.abspath(voxlab))
         self.models = models_info(self.voxlab)
         self.all = {}  # key -> Job
+        self.invalidated = []  # [{kind, label, changed}] reported by run()
+        self.legacy_entries = 0
         self.baseline_rss = None
 
     def _read_source(self, dest):
@@ -857,8 +815,8 @@ class Sweep:
 
     # -- job constructors --------------------------------------------------------------------------
 
-    def _job(self, kind, label, inputs, deps, cost, calib):
-        j = Job(kind, label, {"voxlab": self.voxlab_sha256, **inputs}, deps, cost, calib)
+    def _job(self, kind, label, inputs, deps, cost, calib, model=None):
+        j = Job(kind, label, inputs, deps, cost, calib, code_keys.code_key(kind, model))
         if j.key in self.all:
             return self.all[j.key]
         j.dir = os.path.join(self.cache_dir, kind, f"{_slug(label)[:80]}-{j.key[:16]}")
@@ -876,7 +834,7 @@ class Sweep:
         return self._job("bake", f"{scene_name}-{model}-r{res}-k{rays}-seed{seed}",
                          {"scene": scene_fingerprint(scene_path, for_bake=True), "model": model, "res": res,
                           "rays": rays, "seed": seed, "_scene_path": scene_path, "_scene_name": scene_name},
-                         [], res * res * rays, ("bake", model))
+                         [], res * res * rays, ("bake", model), model)
 
     def render(self, bake, scene_path, scene_name, size, spp, seed, cache, shadow_skip):
         w, h = size
@@ -886,7 +844,7 @@ class Sweep:
                          {"bake": bake.key, "scene": scene_fingerprint(scene_path), "size": [w, h], "spp": spp,
                           "seed": seed, "cache": cache, "shadow_skip": shadow_skip, "_scene_path": scene_path,
                           "_scene_name": scene_name, "_model": b["model"], "_res": b["res"]},
-                         [bake], w * h * spp, ("render", b["model"]))
+                         [bake], w * h * spp, ("render", b["model"]), b["model"])
 
     def compare(self, ref, img):
         # A compare's time is mostly voxlab starting and reading two files: one unit each.
@@ -895,92 +853,110 @@ class Sweep:
 
     # -- execution ---------------------------------------------------------------------------------
 
-    def _complete(self, job):
-        rec_path = job.path("job.json")
-        try:
-            with open(rec_path) as f:
-                rec = json.load(f)
-        except (OSError, ValueError):
-            return None
-        if rec.get("key") != job.key or not all(os.path.isfile(job.path(o)) for o in rec.get("outputs", [])):
-            return None
-        return rec
-
-    def _command(self, job, tmp):
+    def _command(self, job):
+        """voxlab's arguments; "{tmp}" is the job's output folder and "{threads}" its thread count,
+        both filled in where the job runs (jobexec)."""
         i = job.inputs
-        t = ["--threads", self.threads]
+        out, stats = "{tmp}/image.exr", "{tmp}/stats.json"
+        t = ["--threads", "{threads}"]
         if job.kind == "truth":
             w, h = i["size"]
             return ["truth", i["_scene_path"], "--spp", i["spp"], "--size", f"{w}x{h}", "--seed", i["seed"], *t,
-                    "-o", os.path.join(tmp, "image.exr"), "--stats", os.path.join(tmp, "stats.json")]
+                    "-o", out, "--stats", stats]
         if job.kind == "bake":
             return ["bake", i["_scene_path"], "--model", i["model"], "--res", i["res"], "--rays", i["rays"],
-                    "--seed", i["seed"], *t, "-o", os.path.join(tmp, "model.vox"),
-                    "--stats", os.path.join(tmp, "stats.json")]
+                    "--seed", i["seed"], *t, "-o", "{tmp}/model.vox", "--stats", stats]
         if job.kind == "render":
             w, h = i["size"]
             return ["render", i["_scene_path"], "--model", i["_model"], "--vox", job.deps[0].path("model.vox"),
                     "--spp", i["spp"], "--size", f"{w}x{h}", "--seed", i["seed"], *t,
                     *([] if i["cache"] else ["--no-cache"]), *([] if i["shadow_skip"] else ["--no-shadow-skip"]),
-                    "-o", os.path.join(tmp, "image.exr"), "--stats", os.path.join(tmp, "stats.json")]
+                    "-o", out, "--stats", stats]
         if job.kind == "compare":
             # No --heatmap: it costs `voxlab compare` as much again as the metrics, and the figures
             # draw their own heat maps on one scale per scene (voxlab scales each to its own maximum).
             return ["compare", job.deps[0].path("image.exr"), job.deps[1].path("image.exr"), "--json"]
         raise AssertionError(job.kind)
 
-    def _execute(self, job):
-        """Runs one job into a temporary directory and renames it into place when everything is
-        written (job.json last), so a killed run never leaves an entry that looks complete."""
-        tmp = f"{job.dir}.tmp.{os.getpid()}.{threading.get_ident()}"
-        shutil.rmtree(tmp, ignore_errors=True)
-        os.makedirs(tmp)
-        try:
-            cmd = [self.voxlab, *map(str, self._command(job, tmp))]
-            load = os.getloadavg()[0]  # how busy the machine was: other processes inflate the timing
-            out, err, rc, wall, rss = run_measured(cmd, self.timeout)
-            if rc != 0:
-                why = (f"killed by {signal.Signals(-rc).name}" if rc < 0 and -rc in signal.valid_signals()
-                       else f"exit status {rc}")
-                if rc == -signal.SIGKILL and wall >= self.timeout * 0.99:
-                    why = f"timed out after {self.timeout:.0f} s"
-                msg = err.strip().splitlines()
-                raise VoxlabError(f"voxlab {job.kind} {why}: " + (msg[-1] if msg else "(no message)"),
-                                  " ".join(cmd), err.strip())
-            outputs = []
-            if job.kind in ("truth", "render"):
-                exr_to_png(os.path.join(tmp, "image.exr"), os.path.join(tmp, "image.png"))
-                outputs = ["image.exr", "image.png", "stats.json"]
-            elif job.kind == "bake":
-                outputs = ["model.vox", "stats.json"]
-            elif job.kind == "compare":
-                metrics = json.loads(out)
-                write_json(os.path.join(tmp, "metrics.json"), metrics)
-                outputs = ["metrics.json"]
-            rec = {"key": job.key, "kind": job.kind, "label": job.label,
-                   "inputs": {k: v for k, v in job.inputs.items() if not k.startswith("_")},
-                   "command": [os.path.basename(cmd[0]), *cmd[1:]], "outputs": outputs, "wall_seconds": wall,
-                   "peak_rss_bytes": rss, "threads": self.threads, "date": now_iso(), "host": platform.node(),
-                   "load_average": load}
-            write_json(os.path.join(tmp, "job.json"), rec)
-            if os.path.exists(job.dir):  # --fresh, or an incomplete entry: replace it
-                trash = f"{job.dir}.old.{os.getpid()}.{threading.get_ident()}"
-                os.rename(job.dir, trash)
-                shutil.rmtree(trash, ignore_errors=True)
-            try:
-                os.rename(tmp, job.dir)
-            except OSError:
-                if self._complete(job) is None:  # nobody else completed it either
-                    raise
-                shutil.rmtree(tmp, ignore_errors=True)
-            return rec, wall
-        except BaseException:
-            shutil.rmtree(tmp, ignore_errors=True)
-            raise
+    def spec(self, job):
+        """The plain dict an executor hands to jobexec.execute (see there)."""
+        outputs = {"truth": ["image.exr", "image.png", "stats.json"], "render": ["image.exr", "image.png", "stats.json"],
+                   "bake": ["model.vox", "stats.json"], "compare": ["metrics.json"]}[job.kind]
+        return {"key": job.key, "identity": job.identity, "kind": job.kind, "label": job.label, "dir": job.dir,
+                "cmd": [self.voxlab, *map(str, self._command(job))], "outputs": outputs, "timed": job.timed,
+                "repeats": job.repeats if job.timed else 1, "timing_field": TIMING_FIELD.get(job.kind),
+                "threads": 1, "timeout": self.timeout, "code_files": job.code_files,
+                "inputs": {k: v for k, v in job.inputs.items() if not k.startswith("_")},
+                "voxlab_sha256": self.voxlab_sha256, "executor": self.executor_name}
+
+    def _complete(self, job):
+        return jobexec.complete({"dir": job.dir, "key": job.key, "repeats": job.repeats if job.timed else 1})
+
+    def _invalidated(self, todo):
+        """Cache entries of the jobs about to run that have the same identity (kind, options, scene,
+        dependencies) and another key: their code changed. Returns [{kind, label, changed}]."""
+        by_kind = {}
+        out = []
+        for j in todo:
+            entries = by_kind.setdefault(j.kind, None)
+            if entries is None:
+                entries = {}
+                try:
+                    names = os.listdir(os.path.join(self.cache_dir, j.kind))
+                except OSError:
+                    names = []
+                for n in names:
+                    if ".tmp." not in n and ".old." not in n and "-" in n:
+                        entries.setdefault(n.rsplit("-", 1)[0], []).append(n)
+                by_kind[j.kind] = entries
+            for n in entries.get(_slug(j.label)[:80], []):
+                if n == os.path.basename(j.dir):
+                    continue
+                try:
+                    rec = load_json(os.path.join(self.cache_dir, j.kind, n, "job.json"))
+                except (OSError, ValueError):
+                    continue
+                if "identity" not in rec and rec.get("key") != j.key:
+                    self.legacy_entries += 1  # keyed by the whole binary (before code_keys.py)
+                if rec.get("identity") == j.identity and rec.get("key") != j.key:
+                    changed = code_keys.changed_files(rec.get("code_files", {}), j.code_files)
+                    redo = sorted({d.kind for d in j.deps if d.status == "pending"})
+                    out.append({"kind": j.kind, "label": j.label, "entry": n, "changed": changed,
+                                "reason": f"{', '.join(changed[:4])}{' and more' if len(changed) > 4 else ''} "
+                                          f"changed" if changed else
+                                          f"its input {' and '.join(redo) or 'job'} is recomputed"})
+        return out
+
+    def _report_invalidated(self, inv):
+        if self.legacy_entries:
+            print(f"{self.name}: {self.legacy_entries} cache entr(ies) keyed by the whole voxlab binary (an older "
+                  f"version of this script) are not reused", file=sys.stderr, flush=True)
+            self.legacy_entries = 0
+        groups = {}
+        for x in inv:
+            groups.setdefault((x["kind"], x["reason"]), []).append(x["label"])
+        for (kind, reason), labels in groups.items():
+            jobs = list(dict.fromkeys(labels))  # a job may have entries from several older versions
+            entries = f"{len(labels)} cached entries of " if len(labels) > len(jobs) else ""
+            print(f"{self.name}: invalidated {entries}{len(jobs)} cached {kind} job(s) ({', '.join(jobs[:3])}"
+                  f"{', ...' if len(jobs) > 3 else ''}): {reason}", file=sys.stderr, flush=True)
+
+    def _place(self, job, places, busy, draining):
+        """Where a ready job may start now, or None. A timed job needs a place where nothing runs;
+        an untimed one a free slot on a place that runs no timed job and is not being emptied for
+        one."""
+        if not self.executor.exclusive_by_sweep:
+            return next(iter(places))
+        free = [p for p, n in places.items() if not busy[p]["timed"] and len(busy[p]["jobs"]) < n]
+        if job.timed:
+            free = [p for p in free if not busy[p]["jobs"]]
+        else:
+            free = [p for p in free if p not in draining]
+        return min(free, key=lambda p: len(busy[p]["jobs"])) if free else None
 
     def run(self, wanted):
-        """Runs every job `wanted` needs (dependencies first), `self.jobs` at a time. Returns the
-        counts. Failures are recorded on the jobs (status, error) and skip their dependants."""
+        """Runs every job `wanted` needs (dependencies first) on the executor. Returns the counts.
+        Failures are recorded on the jobs (status, error) and skip their dependants."""
         order, seen = [], set()
 
         def visit(j):
@@ -1004,13 +980,23 @@ class Sweep:
                 todo.append(j)
         # A compare or render whose inputs are all cached still runs if its own entry is missing.
         os.makedirs(self.cache_dir, exist_ok=True)
-        print(f"{self.name}: {len(todo)} job(s) to run, {len(order) - len(todo)} cached; {self.jobs} at a time, "
-              f"{self.threads} voxlab thread(s) each; voxlab sha256 {self.voxlab_sha256[:12]}", file=sys.stderr,
-              flush=True)
-        prog = Progress(self.name, todo, self.jobs)
+        inv = self._invalidated(todo)
+        self.invalidated += inv
+        self._report_invalidated(inv)
+        if self.executor is None:
+            self.executor = executors.make_executor(self.executor_name, jobs=self.jobs, scheduler=self.scheduler,
+                                                    slurm_args=self.slurm_args, cache_dir=self.cache_dir)
+        ex = self.executor
+        places = ex.places()
+        slots = sum(places.values()) if ex.exclusive_by_sweep else len(todo) or 1
+        print(f"{self.name}: {len(todo)} job(s) to run, {len(order) - len(todo)} cached; executor {ex.name} "
+              f"({', '.join(f'{p}: {n}' for p, n in places.items()) if ex.exclusive_by_sweep else 'SLURM places'}); "
+              f"timed jobs alone on their machine, all its cores; voxlab sha256 {self.voxlab_sha256[:12]}",
+              file=sys.stderr, flush=True)
+        prog = Progress(self.name, todo, slots, len(places) if ex.exclusive_by_sweep else slots)
         pending = list(todo)
-        running = {}
-        pool = cf.ThreadPoolExecutor(max_workers=self.jobs)
+        running = {}  # future -> (job, place)
+        busy = {p: {"jobs": set(), "timed": False} for p in places}
         try:
             while pending or running:
                 # Skip what can no longer run; start the costliest ready jobs (bakes gate renders).
@@ -1023,28 +1009,54 @@ class Sweep:
                         prog.finished(j, None, f"skipped {j.kind} {j.label}: needs {bad[0].kind} {bad[0].label}")
                 ready = sorted((j for j in pending if all(d.status in ("ok", "cached") for d in j.deps)),
                                key=lambda j: -j.cost)
-                while ready and len(running) < self.jobs:
-                    j = ready.pop(0)
-                    pending.remove(j)
-                    running[pool.submit(self._execute, j)] = j
+                if ex.exclusive_by_sweep:
+                    draining = set()
+                    for j in ready:
+                        p = self._place(j, places, busy, draining)
+                        if p is None:
+                            if j.timed and not draining:
+                                # Empty the least busy place for it: nothing new starts there.
+                                draining.add(min(places, key=lambda q: len(busy[q]["jobs"])))
+                            continue
+                        pending.remove(j)
+                        busy[p]["jobs"].add(j.key)
+                        busy[p]["timed"] = busy[p]["timed"] or j.timed
+                        running[ex.submit(self.spec(j), p)] = (j, p)
+                elif ready:  # SLURM: one array per kind and timing class; --exclusive for the timed
+                    groups = {}
+                    for j in ready:
+                        groups.setdefault((j.kind, j.timed), []).append(j)
+                    for (kind, timed), js in groups.items():
+                        for j, f in zip(js, ex.submit_batch([self.spec(j) for j in js], exclusive=timed)):
+                            pending.remove(j)
+                            running[f] = (j, "slurm")
                 if not running:
                     if pending:  # cannot happen with a dependency-ordered list; never spin
                         raise AssertionError(f"jobs stuck: {[j.label for j in pending]}")
                     continue
-                done, _ = cf.wait(running, return_when=cf.FIRST_COMPLETED)
-                for f in done:
-                    j = running.pop(f)
+                for f in ex.wait(list(running)):
+                    j, p = running.pop(f)
+                    if p in busy:
+                        busy[p]["jobs"].discard(j.key)
+                        if j.timed:
+                            busy[p]["timed"] = False
                     j.ran = True
                     try:
-                        j.record, wall = f.result()
+                        j.record = f.result()
+                        wall = j.record["wall_seconds"]
                         j.status = "ok"
-                        prog.finished(j, wall, f"{j.kind} {j.label} ({wall:.1f} s)")
-                    except VoxlabError as e:
+                        t = j.timing()
+                        shown = (f"median {t['median']:.3g} s of {len(t['runs'])}, spread {t['spread']:.2g} s"
+                                 if t else f"{wall:.1f} s")
+                        flag = f"; LOAD {j.record['load_average']:.1f} > {j.record['cores']} cores" \
+                            if j.record.get("loaded") and j.timed else ""
+                        prog.finished(j, wall * (len(t["runs"]) if t else 1), f"{j.kind} {j.label} ({shown}{flag})")
+                    except (VoxlabError, jobexec.JobFailed) as e:
                         j.status, j.error = "failed", str(e.args[0])
                         detail = f"\n    command: {e.args[1]}\n    " + e.args[2].replace("\n", "\n    ") \
                             if len(e.args) > 2 else ""
                         prog.finished(j, None, f"FAILED {j.kind} {j.label}: {j.error}{detail}")
-                    except Exception as e:  # a broken image or stats file: still this job's failure
+                    except Exception as e:  # a broken image or stats file, a lost worker: this job's failure
                         j.status, j.error = "failed", f"{type(e).__name__}: {e}"
                         prog.finished(j, None, f"FAILED {j.kind} {j.label}: {j.error}")
         except BaseException:
@@ -1052,11 +1064,14 @@ class Sweep:
             # otherwise go on rendering after we exit.
             kill_running()
             raise
-        finally:
-            pool.shutdown(wait=True, cancel_futures=True)
         failed = sum(j.status in ("failed", "skipped") for j in todo)
         return {"jobs": len(order), "ran": sum(j.ran for j in todo), "cached": len(order) - len(todo),
-                "failed": failed, "seconds": time.monotonic() - prog.start}
+                "failed": failed, "invalidated": len(inv), "seconds": time.monotonic() - prog.start}
+
+    def close(self):
+        if self.executor is not None:
+            self.executor.close()
+            self.executor = None
 
     def baseline_memory(self):
         """Peak RSS of a voxlab process that loads no scene (`voxlab models`): subtracted from the
@@ -1076,7 +1091,8 @@ def load_json(path):
 
 ROW_FIELDS = ["experiment", "scene", "base_scene", "variant", "kind", "model", "res", "width", "height", "spp", "rays",
               "cache", "shadow_skip", "seed", "truth_spp", "status", "error", "mse", "psnr", "ssim", "render_s",
-              "render_ms", "bake_s", "bytes_per_voxel", "voxels", "model_bytes", "grid_bytes", "mb",
+              "render_ms", "render_ms_min", "render_ms_spread", "repeats", "bake_s", "bake_s_min", "bake_s_spread",
+              "truth_s_min", "truth_s_spread", "load", "loaded", "bytes_per_voxel", "voxels", "model_bytes", "grid_bytes", "mb",
               "peak_rss_bytes", "cache_hits", "model_evals", "triangles", "truth_s", "image", "preview",
               "truth_image", "truth_preview", "computed", "jobs_cached"]
 
@@ -1088,10 +1104,52 @@ def row_key(r):
                                      f"truth{r['truth_spp']}", f"seed{r['seed']}"))
 
 
+def wanted_all(wanted):
+    """The jobs `wanted` and everything they depend on, once each."""
+    out, seen, todo = [], set(), list(wanted)
+    while todo:
+        j = todo.pop()
+        if j.key not in seen:
+            seen.add(j.key)
+            out.append(j)
+            todo += j.deps
+    return out
+
+
 def _load_summary(jobs):
     loads = [j.record["load_average"] for j in jobs if j.record and "load_average" in j.record]
     return {"mean": sum(loads) / len(loads) if loads else None, "max": max(loads) if loads else None,
             "jobs": len(loads), "unrecorded": len(jobs) - len(loads)}
+
+
+def timing_columns(job, name, scale):
+    """`name` (the median of the job's timed runs, scaled: 1000 for ms), `name`_min and `name`_spread
+    (max - min), and render_s beside render_ms; None where the job has no timing."""
+    t = job.timing() if job is not None else None
+    if t is None:  # an entry from before repeats were recorded: its one time, no spread
+        st = {}
+        try:
+            st = load_json(job.path("stats.json"))
+        except (OSError, ValueError, TypeError, AttributeError):
+            pass
+        v = st.get(TIMING_FIELD.get(getattr(job, "kind", ""), ""))
+        t = {"median": v, "min": v, "spread": None, "runs": [v]} if v is not None else None
+    med = t["median"] * scale if t else None
+    out = {name: med, f"{name}_min": t["min"] * scale if t else None,
+           f"{name}_spread": t["spread"] * scale if t and t["spread"] is not None else None}
+    if name == "render_ms":
+        out["render_s"] = t["median"] if t else None
+        out["repeats"] = len(t["runs"]) if t else None
+    return out
+
+
+def load_columns(*jobs):
+    """The highest 1-minute load average seen while the row's timed jobs ran, and whether any of them
+    ran under a load above its machine's cores (its times are then inflated)."""
+    recs = [j.record for j in jobs if j is not None and j.record and j.timed]
+    loads = [max(r.get("load_average") or 0, r.get("load_after") or 0) for r in recs if "load_average" in r]
+    return {"load": max(loads) if loads else None,
+            "loaded": int(any(r.get("loaded") for r in recs)) if recs else None}
 
 
 def _rel(path, root):
@@ -1101,18 +1159,27 @@ def _rel(path, root):
 
 
 def run_experiment(decl, results=DEFAULT_RESULTS, cache_dir=None, voxlab=None, jobs=2, fresh=False, out_dir=None,
-                   history=None, sweep=None, record_history=True):
+                   sweep=None, executor="local", scheduler=None, slurm_args="", repeats=None):
     """Runs a loaded declaration; writes <results>/<name>/rows.csv and rows.json; returns (meta, rows).
 
-    Row paths are relative to `results`. With decl["history"] the rows are also appended to
-    <results>/history.csv (or `history`), unless record_history is false (a script that only
-    needs another experiment's rows, as figures.py needs Table 1's, is not a run of it)."""
+    Row paths are relative to `results`. Nothing is appended to results/history.csv here: `make
+    dashboard` records the history (dashboard.py --record-history), one row per commit and job."""
     results = os.path.abspath(results)
     cache_dir = os.path.abspath(cache_dir or os.path.join(results, "cache"))
     out_dir = os.path.abspath(out_dir or os.path.join(results, decl["name"]))
     started, date = time.monotonic(), now_iso()
+    own = sweep is None
     sw = sweep or Sweep(voxlab or os.path.join(REPO, "build", "voxlab"), cache_dir, jobs=jobs, fresh=fresh,
-                        name=decl["name"], timeout=decl["timeout_s"])
+                        name=decl["name"], timeout=decl["timeout_s"], executor=executor, scheduler=scheduler,
+                        slurm_args=slurm_args, repeats=repeats)
+    try:
+        return _run_experiment(decl, sw, results, cache_dir, out_dir, started, date)
+    finally:
+        if own:
+            sw.close()
+
+
+def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
     sw.name = decl["name"]
     model_names = [m["name"] for m in sw.models]
     seed, truth_spp = decl["seed"], decl["truth_spp"]
@@ -1156,6 +1223,12 @@ def run_experiment(decl, results=DEFAULT_RESULTS, cache_dir=None, voxlab=None, j
                 t = sw.truth(s["path"], s["name"], size, spp, tc["seed"])
                 curve.append((s, size, spp, ref, t, sw.compare(ref, t)))
     wanted = [j for p in plan for j in p[1:] if j] + [j for c in curve for j in c[3:]]
+    # Timed jobs repeat their voxlab run R times (declared; --repeats overrides); bakes are a one-off
+    # precomputation and repeat bake_repeats times.
+    for j in wanted + [d for j in wanted for d in j.deps]:
+        if j.timed:
+            r = sw.repeats_override or (decl["bake_repeats"] if j.kind == "bake" else decl["repeats"])
+            j.repeats = max(j.repeats, r) if j.status == "pending" else j.repeats
     counts = sw.run(wanted)
 
     def stats(job, name="stats.json"):
@@ -1188,17 +1261,17 @@ def run_experiment(decl, results=DEFAULT_RESULTS, cache_dir=None, voxlab=None, j
             continue
         err = first_failure(t, b, r, c)
         ts = stats(t) if t.status in ("ok", "cached") else {}
-        row.update(triangles=ts.get("triangles"), truth_s=ts.get("seconds"),
+        row.update(triangles=ts.get("triangles"), **timing_columns(t, "truth_s", 1.0),
                    truth_image=_rel(t.path("image.exr"), results), truth_preview=_rel(t.path("image.png"), results))
         if err:
             row.update(status="failed", error=err)
             rows.append(row)
             continue
-        bs, rs, ms = stats(b), stats(r), stats(c, "metrics.json")
+        rs, ms = stats(r), stats(c, "metrics.json")
         row.update(
             status="ok", error="", mse=ms.get("mse"), psnr=ms.get("psnr"), ssim=ms.get("ssim"),
-            render_s=rs.get("seconds"), render_ms=1000.0 * rs["seconds"] if "seconds" in rs else None,
-            bake_s=bs.get("bake_seconds"), bytes_per_voxel=rs.get("bytes_per_voxel"), voxels=rs.get("voxels"),
+            **timing_columns(r, "render_ms", 1000.0), **timing_columns(b, "bake_s", 1.0),
+            **load_columns(t, b, r), bytes_per_voxel=rs.get("bytes_per_voxel"), voxels=rs.get("voxels"),
             model_bytes=rs.get("model_bytes"), grid_bytes=rs.get("grid_bytes"),
             mb=(rs["model_bytes"] + rs["grid_bytes"]) / 1e6 if "model_bytes" in rs and "grid_bytes" in rs else None,
             peak_rss_bytes=rs.get("peak_rss_bytes"), cache_hits=rs.get("cache_hits"),
@@ -1219,8 +1292,7 @@ def run_experiment(decl, results=DEFAULT_RESULTS, cache_dir=None, voxlab=None, j
         ts, ms = stats(t), stats(c, "metrics.json")
         rss = (t.record or {}).get("peak_rss_bytes")
         row.update(status="ok", error="", seed=decl["truth_curve"]["seed"], mse=ms.get("mse"), psnr=ms.get("psnr"),
-                   ssim=ms.get("ssim"), render_s=ts.get("seconds"),
-                   render_ms=1000.0 * ts["seconds"] if "seconds" in ts else None, bake_s=0.0,
+                   ssim=ms.get("ssim"), **timing_columns(t, "render_ms", 1000.0), **load_columns(t), bake_s=0.0,
                    triangles=ts.get("triangles"), peak_rss_bytes=rss,
                    # Triangles' memory: voxlab reports mesh_bytes when it can, else peak RSS minus a
                    # process that loads no scene (mesh + BVH + framebuffer: an overestimate).
@@ -1243,12 +1315,17 @@ def run_experiment(decl, results=DEFAULT_RESULTS, cache_dir=None, voxlab=None, j
         # Other processes on the machine slow the timed jobs down: say how busy it was when the
         # jobs behind these rows ran (recorded per job, so cached jobs keep their own).
         "load_average": _load_summary([j for j in sw.all.values() if j.kind in ("bake", "render", "truth")]),
+        "executor": sw.executor_name, "repeats": sw.repeats_override or decl["repeats"],
+        "bake_repeats": sw.repeats_override or decl["bake_repeats"],
+        "invalidated": [x for x in sw.invalidated if x["kind"]],
+        # Timed jobs measured while the machine's load exceeded its cores: their times are inflated.
+        "loaded_jobs": sorted(f"{j.kind} {j.label} (load {max(j.record.get('load_average') or 0, j.record.get('load_after') or 0):.1f}"
+                              f" on {j.record.get('cores')} cores)" for j in wanted_all(wanted)
+                              if j.timed and j.record and j.record.get("loaded")),
     }
     os.makedirs(out_dir, exist_ok=True)
     write_csv(os.path.join(out_dir, "rows.csv"), rows, ROW_FIELDS)
     write_json(os.path.join(out_dir, "rows.json"), {"meta": meta, "rows": rows})
-    if decl["history"] and record_history:
-        append_history(history or os.path.join(results, "history.csv"), meta, rows, cache_dir)
     bad = [r for r in rows if r["status"] != "ok"]
     print(f"{decl['name']}: {len(rows)} row(s), {len(bad)} failed; {counts['ran']} job(s) ran, {counts['cached']} "
           f"cached, in {fmt_duration(meta['elapsed_s'])}; wrote {_rel(out_dir, REPO)}/rows.csv", file=sys.stderr,
@@ -1266,31 +1343,45 @@ HISTORY_FIELDS = ["run_id", "date", "commit", "dirty", "experiment", "scene", "m
                   "host", "voxlab_sha256"]
 
 
-def append_history(path, meta, rows, lock_dir):
-    """One line per configuration of this run, each with the run's id and commit. The whole file is
-    rewritten under a lock (temp + rename) so concurrent runs neither interleave nor lose lines."""
+HISTORY_KEY = ["commit", "experiment", "scene", "model", "res", "width", "height", "spp", "rays", "cache"]
+
+
+def _history_cell(v):
+    return "" if v is None else repr(v) if isinstance(v, float) else str(v)
+
+
+def record_history(path, runs, lock_dir):
+    """Writes the rows of each (meta, rows) run into the history: one line per commit and job
+    (configuration), the newest run's numbers replacing an older line for the same commit and job
+    (and any duplicates an older version of this function appended). Only `make dashboard` calls this
+    (dashboard.py --record-history): running an experiment never touches the history. The whole file
+    is rewritten under a lock (temp + rename), so concurrent writers neither interleave nor lose lines.
+    Returns the number of lines written."""
     os.makedirs(lock_dir, exist_ok=True)
-    g = meta["git"]
-    # Two runs can start in the same second; the process id keeps their ids apart.
-    run_id = f"{meta['date']}-{g['commit'][:8]}-{meta['experiment']}-{os.getpid()}"
     with open(os.path.join(lock_dir, "history.lock"), "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
-        text = ""
-        if os.path.exists(path):
-            with open(path, newline="") as f:
-                text = f.read()
-        header = next(csv.reader([text.splitlines()[0]])) if text.strip() else HISTORY_FIELDS
+        old = read_history(path)
+        header = list(HISTORY_FIELDS) + [k for k in (old[0].keys() if old else []) if k not in HISTORY_FIELDS]
+        lines = {}
+        for h in old:
+            lines[tuple(h.get(k, "") for k in HISTORY_KEY)] = h
+        for meta, rows in runs:
+            g = meta["git"]
+            run_id = f"{meta['date']}-{g['commit'][:8]}-{meta['experiment']}"
+            for r in rows:
+                h = {k: _history_cell(v) for k, v in r.items() if k in header}
+                h.update(run_id=run_id, date=meta["date"], commit=g["commit"], dirty=str(int(g["dirty"])),
+                         host=meta["machine"]["host"], voxlab_sha256=meta["voxlab_sha256"][:12])
+                key = tuple(h.get(k, "") for k in HISTORY_KEY)
+                lines.pop(key, None)  # re-inserted last: the file stays in the order runs happened
+                lines[key] = h
         buf = io.StringIO()
-        w = csv.DictWriter(buf, fieldnames=header, lineterminator="\n", extrasaction="ignore")
-        if not text.strip():
-            w.writeheader()
-        elif not text.endswith("\n"):
-            buf.write("\n")
-        for r in rows:
-            w.writerow({**{k: ("" if v is None else repr(v) if isinstance(v, float) else v) for k, v in r.items()},
-                        "run_id": run_id, "date": meta["date"], "commit": g["commit"], "dirty": int(g["dirty"]),
-                        "host": meta["machine"]["host"], "voxlab_sha256": meta["voxlab_sha256"][:12]})
-        write_text(path, text + buf.getvalue())
+        w = csv.DictWriter(buf, fieldnames=header, lineterminator="\n", extrasaction="ignore", restval="")
+        w.writeheader()
+        for h in lines.values():
+            w.writerow(h)
+        write_text(path, buf.getvalue())
+        return len(lines)
 
 
 def read_history(path):
@@ -1376,15 +1467,26 @@ def add_common_args(ap, experiment=None):
     ap.add_argument("--experiment", default=experiment, help="declaration (default %(default)s)")
     ap.add_argument("--results", default=DEFAULT_RESULTS, help="results root (default results/)")
     ap.add_argument("--cache", help="job cache (default <results>/cache)")
-    ap.add_argument("--jobs", type=int, default=2, help="voxlab processes at once (default 2)")
+    ap.add_argument("--jobs", type=int, default=2, help="untimed jobs at a time on this machine (default 2)")
     ap.add_argument("--voxlab", default=os.path.join(REPO, "build", "voxlab"), help="voxlab binary")
-    ap.add_argument("--fresh", action="store_true", help="recompute every job (fresh timings), replacing the cache")
+    ap.add_argument("--force", "--fresh", dest="fresh", action="store_true",
+                    help="recompute every job (fresh timings), replacing its cache entry")
+    ap.add_argument("--repeats", type=int, help="timed runs per timed job (default: the declaration's, else 5)")
+    ap.add_argument("--executor", choices=["local", "dask", "slurm"], default="local",
+                    help="where jobs run: this machine (default), a Dask scheduler, a SLURM cluster")
+    ap.add_argument("--scheduler", help="--executor dask: the scheduler's address, tcp://HOST:PORT")
+    ap.add_argument("--slurm-args", default="", help="--executor slurm: extra sbatch options, one string")
+
+
+def sweep_args(a):
+    """run_experiment's keyword arguments from add_common_args' options."""
+    return {"results": a.results, "cache_dir": a.cache, "voxlab": a.voxlab, "jobs": a.jobs, "fresh": a.fresh,
+            "executor": a.executor, "scheduler": a.scheduler, "slurm_args": a.slurm_args, "repeats": a.repeats}
 
 
 def experiment_from_args(a, **kw):
     decl = load_declaration(a.experiment)
-    return run_experiment(decl, results=a.results, cache_dir=a.cache, voxlab=a.voxlab, jobs=a.jobs, fresh=a.fresh,
-                          **kw)
+    return run_experiment(decl, **sweep_args(a), **kw)
 
 
 def main_wrapper(fn, prog):
@@ -1394,7 +1496,7 @@ def main_wrapper(fn, prog):
     except DeclarationError as e:
         print(f"{prog}: error: {e}", file=sys.stderr)
         return 2
-    except VoxlabError as e:
+    except (VoxlabError, executors.ExecutorError) as e:
         print(f"{prog}: error: {e.args[0]}", file=sys.stderr)
         return 1
 
@@ -1411,27 +1513,35 @@ def load_text(meta):
     la = meta.get("load_average") or {}
     if not isinstance(la, dict) or not la.get("jobs"):
         return "machine load while the jobs ran: not recorded"
-    return (f"machine load (1-minute average) when the timed jobs started: mean {la['mean']:.1f}, max "
+    loaded = meta.get("loaded_jobs") or []
+    return (f"machine load (1-minute average) around the timed jobs: mean {la['mean']:.1f}, max "
             f"{la['max']:.1f} on {meta['machine']['nproc']} cores" +
             (f" ({la['unrecorded']} older jobs not recorded)" if la.get("unrecorded") else "") +
-            (f"; above the sweep's own {meta['jobs']} jobs other processes shared the cores and the times are "
-             f"inflated" if la["max"] > meta["jobs"] + 0.5 else ""))
+            (f"; FLAGGED: {len(loaded)} timed job(s) measured under a load above their machine's cores, their "
+             f"times are inflated: {', '.join(loaded[:5])}{', ...' if len(loaded) > 5 else ''}" if loaded else
+             "; no timed job ran under a load above its cores"))
 
 
 def settings_text(meta):
     """The lines every table and page states: date, machine, commit, binary, job layout, cache use."""
     g, c = meta["git"], meta["counts"]
+    rep = meta.get("repeats")
     lines = [
         f"date: {meta['date']}",
         f"machine: {machine_text(meta['machine'])}",
         f"git commit: {g['text']}",
         f"voxlab sha256: {meta['voxlab_sha256'][:16]} ({source_text(meta.get('voxlab_source'))}); models: "
         f"{', '.join(m['name'] for m in meta['models'])}",
-        f"declaration: {meta['declaration']}; {meta['jobs']} job(s) at a time, {meta['threads']} voxlab thread(s) "
-        f"each (times are {'single' if meta['threads'] == 1 else str(meta['threads']) + '-'}-threaded)",
+        f"declaration: {meta['declaration']}; executor {meta.get('executor', 'local')}, {meta['jobs']} untimed "
+        f"job(s) at a time; " + (f"each timed job (truth, bake, render) alone on its machine with all its cores "
+                                 f"({meta['threads']} here), its voxlab run repeated {rep} times (bakes "
+                                 f"{meta.get('bake_repeats')}): times are the median, ± the spread (max − min)"
+                                 if rep else f"{meta['threads']} voxlab thread(s) each"),
         load_text(meta),
-        f"jobs: {c['ran']} ran now, {c['cached']} reused from the cache (same binary, scene files and options"
-        + (f"; the oldest from {meta['oldest_cached']}: its timings are from that run" if meta["oldest_cached"]
-           else "") + ")",
+        f"jobs: {c['ran']} ran now, {c['cached']} reused from the cache (same code path sources, scene files and "
+        f"options" + (f"; the oldest from {meta['oldest_cached']}: its timings are from that run"
+                      if meta["oldest_cached"] else "") + ")" +
+        (f"; {len(meta['invalidated'])} cached job(s) invalidated by changed sources and rerun"
+         if meta.get("invalidated") else ""),
     ]
     return lines

@@ -111,8 +111,18 @@ def main():
            "regression" in p.stderr, p.stderr[-800:])
 
     out = os.path.join(results, "dashboard")
-    p = subprocess.run([PY, os.path.join(EXP, "dashboard.py"), "--results", results, "--baseline", baseline,
-                        "--experiments", "tiny", "--voxlab", VOXLAB, "--out", out], capture_output=True, text=True)
+    dash = [PY, os.path.join(EXP, "dashboard.py"), "--results", results, "--baseline", baseline,
+            "--experiments", "tiny", "--voxlab", VOXLAB, "--out", out, "--record-history"]
+    # Two commits in the history: record this run, pretend it was an earlier commit's, record again.
+    subprocess.run(dash, capture_output=True, text=True)
+    hist = os.path.join(results, "history.csv")
+    if os.path.exists(hist):
+        with open(hist) as f:
+            text = f.read()
+        head = subprocess.run(["git", "-C", REPO, "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
+        with open(hist, "w") as f:
+            f.write(text.replace(head[:8], "0" * 8) if head else text)  # the commit and its run id
+    p = subprocess.run(dash, capture_output=True, text=True)
     index = os.path.join(out, "index.html")
     report("dashboard builds", p.returncode == 0 and os.path.isfile(index), p.stderr[-1500:])
     if not os.path.isfile(index):

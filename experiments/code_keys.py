@@ -1,0 +1,196 @@
+"""Which source files decide a job's output: the code part of a sweep job's cache key.
+
+A cache entry must be recomputed when the code that produced it changes, and only then: adding a
+model must not re-render the ten 1024-spp ground truths, and editing the truth renderer must not
+re-bake every model. So a job's key holds the sha256 of the sources on its code path, not of the
+whole binary (experiments/README.md, "What a cache key holds"):
+
+- every job: the compiler (`gcc --version`) and the Makefile's compile-flag lines (OPT, CFLAGS, ...).
+- truth: tracer/ and scenes/generators/ (scene loading, meshes, textures, images, Embree ray
+  casting, the truth renderer, the CLI) without the voxel-only translation units in VOXEL_ONLY; of
+  the headers only those the remaining files include (directly or not); plus Embree's version.
+- bake and render of model M: tracer/ and scenes/generators/ without the truth-only units in
+  TRUTH_ONLY, models/model.h, and M's own files: models/<m>.c, models/<m>_*.c (vmesh's bake, faces,
+  subgrid...) and every models/ header those include. models/registry.c (one line per model) and the
+  other models' files are not part of it: adding a model leaves every other model's entries valid.
+- compare: tracer/ and scenes/generators/ (metrics, image readers).
+
+The lists are conservative by default: a new file in tracer/ belongs to every code path until it is
+named here. tests/test_cache_keys.py checks them against the linker's view (no unit a code path
+leaves out defines a symbol that one it keeps refers to), independently of these rules.
+Nothing in experiments/ is part of a key: the scripts do not change voxlab's outputs.
+"""
+import glob
+import hashlib
+import os
+import re
+import subprocess
+import threading
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+INCLUDE_DIRS = ["tracer", "models", "scenes/generators"]  # the Makefile's -I order
+EMBREE_HEADER = "/usr/include/embree3/rtcore_config.h"
+
+# Translation units only voxel jobs (bake, render, compare) run: never part of a truth's key.
+# (cmd_bake.c stays in: it defines peak_rss_bytes, which the truth's stats report; the linker check in
+# tests/test_cache_keys.py found it.)
+VOXEL_ONLY = ["tracer/bake.c", "tracer/cmd_render.c", "tracer/cmd_compare.c",
+              "tracer/cone_light_cache.c", "tracer/cone_skip.c", "tracer/grid.c", "tracer/grid_traverse.c",
+              "tracer/metrics.c", "tracer/opencl_backend.c", "tracer/opencl_cone.c", "tracer/opencl_program.c",
+              "tracer/opencl_runtime.c", "tracer/render.c", "tracer/render_cone.c", "tracer/tribox.c",
+              "tracer/voxfile.c", "tracer/cl/*"]
+# Translation units only the truth runs: never part of a model job's key.
+# (cmd_truth.c is not: it defines the --stats helpers every command uses.)
+TRUTH_ONLY = ["tracer/truth.c", "tracer/truth.h"]
+SOURCE_EXT = (".c", ".h", ".cpp", ".cl")
+_INCLUDE_RE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)
+_memo, _lock = {}, threading.Lock()
+
+
+def _rel(p):
+    return os.path.relpath(p, REPO)
+
+
+def _expand(patterns):
+    out = set()
+    for p in patterns:
+        out.update(_rel(x) for x in glob.glob(os.path.join(REPO, p)))
+    return out
+
+
+def tracer_sources():
+    """Every source under tracer/ (kernels in tracer/cl included) and scenes/generators/."""
+    out = set()
+    for top in ("tracer", "scenes/generators"):
+        for root, _, files in os.walk(os.path.join(REPO, top)):
+            out.update(_rel(os.path.join(root, f)) for f in files if f.endswith(SOURCE_EXT))
+    return out
+
+
+def includes(path):
+    """Repo-relative files `#include "..."`d by path, resolved as the compiler does (the file's own
+    folder first, then the -I folders)."""
+    try:
+        with open(os.path.join(REPO, path), errors="replace") as f:
+            names = _INCLUDE_RE.findall(f.read())
+    except OSError:
+        return set()
+    out = set()
+    for n in names:
+        for d in [os.path.dirname(path), *INCLUDE_DIRS]:
+            cand = os.path.normpath(os.path.join(d, n))
+            if os.path.isfile(os.path.join(REPO, cand)):
+                out.add(cand)
+                break
+    return out
+
+
+def include_closure(files):
+    seen, todo = set(files), list(files)
+    while todo:
+        for inc in includes(todo.pop()):
+            if inc not in seen:
+                seen.add(inc)
+                todo.append(inc)
+    return seen
+
+
+def _headers_of(units, pool):
+    """The units plus the headers of `pool` they include, directly or through other headers."""
+    return {f for f in include_closure(units) if f in pool or f in units}
+
+
+def model_stem(model):
+    return model.replace("-", "_")
+
+
+def model_sources(model):
+    """models/<m>.c, models/<m>_*.c and the models/ headers they include (model.h among them)."""
+    stem = model_stem(model)
+    units = {_rel(p) for p in glob.glob(os.path.join(REPO, "models", stem + ".c")) +
+             glob.glob(os.path.join(REPO, "models", stem + "_*.c"))}
+    return {f for f in include_closure(units | {"models/model.h"}) if f.startswith("models/")
+            and os.path.isfile(os.path.join(REPO, f))}
+
+
+def code_files(kind, model=None):
+    """Sorted repo-relative paths whose contents decide the output of a job of this kind."""
+    tracer = tracer_sources()
+    if kind == "truth":
+        units = {f for f in tracer - _expand(VOXEL_ONLY) if not f.endswith(".h")}
+        return sorted(_headers_of(units, tracer) - _expand(VOXEL_ONLY))
+    if kind in ("bake", "render"):
+        return sorted((tracer - _expand(TRUTH_ONLY)) | model_sources(model))
+    if kind == "compare":
+        return sorted(tracer)
+    raise ValueError(kind)
+
+
+def file_sha256(path):
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _tool_versions():
+    """The compiler, the Makefile's flag lines, Embree's version: what changes code without a source."""
+    flags = []
+    try:
+        with open(os.path.join(REPO, "Makefile")) as f:
+            flags = [ln.rstrip() for ln in f if re.match(r"(OPT|CFLAGS|CXXFLAGS|SANFLAGS|INCLUDES|NOWARN)\s", ln)]
+    except OSError:
+        pass
+    try:
+        gcc = subprocess.run(["gcc", "--version"], capture_output=True, text=True).stdout.splitlines()[0]
+    except (OSError, IndexError):
+        gcc = "unknown"
+    embree = "unknown"
+    try:
+        with open(EMBREE_HEADER) as f:
+            m = re.search(r'#define\s+RTC_VERSION_STRING\s+"([^"]+)"', f.read())
+            embree = m[1] if m else embree
+    except OSError:
+        pass
+    return {"gcc": gcc, "makefile_flags": flags, "embree": embree}
+
+
+def code_key(kind, model=None):
+    """(sha256 of the code path, {path: sha256} of its files, tool versions) for a job kind, memoised
+    for the life of the process (a sweep hashes each file once)."""
+    with _lock:
+        if (kind, model) in _memo:
+            return _memo[(kind, model)]
+        if "tools" not in _memo:
+            _memo["tools"] = _tool_versions()
+    files = {p: file_sha256(os.path.join(REPO, p)) for p in code_files(kind, model)}
+    tools = dict(_memo["tools"])
+    if kind != "truth":
+        tools.pop("embree")  # the voxel path casts no Embree ray
+    h = hashlib.sha256(repr((sorted(files.items()), sorted(tools.items()))).encode()).hexdigest()
+    with _lock:
+        _memo[(kind, model)] = (h, files, tools)
+    return _memo[(kind, model)]
+
+
+def newer_sources(binary):
+    """Sources (tracer/, models/, scenes/generators/) modified after the binary was built: keys from
+    them would describe code the binary does not contain."""
+    try:
+        built = os.stat(binary).st_mtime
+    except OSError:
+        return []
+    out = []
+    for top in ("tracer", "models", "scenes/generators"):
+        for root, _, files in os.walk(os.path.join(REPO, top)):
+            for f in files:
+                p = os.path.join(root, f)
+                if f.endswith(SOURCE_EXT) and os.stat(p).st_mtime > built + 1:
+                    out.append(_rel(p))
+    return sorted(out)
+
+
+def changed_files(old, new):
+    """Paths whose hash differs between two {path: sha256} maps (added and removed files too)."""
+    return sorted(p for p in set(old) | set(new) if old.get(p) != new.get(p))

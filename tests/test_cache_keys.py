@@ -1,0 +1,169 @@
+"""Cache keys follow each job's code path (experiments/code_keys.py), checked two ways.
+
+1. Against the linker: the units a code path leaves out (VOXEL_ONLY for the truth, TRUTH_ONLY for
+   model jobs, other models' files for a model) define no symbol that a unit it keeps refers to
+   (`nm` on the objects `make` built). main.c, the command dispatcher, refers to every command, and
+   another command's cmd_*.c is kept only for shared helpers: their references are not followed.
+2. On a sweep, in a scratch copy of the sources (the voxlab binary copied beside them, so no rebuild):
+   adding a model reruns nothing of the others; editing a model's source reruns exactly that model's
+   bake, render and compare, and says which file invalidated them; editing the truth renderer reruns
+   the truth and the compares, not the bakes and renders; editing the tracer's voxel code reruns
+   every model job but not the truth; --force reruns everything; and sources newer than the binary
+   are refused."""
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from testlib import REPO, TMP, VOXLAB, finish, report  # noqa: E402
+
+sys.path.insert(0, os.path.join(REPO, "experiments"))
+import code_keys  # noqa: E402
+
+BUILD = os.path.join(REPO, os.environ.get("BUILD", "build"))
+PY = "/usr/bin/python3"
+
+
+def symbols(obj, defined):
+    p = subprocess.run(["nm", "--defined-only" if defined else "--undefined-only", "-g", obj],
+                       capture_output=True, text=True)
+    return {line.split()[-1] for line in p.stdout.splitlines() if line.strip()}
+
+
+def obj_of(src):
+    return os.path.join(BUILD, src + ".o")
+
+
+def linker_checks():
+    units = [f for f in code_keys.tracer_sources() | {os.path.relpath(p, REPO) for p in
+                                                         __import__("glob").glob(os.path.join(REPO, "models", "*.c"))}
+             if f.endswith((".c", ".cpp")) and os.path.isfile(obj_of(f))]
+    if not units:
+        report("objects built (make)", False, f"no objects under {BUILD}")
+        return
+    defined = {u: symbols(obj_of(u), True) for u in units}
+    needed = {u: symbols(obj_of(u), False) for u in units}
+
+    def leaks(kept, left_out, own_command):
+        # main.c dispatches to every command, and another command's cmd_*.c is kept only for the
+        # helpers it shares (stats, peak RSS): a job runs its own command alone, so their references
+        # are not followed (a check at the granularity of units, not functions).
+        skip = {k for k in kept if k == "tracer/main.c" or (k.startswith("tracer/cmd_") and k not in own_command)}
+        return sorted((k, l, s) for k in kept if k not in skip for l in left_out for s in needed[k] & defined[l])
+
+    truth = set(code_keys.code_files("truth"))
+    kept, out = [u for u in units if u in truth], [u for u in units if u not in truth]
+    bad = leaks(kept, out, {"tracer/cmd_truth.c"})
+    report("truth: the units its key leaves out define nothing its units use", kept and not bad, str(bad[:5]))
+    for m in ("binary", "alpha", "vmesh", "heitz-neyret"):
+        files = set(code_keys.code_files("render", m))
+        kept, out = [u for u in units if u in files], [u for u in units if u not in files and u != "models/registry.c"]
+        bad = leaks(kept, out, {"tracer/cmd_bake.c", "tracer/cmd_render.c", "tracer/cmd_compare.c"})
+        report(f"{m}: the units its key leaves out define nothing its units use",
+               any(k.startswith("models/") for k in kept) and not bad, str(bad[:5]))
+    report("a model's key holds no other model's file and not the registry",
+           "models/vmesh.c" not in code_keys.code_files("render", "alpha") and
+           "models/registry.c" not in code_keys.code_files("render", "alpha") and
+           "models/alpha.c" in code_keys.code_files("bake", "alpha"), "")
+    report("the truth's key holds no models/ file and no voxel unit",
+           not any(f.startswith("models/") for f in truth) and "tracer/render.c" not in truth and
+           "tracer/truth.c" in truth, "")
+
+
+def scratch():
+    root = os.path.join(TMP, "repo")
+    shutil.rmtree(root, ignore_errors=True)
+    os.makedirs(root)
+    for d in ("experiments", "tracer", "models"):
+        shutil.copytree(os.path.join(REPO, d), os.path.join(root, d),
+                        ignore=shutil.ignore_patterns("__pycache__"))
+    os.makedirs(os.path.join(root, "scenes"))
+    shutil.copytree(os.path.join(REPO, "scenes", "generators"), os.path.join(root, "scenes", "generators"))
+    shutil.copy(os.path.join(REPO, "scenes", "spheres.json"), os.path.join(root, "scenes"))
+    shutil.copy(os.path.join(REPO, "Makefile"), root)
+    os.makedirs(os.path.join(root, "build"))
+    for f in ("voxlab", "libvoxlab_oiio.so"):
+        if os.path.exists(os.path.join(os.path.dirname(VOXLAB), f)):
+            shutil.copy2(os.path.join(os.path.dirname(VOXLAB), f), os.path.join(root, "build", f))
+    with open(os.path.join(root, "tiny.json"), "w") as f:
+        json.dump({"name": "tiny", "truth_spp": 16, "scenes": ["spheres"], "repeats": 1,
+                   "runs": [{"models": ["binary", "alpha"], "res": [16], "size": "res", "spp": [4]}]}, f)
+    return root
+
+
+def edit(root, rel, text="\n/* an edit */\n"):
+    with open(os.path.join(root, rel), "a") as f:
+        f.write(text)
+
+
+def rebuilt(root):
+    """What `make` would do here as far as the keys care: the binary is newer than the sources."""
+    now = time.time() + 2
+    os.utime(os.path.join(root, "build", "voxlab"), (now, now))
+
+
+def sweep(root, *extra):
+    p = subprocess.run([PY, os.path.join(root, "experiments", "sweep.py"), os.path.join(root, "tiny.json"),
+                        "--results", os.path.join(root, "results"), "--voxlab", os.path.join(root, "build", "voxlab"),
+                        *extra], capture_output=True, text=True)
+    ran = sorted(re.findall(r"\] [^|]*\| (truth|bake|render|compare) (\S+)", p.stderr))
+    return p, ran
+
+
+def sweep_checks():
+    root = scratch()
+    p, ran = sweep(root)
+    report("scratch sweep runs all 7 jobs", p.returncode == 0 and len(ran) == 7, p.stderr[-1500:])
+    if p.returncode != 0:
+        return
+    # Adding a model: its file and a registry line. Nothing already computed reruns.
+    shutil.copy(os.path.join(root, "models", "alpha.c"), os.path.join(root, "models", "newmodel.c"))
+    edit(root, "models/registry.c", "/* extern const vx_model model_newmodel; */\n")
+    rebuilt(root)
+    p, ran = sweep(root)
+    report("adding a model reruns no other model's job and no truth", p.returncode == 0 and ran == [] and
+           "0 job(s) to run" in p.stderr, f"ran {ran}\n{p.stderr[-800:]}")
+    edit(root, "models/alpha.c")
+    rebuilt(root)
+    p, ran = sweep(root)
+    report("editing alpha.c reruns alpha's bake, render and compare only",
+           [k for k, _ in ran] == ["bake", "compare", "render"] and all("alpha" in lbl for _, lbl in ran),
+           f"ran {ran}")
+    report("the invalidation is reported with the file that changed",
+           re.search(r"invalidated 1 cached bake job\(s\) \(spheres-alpha[^)]*\): models/alpha.c changed", p.stderr)
+           is not None, p.stderr[-1200:])
+    with open(os.path.join(root, "results", "tiny", "rows.json")) as f:
+        inv = json.load(f)["meta"]["invalidated"]
+    report("rows.json lists the invalidated entries", len(inv) == 3 and
+           {x["kind"] for x in inv} == {"bake", "render", "compare"}, str(inv)[:500])
+    edit(root, "tracer/truth.c")
+    rebuilt(root)
+    p, ran = sweep(root)
+    report("editing the truth renderer reruns the truth and the compares only",
+           [k for k, _ in ran] == ["compare", "compare", "truth"], f"ran {ran}")
+    edit(root, "tracer/render.c")
+    rebuilt(root)
+    p, ran = sweep(root)
+    report("editing the voxel renderer reruns every model job, not the truth",
+           [k for k, _ in ran] == ["bake"] * 2 + ["compare"] * 2 + ["render"] * 2, f"ran {ran}")
+    p, ran = sweep(root, "--force")
+    report("--force reruns every job", p.returncode == 0 and len(ran) == 7, f"ran {ran}")
+    edit(root, "models/binary.c")  # and no rebuild
+    os.utime(os.path.join(root, "models", "binary.c"), (time.time() + 60, time.time() + 60))
+    p, ran = sweep(root)
+    report("sources newer than the binary are refused", p.returncode == 1 and "older than" in p.stderr and
+           "models/binary.c" in p.stderr and not ran, p.stderr[-600:])
+
+
+def main():
+    linker_checks()
+    sweep_checks()
+
+
+if __name__ == "__main__":
+    main()
+    finish()

@@ -1,0 +1,86 @@
+"""results/history.csv: written by `make dashboard` only (dashboard.py --record-history), one line per
+(commit, job). Recording the same commit twice keeps one line per configuration with the newest
+numbers; another commit adds its own lines; an old file with duplicate lines is compacted; running
+an experiment (regress.py, whose declaration says "history": true) writes no history, and the
+dashboard without --record-history does not either."""
+import csv
+import json
+import os
+import subprocess
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from testlib import REPO, TMP, VOXLAB, finish, report  # noqa: E402
+
+EXP = os.path.join(REPO, "experiments")
+sys.path.insert(0, EXP)
+import voxlab_runner as vr  # noqa: E402
+
+PY = "/usr/bin/python3"
+
+
+def read(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def fake_run(commit, mse, date="2026-01-01T00:00:00+00:00"):
+    meta = {"experiment": "e", "date": date, "git": {"commit": commit, "dirty": False},
+            "machine": {"host": "h"}, "voxlab_sha256": "ab" * 32}
+    rows = [{"scene": "s", "model": m, "res": 64, "width": 64, "height": 64, "spp": 4, "rays": 150, "cache": True,
+             "status": "ok", "mse": mse, "ssim": 0.9, "experiment": "e"} for m in ("a", "b", "c")]
+    return meta, rows
+
+
+def unit():
+    path = os.path.join(TMP, "h.csv")
+    vr.record_history(path, [fake_run("1" * 40, 0.1)], TMP)
+    vr.record_history(path, [fake_run("1" * 40, 0.2, "2026-01-02T00:00:00+00:00")], TMP)
+    h = read(path)
+    report("same commit twice: one line per job, the newest numbers",
+           len(h) == 3 and all(x["mse"] == "0.2" for x in h), str(h)[:400])
+    vr.record_history(path, [fake_run("2" * 40, 0.3)], TMP)
+    h = read(path)
+    report("another commit adds its own lines", len(h) == 6 and {x["commit"] for x in h} == {"1" * 40, "2" * 40}, "")
+    with open(path) as f:
+        lines = f.read().splitlines()
+    with open(path, "w") as f:  # an old file: every run appended, three copies of each line
+        f.write("\n".join(lines + lines[1:] + lines[1:]) + "\n")
+    vr.record_history(path, [], TMP)
+    report("duplicate lines of an old history are compacted", len(read(path)) == 6, "")
+
+
+def no_writers():
+    results = os.path.join(TMP, "results")
+    decl = os.path.join(TMP, "hist.json")
+    with open(decl, "w") as f:
+        json.dump({"name": "hist", "truth_spp": 16, "scenes": ["spheres"], "history": True, "repeats": 1,
+                   "runs": [{"models": ["binary"], "res": [16], "size": 16, "spp": [1]}]}, f)
+    base = os.path.join(TMP, "baseline.json")
+    common = ["--experiment", decl, "--results", results, "--voxlab", VOXLAB, "--baseline", base]
+    p1 = subprocess.run([PY, os.path.join(EXP, "regress.py"), *common, "--write-baseline", "--allow-dirty"],
+                        capture_output=True, text=True)
+    p2 = subprocess.run([PY, os.path.join(EXP, "regress.py"), *common], capture_output=True, text=True)
+    hist = os.path.join(results, "history.csv")
+    report("regress writes no history", p1.returncode == 0 and p2.returncode == 0 and not os.path.exists(hist),
+           p1.stderr[-500:] + p2.stderr[-500:])
+    dash = [PY, os.path.join(EXP, "dashboard.py"), "--results", results, "--baseline", base, "--experiments", "hist",
+            "--voxlab", VOXLAB, "--out", os.path.join(results, "dashboard")]
+    p = subprocess.run(dash, capture_output=True, text=True)
+    report("the dashboard page alone writes no history", p.returncode == 0 and not os.path.exists(hist),
+           p.stderr[-500:])
+    for _ in range(2):
+        p = subprocess.run(dash + ["--record-history"], capture_output=True, text=True)
+    h = read(hist) if os.path.exists(hist) else []
+    report("dashboard --record-history: one line per (commit, job), twice recorded", p.returncode == 0 and
+           len(h) == 1 and h[0]["model"] == "binary", p.stderr[-500:] + str(h)[:300])
+
+
+def main():
+    unit()
+    no_writers()
+
+
+if __name__ == "__main__":
+    main()
+    finish()

@@ -1,0 +1,168 @@
+"""Timings a paper can quote (experiments/jobexec.py, voxlab_runner.py, pareto.py, table1.py).
+
+- A timed job runs its voxlab command R times: the record holds every run's time as voxlab's own
+  --stats reported it (read back here from each run's stats file, independently), with min, median
+  and spread (max - min); the rows, Table 2 and pareto.csv use the median, min and spread.
+- The load: a job measured under a 1-minute load above the cores is flagged (os.getloadavg replaced
+  in-process to make the machine look busy and idle), the row says loaded = 1 and the tables'
+  settings say FLAGGED.
+- The truth's render time is monotone in spp within the spread on a small case (spheres, 64x64,
+  4/16/64 spp, 3 repeats), checked from pareto.csv's numbers here and stated in pareto.md; the
+  check itself (truth_time_violations) against hand-made points.
+"""
+import csv
+import json
+import os
+import statistics
+import subprocess
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from testlib import REPO, TMP, VOXLAB, finish, report  # noqa: E402
+
+EXP = os.path.join(REPO, "experiments")
+sys.path.insert(0, EXP)
+import jobexec  # noqa: E402
+import pareto  # noqa: E402
+import voxlab_runner as vr  # noqa: E402
+
+PY = "/usr/bin/python3"
+
+
+def read_csv(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def repeated_runs():
+    """jobexec.execute on a truth spec with 3 repeats keeps each run's stats (patched to keep them)."""
+    d = os.path.join(TMP, "exec")
+    os.makedirs(d, exist_ok=True)
+    seen = []
+    real = jobexec.run_measured
+
+    def spy(cmd, timeout=None):
+        r = real(cmd, timeout)
+        stats = cmd[cmd.index("--stats") + 1]
+        with open(stats) as f:
+            seen.append(json.load(f)["seconds"])
+        return r
+
+    spec = {"key": "k", "identity": "i", "kind": "truth", "label": "spheres-test", "dir": os.path.join(d, "job"),
+            "cmd": [VOXLAB, "truth", os.path.join(REPO, "scenes", "spheres.json"), "--spp", "4", "--size", "24x24",
+                    "--threads", "{threads}", "-o", "{tmp}/image.exr", "--stats", "{tmp}/stats.json"],
+            "outputs": ["image.exr", "image.png", "stats.json"], "timed": True, "repeats": 3,
+            "timing_field": "seconds", "timeout": 60, "inputs": {}}
+    loads = iter([(0.2, 0, 0), (0.3, 0, 0), (99.0, 0, 0), (99.0, 0, 0)])
+    real_load = os.getloadavg
+    jobexec.run_measured = spy
+    os.getloadavg = lambda: next(loads)
+    try:
+        rec = jobexec.execute(spec)
+        spec["dir"] = os.path.join(d, "job2")
+        busy = jobexec.execute({**spec, "repeats": 1})
+    finally:
+        jobexec.run_measured = real
+        os.getloadavg = real_load
+    t = rec.get("timing", {})
+    runs = seen[:3]
+    report("a timed job runs its command R times and records each run's own time",
+           t.get("runs") == runs and len(runs) == 3, f"record {t}, stats files {runs}")
+    report("min, median and spread of the runs",
+           t.get("min") == min(runs) and t.get("median") == sorted(runs)[1] and
+           abs(t.get("spread", -1) - (max(runs) - min(runs))) < 1e-15, str(t))
+    report("one output kept, the repeats' removed", sorted(os.listdir(os.path.join(d, "job"))) ==
+           ["image.exr", "image.png", "job.json", "stats.json"], str(os.listdir(os.path.join(d, "job"))))
+    report("a timed job takes every core", rec.get("threads") == os.cpu_count(), str(rec.get("threads")))
+    report("load below the cores: not flagged; above: flagged",
+           rec.get("loaded") is False and busy.get("loaded") is True and busy.get("load_average") == 99.0,
+           f"{rec.get('loaded')} {busy.get('loaded')} {busy.get('load_average')}")
+
+
+def violations_logic():
+    def p(spp, lo, spread):
+        return {"spp": spp, "render_ms_min": lo, "render_ms_spread": spread, "render_ms": lo + spread / 2}
+
+    ok = [p(1, 10, 2), p(4, 11, 5), p(16, 40, 3)]
+    noisy = [p(1, 10, 4), p(4, 9, 2)]  # 4 spp's slowest (11) overlaps 1 spp's runs: within the spread
+    bad = [p(1, 10, 1), p(4, 5, 1)]  # 4 spp's slowest (6) beats 1 spp's fastest (10)
+    report("monotone check: rising, overlapping and falling cases",
+           pareto.truth_time_violations(ok) == [] and pareto.truth_time_violations(noisy) == [] and
+           [(a["spp"], b["spp"]) for a, b in pareto.truth_time_violations(bad)] == [(1, 4)], "")
+
+
+def pareto_small():
+    decl = os.path.join(TMP, "pareto_small.json")
+    with open(decl, "w") as f:
+        json.dump({"name": "pareto_small", "truth_spp": 256, "scenes": ["spheres"], "repeats": 3,
+                   "runs": [{"models": ["alpha"], "res": [16], "size": 64, "spp": [4]}],
+                   "truth_curve": {"spp": [4, 16, 64], "seed": 2, "size": 64}}, f)
+    results = os.path.join(TMP, "results")
+    p = subprocess.run([PY, os.path.join(EXP, "pareto.py"), "--experiment", decl, "--results", results,
+                        "--voxlab", VOXLAB], capture_output=True, text=True)
+    report("small pareto sweep exits 0", p.returncode == 0, p.stderr[-1500:])
+    if p.returncode != 0:
+        return
+    out = os.path.join(results, "pareto_small")
+    rows = read_csv(os.path.join(out, "pareto.csv"))
+    truth = sorted((r for r in rows if r["series"] == "truth"), key=lambda r: int(r["spp"]))
+    with open(os.path.join(out, "rows.json")) as f:
+        jrows = json.load(f)["rows"]
+    # Each point's median from the job records themselves.
+    ok = True
+    for r in jrows:
+        job = os.path.join(results, os.path.dirname(r["image"]), "job.json")
+        with open(job) as f:
+            runs = json.load(f)["timing"]["runs"]
+        ok &= len(runs) == 3 and abs(r["render_ms"] - 1000 * statistics.median(runs)) < 1e-9 and \
+            abs(r["render_ms_spread"] - 1000 * (max(runs) - min(runs))) < 1e-9
+    report("rows: render ms = median of the job's 3 runs, spread = max - min", ok and len(jrows) == 4, "")
+    lo = [float(r["render_ms_min"]) for r in truth]
+    hi = [float(r["render_ms_min"]) + float(r["render_ms_spread"]) for r in truth]
+    mono = all(hi[j] >= lo[i] for i in range(len(truth)) for j in range(i + 1, len(truth)))
+    print("# truth render ms (min..max of 3) by spp: " +
+          ", ".join(f"{r['spp']}: {a:.3f}..{b:.3f}" for r, a, b in zip(truth, lo, hi)))
+    report("truth time monotone in spp within the spread (spheres 64x64, 4/16/64 spp)", len(truth) == 3 and mono,
+           str(list(zip(lo, hi))))
+    with open(os.path.join(out, "pareto.md")) as f:
+        md = f.read()
+    report("pareto.md states the monotone check", ("monotone within the spread" in md) == mono and
+           "truth render time against spp" in md, md[-600:])
+    report("pareto plot written", os.path.isfile(os.path.join(out, "pareto_spheres.png")), "")
+
+
+def flagged_in_tables():
+    """A sweep whose machine looks overloaded: rows loaded = 1, Table 2 marks the times, the
+    settings line flags the jobs."""
+    decl = os.path.join(TMP, "busy.json")
+    with open(decl, "w") as f:
+        json.dump({"name": "busy", "truth_spp": 8, "scenes": ["spheres"], "repeats": 2,
+                   "runs": [{"models": ["binary"], "res": [8], "size": 16, "spp": [1]}]}, f)
+    real = os.getloadavg
+    os.getloadavg = lambda: (float(os.cpu_count() + 5), 0.0, 0.0)
+    try:
+        import table1
+
+        a = type("A", (), {"results": os.path.join(TMP, "busy-results"), "cache": None, "voxlab": VOXLAB, "jobs": 2,
+                           "fresh": False, "executor": "local", "scheduler": None, "slurm_args": "", "repeats": None})
+        meta, rows = vr.run_experiment(vr.load_declaration(decl), **vr.sweep_args(a))
+        table1.build(meta, rows, vr.load_declaration(decl), os.path.join(a.results, "busy"))
+    finally:
+        os.getloadavg = real
+    with open(os.path.join(a.results, "busy", "table2.md")) as f:
+        md = f.read()
+    report("a loaded measurement is flagged in the rows and tables",
+           rows[0]["loaded"] == 1 and "FLAGGED" in md and "*" in md.split("| spheres |")[1].split("\n")[0] and
+           rows[0]["repeats"] == 2, md[-900:])
+
+
+def main():
+    repeated_runs()
+    violations_logic()
+    flagged_in_tables()
+    pareto_small()
+
+
+if __name__ == "__main__":
+    main()
+    finish()
