@@ -731,4 +731,5 @@ const vx_model model_heitz_neyret = {
     .cl_source = "hn_cone.h",
     .cl_cone_element = "hn_cone_element_eval",
     .table = hn_table,
+    .validate_record = hn_validate_record,
 };

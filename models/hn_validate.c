@@ -1,13 +1,9 @@
-/* What a `heitz-neyret` record (hn_record.h) may hold, for vx_model.validate_record, and the
- * registry's entry for the model with it. Kept apart from heitz_neyret.c, whose model struct is
- * copied once with the validator added (hn_model_checked) so that that file need not change. */
+/* What a `heitz-neyret` record (hn_record.h) may hold: the model's vx_model.validate_record
+ * (heitz_neyret.c names it). */
 #include <math.h>
-#include <pthread.h>
 #include <stdio.h>
 
-#include "hn_record.h"
-
-extern const vx_model model_heitz_neyret;
+#include "hn_host.h"
 
 /* A half float that is infinite or NaN (exponent all ones): hn_float_to_half never writes one. */
 static int half_is_special(unsigned short h) { return (h & 0x7c00u) == 0x7c00u; }
@@ -26,7 +22,7 @@ static int bad(char *why, size_t why_size, const char *field, const char *fmt, d
  * arithmetic, but a cell far from the origin and tiny against float spacing there gets an h of
  * several edges from rounding alone (tests/unit_models.c's "far and tiny" voxel), and a large h
  * only moves the plane out of the element. */
-static int hn_validate(const void *record, const vx_record_context *c, char *why, size_t why_size)
+int hn_validate_record(const void *record, const vx_record_context *c, char *why, size_t why_size)
 {
     (void)c;
     const hn_record *r = record;
@@ -54,19 +50,4 @@ static int hn_validate(const void *record, const vx_record_context *c, char *why
     if (r->spare[0] | r->spare[1] | r->spare[2])
         return bad(why, why_size, "spare", "non-zero (expected 0: reserved)", 0);
     return 0;
-}
-
-static vx_model checked;
-static pthread_once_t once = PTHREAD_ONCE_INIT;
-
-static void init(void)
-{
-    checked = model_heitz_neyret;
-    checked.validate_record = hn_validate;
-}
-
-const vx_model *hn_model_checked(void)
-{
-    pthread_once(&once, init);
-    return &checked;
 }
