@@ -38,7 +38,7 @@ VOXEL_ONLY = ["tracer/bake.c", "tracer/cmd_render.c", "tracer/cmd_compare.c",
               "tracer/cone_light_cache.c", "tracer/cone_skip.c", "tracer/grid.c", "tracer/grid_traverse.c",
               "tracer/metrics.c", "tracer/opencl_backend.c", "tracer/opencl_cone.c", "tracer/opencl_program.c",
               "tracer/opencl_runtime.c", "tracer/render.c", "tracer/render_cone.c", "tracer/tribox.c",
-              "tracer/voxfile.c", "tracer/cl/*"]
+              "tracer/voxfile.c", "tracer/vox_load.c", "tracer/record_check.c", "tracer/cl/*"]
 # Translation units only the truth runs: never part of a model job's key.
 # (cmd_truth.c is not: it defines the --stats helpers every command uses.)
 TRUTH_ONLY = ["tracer/truth.c", "tracer/truth.h"]

@@ -18,7 +18,7 @@ const unsigned int *hn_mask_table(void);
 double hn_m_of_sigma2(double sigma2);
 double hn_sigma2_of_m(double m);
 
-/* vx_model.validate_record for heitz-neyret records (hn_validate.c). */
+/* vx_model.validate_record for heitz-neyret records (heitz_neyret_validate.c). */
 int hn_validate_record(const void *record, const vx_record_context *c, char *why, size_t why_size);
 
 #endif
