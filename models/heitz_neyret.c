@@ -545,6 +545,10 @@ static void moments_of_record(const hn_data *d, float size, moments *m)
     m->var_brdf = m->wf * d->var_brdf;
 }
 
+/* A child sees the edge (it is cut by it) when |psi| < HN_EDGE_CLEAR size: clear of the saturated
+ * values +-size/2 by more than a covered child's sampled psi wanders. */
+#define HN_EDGE_CLEAR 0.4f
+
 /* A coarser cell's psi from its children's, where a child sees the edge (its psi is not
  * saturated): each such child predicts the in-plane distance from the parent's centre to the edge
  * as its own psi plus the in-plane offset between the centres along the edge's normal u, and the
@@ -558,10 +562,6 @@ static void moments_of_record(const hn_data *d, float size, moments *m)
  * 2.5e-3, island 9.2e-3 -> 9.0e-3, city 3.8e-3 -> 3.7e-3, bunny 4.9e-4 -> 4.8e-4). Without an
  * edge child (the edge runs along children's faces, or there is none) the moments are exact and
  * stay. */
-/* A child sees the edge (it is cut by it) when |psi| < HN_EDGE_CLEAR size: clear of the saturated
- * values +-size/2 by more than a covered child's sampled psi wanders. */
-#define HN_EDGE_CLEAR 0.4f
-
 static void parent_edge_from_children(const hn_data kids[8], float child, float size, hn_data *d)
 {
     /* Only where the moments see an edge too: a plate on cell faces leaves its children a few
