@@ -459,6 +459,7 @@ static void mip_edge(void)
     vx_err e;
     if (grid_build(&g, &me, 32, &e)) {
         CHECK("grid builds", 0);
+        mesh_free(&me);
         return;
     }
     size_t nrec = 0;
@@ -507,6 +508,7 @@ static void mip_edge(void)
     CHECK("MIP levels keep where the surface ends (psi within 0.02 cell)", cut > 0 && worst < 0.02);
     free(recs);
     grid_free(&g);
+    mesh_free(&me);
 }
 
 static void grid_cases(void)
