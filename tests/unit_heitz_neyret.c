@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "bake.h"
 #include "grid.h"
 #include "hn_host.h"
 #include "mesh.h"
@@ -462,10 +463,7 @@ static void mip_edge(void)
         mesh_free(&me);
         return;
     }
-    size_t nrec = 0;
-    for (int l = 0; l < g.levels; l++)
-        nrec += grid_count(&g, l);
-    hn_record *recs = calloc(nrec, sizeof *recs);
+    hn_record *recs = calloc(bake_record_count(m, &g), sizeof *recs);
     float vs = (float)g.voxel_size;
     for (size_t i = 0; i < grid_count(&g, 0); i++) {
         int x, y, z;
@@ -527,10 +525,7 @@ static void grid_cases(void)
         CHECK("grid builds", 0);
         return;
     }
-    size_t nrec = 0;
-    for (int l = 0; l < g.levels; l++)
-        nrec += grid_count(&g, l);
-    hn_record *recs = calloc(nrec, sizeof *recs);
+    hn_record *recs = calloc(bake_record_count(m, &g), sizeof *recs);
     /* Level 0 records as the bake would make them: the quad's plane, exactly. */
     for (size_t i = 0; i < grid_count(&g, 0); i++) {
         int x, y, z;
