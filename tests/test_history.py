@@ -3,25 +3,19 @@
 numbers; another commit adds its own lines; an old file with duplicate lines is compacted; running
 an experiment (regress.py, whose declaration says "history": true) writes no history, and the
 dashboard without --record-history does not either."""
-import csv
 import json
 import os
 import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from testlib import REPO, TMP, VOXLAB, finish, report  # noqa: E402
+from testlib import REPO, TMP, VOXLAB, finish, read_csv, report  # noqa: E402
 
 EXP = os.path.join(REPO, "experiments")
 sys.path.insert(0, EXP)
 import voxlab_runner as vr  # noqa: E402
 
 PY = "/usr/bin/python3"
-
-
-def read(path):
-    with open(path, newline="") as f:
-        return list(csv.DictReader(f))
 
 
 def fake_run(commit, mse, date="2026-01-01T00:00:00+00:00"):
@@ -36,18 +30,18 @@ def unit():
     path = os.path.join(TMP, "h.csv")
     vr.record_history(path, [fake_run("1" * 40, 0.1)], TMP)
     vr.record_history(path, [fake_run("1" * 40, 0.2, "2026-01-02T00:00:00+00:00")], TMP)
-    h = read(path)
+    h = read_csv(path)
     report("same commit twice: one line per job, the newest numbers",
            len(h) == 3 and all(x["mse"] == "0.2" for x in h), str(h)[:400])
     vr.record_history(path, [fake_run("2" * 40, 0.3)], TMP)
-    h = read(path)
+    h = read_csv(path)
     report("another commit adds its own lines", len(h) == 6 and {x["commit"] for x in h} == {"1" * 40, "2" * 40}, "")
     with open(path) as f:
         lines = f.read().splitlines()
     with open(path, "w") as f:  # an old file: every run appended, three copies of each line
         f.write("\n".join(lines + lines[1:] + lines[1:]) + "\n")
     vr.record_history(path, [], TMP)
-    report("duplicate lines of an old history are compacted", len(read(path)) == 6, "")
+    report("duplicate lines of an old history are compacted", len(read_csv(path)) == 6, "")
 
 
 def no_writers():
@@ -71,7 +65,7 @@ def no_writers():
            p.stderr[-500:])
     for _ in range(2):
         p = subprocess.run(dash + ["--record-history"], capture_output=True, text=True)
-    h = read(hist) if os.path.exists(hist) else []
+    h = read_csv(hist) if os.path.exists(hist) else []
     report("dashboard --record-history: one line per (commit, job), twice recorded", p.returncode == 0 and
            len(h) == 1 and h[0]["model"] == "binary", p.stderr[-500:] + str(h)[:300])
 

@@ -4,7 +4,6 @@ exactly what `voxlab compare` gives on the same images; a second run must do no 
 cached, no cache file touched); a declaration with a bad field must fail with a message naming the
 file and the field; a missing model or a failing voxlab job must be recorded in its row without
 stopping the sweep; and the cache keys must follow what the images depend on."""
-import csv
 import json
 import os
 import shutil
@@ -12,7 +11,7 @@ import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from testlib import REPO, TMP, VOXLAB, finish, report, voxlab, voxlab_json  # noqa: E402
+from testlib import REPO, TMP, VOXLAB, finish, read_csv, report, voxlab, voxlab_json  # noqa: E402
 
 EXP = os.path.join(REPO, "experiments")
 sys.path.insert(0, EXP)
@@ -34,11 +33,6 @@ def declare(name, **fields):
 def run(script, decl, results, *extra):
     return subprocess.run([PY, os.path.join(EXP, script), "--experiment", decl, "--results", results,
                            "--voxlab", VOXLAB, "--jobs", "2", *extra], capture_output=True, text=True)
-
-
-def read_csv(path):
-    with open(path, newline="") as f:
-        return list(csv.DictReader(f))
 
 
 def cache_state(cache):

@@ -10,7 +10,6 @@
   4/16/64 spp, 3 repeats), checked from pareto.csv's numbers here and stated in pareto.md; the
   check itself (truth_time_violations) against hand-made points.
 """
-import csv
 import json
 import os
 import statistics
@@ -18,7 +17,7 @@ import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from testlib import REPO, TMP, VOXLAB, finish, report  # noqa: E402
+from testlib import REPO, TMP, VOXLAB, finish, read_csv, report  # noqa: E402
 
 EXP = os.path.join(REPO, "experiments")
 sys.path.insert(0, EXP)
@@ -27,11 +26,6 @@ import pareto  # noqa: E402
 import voxlab_runner as vr  # noqa: E402
 
 PY = "/usr/bin/python3"
-
-
-def read_csv(path):
-    with open(path, newline="") as f:
-        return list(csv.DictReader(f))
 
 
 def repeated_runs():

@@ -37,6 +37,14 @@ def finish():
     sys.exit(1 if _failures else 0)
 
 
+def read_csv(path):
+    """A CSV file's rows as dicts (the experiments' rows.csv, tables, results/history.csv)."""
+    import csv
+
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
 def read_image(path):
     """Reads an image as float32 (H, W, C) with OpenImageIO's Python bindings (Debian's
     python3-openimageio): an independent reader of the files voxlab writes."""
