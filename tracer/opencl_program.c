@@ -6,6 +6,8 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "readfile.h"
+
 #define MAX_INCLUDE_DEPTH 32
 
 typedef struct {
@@ -91,28 +93,6 @@ int opencl_source_dir(char *src, size_t src_size, char *build_dir, size_t build_
                    exe);
 }
 
-static char *read_file(const char *path, long *size)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    char *buf = NULL;
-    if (fseek(f, 0, SEEK_END) == 0) {
-        long n = ftell(f);
-        if (n >= 0 && fseek(f, 0, SEEK_SET) == 0 && (buf = malloc((size_t)n + 1))) {
-            if (fread(buf, 1, (size_t)n, f) != (size_t)n) {
-                free(buf);
-                buf = NULL;
-            } else {
-                buf[n] = 0;
-                *size = n;
-            }
-        }
-    }
-    fclose(f);
-    return buf;
-}
-
 /* The quoted name of an `#include "name"` line, or 0. */
 static int include_name(const char *line, size_t len, char *name, size_t name_size)
 {
@@ -173,10 +153,11 @@ static int expand_file(expander *x, text *out, const char *rel)
 {
     char full[2 * PATH_MAX];
     snprintf(full, sizeof full, "%s/%s", x->src, rel);
-    long size = 0;
-    char *body = read_file(full, &size);
+    size_t size = 0;
+    /* readfile_all: a directory or FIFO named like a source is refused rather than read. */
+    char *body = readfile_all(full, "OpenCL source", 1ULL << 24, &size, x->e);
     if (!body)
-        return vx_fail(x->e, "cannot read the OpenCL source %s", full);
+        return -1;
     int rc = expand_text(x, out, body, rel);
     free(body);
     return rc;
