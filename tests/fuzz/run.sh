@@ -6,7 +6,8 @@
 # in build/fuzz/corpus/ for the next. A crash, a sanitizer report, a leak or a timeout fails the run
 # and leaves the reproducer in build/fuzz/crashes/ (replay: $FUZZ_BUILD/fuzz/fuzz_NAME FILE).
 # Prints one line per harness: seconds, executions, edges covered (cov) and crashes.
-# FUZZ_ONLY=name runs one harness (scene, ply, gltf, vox, image, declaration).
+# FUZZ_ONLY=name runs one harness (scene, ply, gltf, vox, image, declaration). FUZZ_SEEDED=1 keeps
+# the seeds of an earlier run, so that harnesses can run side by side (FUZZ_ONLY each) on one seeding.
 set -u
 cd "$(dirname "$0")/../.."
 REPO=$PWD
@@ -24,6 +25,7 @@ export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$REPO/tests/lsan.supp:print_sup
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 
 # ---- seed corpora (rebuilt every run: cheap, and always from the current formats) ----
+if [ "${FUZZ_SEEDED:-0}" != 1 ]; then
 seed() { # name, files...
   local d=$OUT/seeds/$1; shift
   rm -rf "$d" && mkdir -p "$d"
@@ -54,6 +56,7 @@ for sz in 4x4 12x12; do
 done
 { printf '\003PF\n2 2\n-1.0\n'; head -c 48 /dev/zero; } >"$OUT/seeds/image/pfm_2x2"
 rm -rf "$tmp"
+fi
 
 # ---- the harnesses ----
 status=0
