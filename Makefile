@@ -24,17 +24,24 @@ BUILD ?= build
 SANFLAGS =
 OPT = -O2
 endif
-INCLUDES = -Itracer -Imodels -Iscenes/generators -I/usr/include/embree3 -I/usr/include/OpenEXR
+# Every folder of the tracer and the models is on the include path (headers are named by file, not
+# by folder), so a new model folder needs no Makefile edit. The OpenCL program assembler searches the
+# same folders, in this order (SOURCE_DIRS is written into the embedded source table).
+SOURCE_DIRS := $(sort $(shell find tracer models -type d)) scenes/generators
+INCLUDES = $(addprefix -I,$(SOURCE_DIRS)) -I/usr/include/embree3 -I/usr/include/OpenEXR
 CFLAGS = -std=c11 $(OPT) -g -march=x86-64-v2 -Wall -Wextra -Werror $(NOWARN) -D_GNU_SOURCE -pthread -MMD -MP $(INCLUDES) $(SANFLAGS)
 CXXFLAGS = -std=c++17 $(OPT) -g -Wall -Wextra -Werror -pthread -MMD -MP $(INCLUDES) $(SANFLAGS)
-# -rdynamic: the OpenImageIO plugin calls back into the executable (see tracer/image_oiio.cpp).
+# -rdynamic: the OpenImageIO plugin calls back into the executable (see tracer/image/image_oiio.cpp).
 LDFLAGS = -pthread -rdynamic $(SANFLAGS)
 LDLIBS = -lembree3 -lOpenEXRCore -ltinygltf -lcjson -lOpenCL -lm -ldl
 PLUGIN = $(BUILD)/libvoxlab_oiio.so
 
 # Every source file of the library; main.c is the CLI only.
-LIB_SRC = $(filter-out tracer/main.c tracer/image_oiio.cpp,$(wildcard tracer/*.c tracer/*.cpp models/*.c scenes/generators/*.c))
-LIB_OBJ = $(patsubst %,$(BUILD)/%.o,$(LIB_SRC))
+LIB_SRC = $(filter-out tracer/cli/main.c tracer/image/image_oiio.cpp,$(sort $(shell find tracer models -name '*.c' -o -name '*.cpp')) $(wildcard scenes/generators/*.c))
+# The OpenCL kernels' sources (every header and .cl of those folders), embedded in the binary.
+KERNEL_SOURCES := $(shell find $(SOURCE_DIRS) -maxdepth 1 -type f \( -name '*.h' -o -name '*.cl' \))
+EMBEDDED = $(BUILD)/gen/embedded_sources.c
+LIB_OBJ = $(patsubst %,$(BUILD)/%.o,$(LIB_SRC)) $(EMBEDDED).o
 UNIT_SRC = $(wildcard tests/unit_*.c)
 UNIT_BIN = $(patsubst tests/%.c,$(BUILD)/tests/%,$(UNIT_SRC))
 BENCH_SRC = $(wildcard tests/bench_*.c)
@@ -55,12 +62,19 @@ DEPS = build-essential libembree-dev libopenexr-dev libopenimageio-dev libtinygl
 .PHONY: all deps test test-asan bench bench-build demo clean fuzz fuzz-build
 all: $(BUILD)/voxlab
 
-$(BUILD)/voxlab: $(BUILD)/tracer/main.c.o $(LIB_OBJ) | $(PLUGIN)
+$(BUILD)/voxlab: $(BUILD)/tracer/cli/main.c.o $(LIB_OBJ) | $(PLUGIN)
 	$(CXX) $(LDFLAGS) -o $@ $^ $(LDLIBS)
 
-$(PLUGIN): tracer/image_oiio.cpp tracer/image.h tracer/error.h tracer/readfile.h
+$(PLUGIN): tracer/image/image_oiio.cpp tracer/image/image.h tracer/core/error.h tracer/core/readfile.h
 	@mkdir -p $(dir $@)
 	$(CXX) $(CXXFLAGS) -fPIC -shared -o $@ $< -lOpenImageIO -lOpenImageIO_Util
+
+$(EMBEDDED): tracer/backends/opencl/embed_sources.sh $(KERNEL_SOURCES) Makefile
+	@mkdir -p $(dir $@)
+	sh $< $@ $(SOURCE_DIRS)
+
+$(EMBEDDED).o: $(EMBEDDED)
+	$(CC) $(CFLAGS) -c -o $@ $<
 
 $(BUILD)/%.c.o: %.c
 	@mkdir -p $(dir $@)
@@ -77,10 +91,10 @@ $(BUILD)/tests/%: tests/%.c $(LIB_OBJ) | $(PLUGIN)
 
 # The fuzz harnesses link libFuzzer's main; the image harness also links the OpenImageIO shim
 # directly (voxlab itself loads it as a plugin).
-$(BUILD)/fuzz/fuzz_%: tests/fuzz/fuzz_%.c tests/fuzz/fuzz_common.h $(LIB_OBJ) $(BUILD)/tracer/image_oiio.cpp.o | $(PLUGIN)
+$(BUILD)/fuzz/fuzz_%: tests/fuzz/fuzz_%.c tests/fuzz/fuzz_common.h $(LIB_OBJ) $(BUILD)/tracer/image/image_oiio.cpp.o | $(PLUGIN)
 	@mkdir -p $(dir $@)
 	$(CC) $(CFLAGS) -Itests/fuzz -c -o $@.o $<
-	$(CXX) $(LDFLAGS) -fsanitize=fuzzer -o $@ $@.o $(LIB_OBJ) $(if $(findstring image,$*),$(BUILD)/tracer/image_oiio.cpp.o -lOpenImageIO -lOpenImageIO_Util) $(LDLIBS)
+	$(CXX) $(LDFLAGS) -fsanitize=fuzzer -o $@ $@.o $(LIB_OBJ) $(if $(findstring image,$*),$(BUILD)/tracer/image/image_oiio.cpp.o -lOpenImageIO -lOpenImageIO_Util) $(LDLIBS)
 
 # Installs missing Debian packages; costs well under a second when everything is present.
 deps:

@@ -10,9 +10,9 @@ whole binary (experiments/README.md, "What a cache key holds"):
   casting, the truth renderer, the CLI) without the voxel-only translation units in VOXEL_ONLY; of
   the headers only those the remaining files include (directly or not); plus Embree's version.
 - bake and render of model M: tracer/ and scenes/generators/ without the truth-only units in
-  TRUTH_ONLY, models/model.h, and M's own files: models/<m>.c, models/<m>_*.c (vmesh's bake, faces,
-  subgrid...) and every models/ header those include. models/registry.c (one line per model) and the
-  other models' files are not part of it: adding a model leaves every other model's entries valid.
+  TRUTH_ONLY, models/model.h, and M's own folder models/<m>/ (its .c files) with every models/ header
+  those include (models/common/ among them). models/registry.c (one line per model) and the other
+  models' folders are not part of it: adding a model leaves every other model's entries valid.
 - compare: tracer/ and scenes/generators/ (metrics, image readers).
 
 The lists are conservative by default: a new file in tracer/ belongs to every code path until it is
@@ -28,20 +28,22 @@ import subprocess
 import threading
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-INCLUDE_DIRS = ["tracer", "models", "scenes/generators"]  # the Makefile's -I order
+# The Makefile's -I order (SOURCE_DIRS: every folder of tracer/ and models/, sorted, then the generators).
+INCLUDE_DIRS = sorted(os.path.relpath(root, REPO) for top in ("tracer", "models")
+                      for root, _, _ in os.walk(os.path.join(REPO, top))) + ["scenes/generators"]
 EMBREE_HEADER = "/usr/include/embree3/rtcore_config.h"
 
 # Translation units only voxel jobs (bake, render, compare) run: never part of a truth's key.
 # (cmd_bake.c stays in: it defines peak_rss_bytes, which the truth's stats report; the linker check in
 # tests/test_cache_keys.py found it.)
-VOXEL_ONLY = ["tracer/bake.c", "tracer/cmd_render.c", "tracer/cmd_compare.c",
-              "tracer/cone_light_cache.c", "tracer/cone_skip.c", "tracer/grid.c", "tracer/grid_traverse.c",
-              "tracer/metrics.c", "tracer/opencl_backend.c", "tracer/opencl_cone.c", "tracer/opencl_program.c",
-              "tracer/opencl_runtime.c", "tracer/render.c", "tracer/render_cone.c", "tracer/tribox.c",
-              "tracer/voxfile.c", "tracer/vox_load.c", "tracer/record_check.c", "tracer/cl/*"]
+VOXEL_ONLY = ["tracer/bake/bake.c", "tracer/cli/cmd_render.c", "tracer/cli/cmd_compare.c",
+              "tracer/render/cone_light_cache.c", "tracer/render/cone_skip.c", "tracer/grid/grid.c", "tracer/grid/grid_traverse.c",
+              "tracer/image/metrics.c", "tracer/backends/opencl/opencl_backend.c", "tracer/backends/opencl/opencl_cone.c", "tracer/backends/opencl/opencl_program.c",
+              "tracer/backends/opencl/opencl_runtime.c", "tracer/render/render.c", "tracer/render/render_cone.c", "tracer/grid/tribox.c",
+              "tracer/bake/voxfile.c", "tracer/bake/vox_load.c", "tracer/bake/record_check.c", "tracer/backends/opencl/cl/*"]
 # Translation units only the truth runs: never part of a model job's key.
 # (cmd_truth.c is not: it defines the --stats helpers every command uses.)
-TRUTH_ONLY = ["tracer/truth.c", "tracer/truth.h"]
+TRUTH_ONLY = ["tracer/truth/truth.c", "tracer/truth/truth.h"]
 SOURCE_EXT = (".c", ".h", ".cpp", ".cl")
 _INCLUDE_RE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)
 _memo, _lock = {}, threading.Lock()
@@ -59,7 +61,7 @@ def _expand(patterns):
 
 
 def tracer_sources():
-    """Every source under tracer/ (kernels in tracer/cl included) and scenes/generators/."""
+    """Every source under tracer/ (kernels in tracer/backends/opencl/cl included) and scenes/generators/."""
     out = set()
     for top in ("tracer", "scenes/generators"):
         for root, _, files in os.walk(os.path.join(REPO, top)):
@@ -105,10 +107,9 @@ def model_stem(model):
 
 
 def model_sources(model):
-    """models/<m>.c, models/<m>_*.c and the models/ headers they include (model.h among them)."""
+    """models/<m>/*.c and the models/ headers they include (model.h among them)."""
     stem = model_stem(model)
-    units = {_rel(p) for p in glob.glob(os.path.join(REPO, "models", stem + ".c")) +
-             glob.glob(os.path.join(REPO, "models", stem + "_*.c"))}
+    units = {_rel(p) for p in glob.glob(os.path.join(REPO, "models", stem, "*.c"))}
     return {f for f in include_closure(units | {"models/model.h"}) if f.startswith("models/")
             and os.path.isfile(os.path.join(REPO, f))}
 

@@ -77,7 +77,7 @@ typedef struct {
     unsigned int mask[VX_MASK_WORDS]; /* coverage of the footprint (VX_COMPOSITE_COVERAGE only) */
 } vx_answer;
 
-/* One ray of the shared bake sampler (see tracer/bake.h): Brito et al. 2023 §3.2's classification,
+/* One ray of the shared bake sampler (see tracer/bake/bake.h): Brito et al. 2023 §3.2's classification,
  * the one every model derives its occlusion from. The ray is intersected with the voxel's own
  * triangles only (those overlapping the voxel's closed box), over its whole length from outside the
  * scene; its closest own-triangle crossing decides:
@@ -169,7 +169,7 @@ typedef struct vx_model {
     /* VX_MARCH_CONE models only (NULL otherwise): the answer of the cone element described by q
      * (position, level, footprint, to_viewer, lights), looked up in q->grid / q->records. */
     void (*cone_element)(const vx_query *q, vx_answer *a);
-    /* The OpenCL backend (tracer/opencl_backend.c) compiles the model's per-voxel evaluation from
+    /* The OpenCL backend (tracer/backends/opencl/opencl_backend.c) compiles the model's per-voxel evaluation from
      * the same source as the C build: cl_source names a header under models/ (e.g.
      * "binary_eval.h") that compiles as OpenCL C, and cl_opacity / cl_shade name its functions there
      * with the signatures of opacity and shade above (the C model points opacity and shade at those
@@ -180,7 +180,7 @@ typedef struct vx_model {
     const char *cl_shade;
     /* VX_MARCH_CONE models: cl_cone_element names the function in cl_source with cone_element's
      * signature (the C model's cone_element calls the same function), which the OpenCL cone kernel
-     * (tracer/cl/render_cone.cl) calls; then cl_opacity and cl_shade may be NULL. */
+     * (tracer/backends/opencl/cl/render_cone.cl) calls; then cl_opacity and cl_shade may be NULL. */
     const char *cl_cone_element;
     /* Optional (may be NULL): a constant table the model's evaluation reads through q->table (e.g.
      * precomputed masks), built once on the host; the tracer hands it to cone_element on the C

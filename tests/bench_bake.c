@@ -4,7 +4,7 @@
  *      by bake_generate_rays beforehand, outside the timing) from the voxel's entry with
  *      rtcIntersect16 only, in packets of 16 on the same threads: what a whole-scene closest-hit
  *      sampler would pay for its rays alone. The bake side is bake_run with the `alpha` model
- *      (own-triangle lists and their ray tests, tracer/bake.h).
+ *      (own-triangle lists and their ray tests, tracer/bake/bake.h).
  *  (b) bake time at 128^3 and 256^3 (alpha, 150 rays) against our targets and the times Brito et
  *      al. report for their single-threaded baker.
  *  (c) render time with the shading cache on over off (alpha and binary, 128^3, 128x128, 4 spp),
@@ -109,7 +109,7 @@ static int bench_rays(const rt_scene *rt, const vx_model *alpha, int threads, in
         return 1;
     }
     *j = (raw_job){.rt = rt, .g = &g, .rays = rays, .scratch = scratch,
-                   /* bake_trace's slack (tracer/bake.c). */
+                   /* bake_trace's slack (tracer/bake/bake.c). */
                    .slack = 1e-4f * g.voxel_size + rt->epsilon * 0.1f};
     int64_t items = (int64_t)((voxels + VOXELS_PER_ITEM - 1) / VOXELS_PER_ITEM);
     /* Timed once, for information only: it tells how much of the gap is ray generation. */

@@ -40,7 +40,8 @@ def obj_of(src):
 
 def linker_checks():
     units = [f for f in code_keys.tracer_sources() | {os.path.relpath(p, REPO) for p in
-                                                         __import__("glob").glob(os.path.join(REPO, "models", "*.c"))}
+                                                         __import__("glob").glob(os.path.join(REPO, "models", "**", "*.c"),
+                                                                                  recursive=True)}
              if f.endswith((".c", ".cpp")) and os.path.isfile(obj_of(f))]
     if not units:
         report("objects built (make)", False, f"no objects under {BUILD}")
@@ -52,26 +53,26 @@ def linker_checks():
         # main.c dispatches to every command, and another command's cmd_*.c is kept only for the
         # helpers it shares (stats, peak RSS): a job runs its own command alone, so their references
         # are not followed (a check at the granularity of units, not functions).
-        skip = {k for k in kept if k == "tracer/main.c" or (k.startswith("tracer/cmd_") and k not in own_command)}
+        skip = {k for k in kept if k == "tracer/cli/main.c" or (k.startswith("tracer/cli/cmd_") and k not in own_command)}
         return sorted((k, l, s) for k in kept if k not in skip for l in left_out for s in needed[k] & defined[l])
 
     truth = set(code_keys.code_files("truth"))
     kept, out = [u for u in units if u in truth], [u for u in units if u not in truth]
-    bad = leaks(kept, out, {"tracer/cmd_truth.c"})
+    bad = leaks(kept, out, {"tracer/cli/cmd_truth.c"})
     report("truth: the units its key leaves out define nothing its units use", kept and not bad, str(bad[:5]))
     for m in ("binary", "alpha", "vmesh", "heitz-neyret"):
         files = set(code_keys.code_files("render", m))
         kept, out = [u for u in units if u in files], [u for u in units if u not in files and u != "models/registry.c"]
-        bad = leaks(kept, out, {"tracer/cmd_bake.c", "tracer/cmd_render.c", "tracer/cmd_compare.c"})
+        bad = leaks(kept, out, {"tracer/cli/cmd_bake.c", "tracer/cli/cmd_render.c", "tracer/cli/cmd_compare.c"})
         report(f"{m}: the units its key leaves out define nothing its units use",
                any(k.startswith("models/") for k in kept) and not bad, str(bad[:5]))
     report("a model's key holds no other model's file and not the registry",
-           "models/vmesh.c" not in code_keys.code_files("render", "alpha") and
+           "models/vmesh/vmesh.c" not in code_keys.code_files("render", "alpha") and
            "models/registry.c" not in code_keys.code_files("render", "alpha") and
-           "models/alpha.c" in code_keys.code_files("bake", "alpha"), "")
+           "models/alpha/alpha.c" in code_keys.code_files("bake", "alpha"), "")
     report("the truth's key holds no models/ file and no voxel unit",
-           not any(f.startswith("models/") for f in truth) and "tracer/render.c" not in truth and
-           "tracer/truth.c" in truth, "")
+           not any(f.startswith("models/") for f in truth) and "tracer/render/render.c" not in truth and
+           "tracer/truth/truth.c" in truth, "")
 
 
 def scratch():
@@ -120,43 +121,44 @@ def sweep_checks():
     report("scratch sweep runs all 7 jobs", p.returncode == 0 and len(ran) == 7, p.stderr[-1500:])
     if p.returncode != 0:
         return
-    # Adding a model: its file and a registry line. Nothing already computed reruns.
-    shutil.copy(os.path.join(root, "models", "alpha.c"), os.path.join(root, "models", "newmodel.c"))
+    # Adding a model: its folder and a registry line. Nothing already computed reruns.
+    os.makedirs(os.path.join(root, "models", "newmodel"))
+    shutil.copy(os.path.join(root, "models", "alpha", "alpha.c"), os.path.join(root, "models", "newmodel", "newmodel.c"))
     edit(root, "models/registry.c", "/* extern const vx_model model_newmodel; */\n")
     rebuilt(root)
     p, ran = sweep(root)
     report("adding a model reruns no other model's job and no truth", p.returncode == 0 and ran == [] and
            "0 job(s) to run" in p.stderr, f"ran {ran}\n{p.stderr[-800:]}")
-    edit(root, "models/alpha.c")
+    edit(root, "models/alpha/alpha.c")
     rebuilt(root)
     p, ran = sweep(root)
     report("editing alpha.c reruns alpha's bake, render and compare only",
            [k for k, _ in ran] == ["bake", "compare", "render"] and all("alpha" in lbl for _, lbl in ran),
            f"ran {ran}")
     report("the invalidation is reported with the file that changed",
-           re.search(r"invalidated 1 cached bake job\(s\) \(spheres-alpha[^)]*\): models/alpha.c changed", p.stderr)
+           re.search(r"invalidated 1 cached bake job\(s\) \(spheres-alpha[^)]*\): models/alpha/alpha.c changed", p.stderr)
            is not None, p.stderr[-1200:])
     with open(os.path.join(root, "results", "tiny", "rows.json")) as f:
         inv = json.load(f)["meta"]["invalidated"]
     report("rows.json lists the invalidated entries", len(inv) == 3 and
            {x["kind"] for x in inv} == {"bake", "render", "compare"}, str(inv)[:500])
-    edit(root, "tracer/truth.c")
+    edit(root, "tracer/truth/truth.c")
     rebuilt(root)
     p, ran = sweep(root)
     report("editing the truth renderer reruns the truth and the compares only",
            [k for k, _ in ran] == ["compare", "compare", "truth"], f"ran {ran}")
-    edit(root, "tracer/render.c")
+    edit(root, "tracer/render/render.c")
     rebuilt(root)
     p, ran = sweep(root)
     report("editing the voxel renderer reruns every model job, not the truth",
            [k for k, _ in ran] == ["bake"] * 2 + ["compare"] * 2 + ["render"] * 2, f"ran {ran}")
     p, ran = sweep(root, "--force")
     report("--force reruns every job", p.returncode == 0 and len(ran) == 7, f"ran {ran}")
-    edit(root, "models/binary.c")  # and no rebuild
-    os.utime(os.path.join(root, "models", "binary.c"), (time.time() + 60, time.time() + 60))
+    edit(root, "models/binary/binary.c")  # and no rebuild
+    os.utime(os.path.join(root, "models", "binary", "binary.c"), (time.time() + 60, time.time() + 60))
     p, ran = sweep(root)
     report("sources newer than the binary are refused", p.returncode == 1 and "older than" in p.stderr and
-           "models/binary.c" in p.stderr and not ran, p.stderr[-600:])
+           "models/binary/binary.c" in p.stderr and not ran, p.stderr[-600:])
 
 
 def main():

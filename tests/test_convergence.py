@@ -2,7 +2,7 @@
 against a reference that does not come from the model under test.
 
 Every scene here but the real ones is one flat square plate, written as a PLY; its grid follows its
-bounding box (tracer/grid.h: voxel = extent / (N - 3), the minimum faces on cell centres), so the
+bounding box (tracer/grid/grid.h: voxel = extent / (N - 3), the minimum faces on cell centres), so the
 plate, lying in z = 0 on the scene's minimum z, passes through voxel centres, unless a tiny hidden
 triangle shifts the bounds (test 4). The square is turned 7 degrees in its plane and offset, so its
 edges fall on the voxels nowhere in particular. Coverage is measured without lighting: a black
@@ -10,7 +10,7 @@ edges fall on the voxels nowhere in particular. Coverage is measured without lig
 required by the scene format; it is irrelevant here).
 
 The geometric reference is analytic: the square's corners projected through the scene's pinhole
-camera (the frame and pixel mapping of tracer/scene.c and tracer/camera.h, recomputed here in
+camera (the frame and pixel mapping of tracer/scene/scene.c and tracer/core/camera.h, recomputed here in
 numpy) give its exact projected area and perimeter in pixels (a planar polygon projects to a
 polygon), and "interior" pixels, whose centre is inside and >= 3 px from every projected edge (so
 the whole pixel is covered). The Embree truth is measured the same way, as a check of the method
@@ -31,7 +31,7 @@ the whole pixel is covered). The Embree truth is measured the same way, as a che
    most 0.9 x that at 32^3 or below 0.25 px, and <= 0.5 px for binary, heitz-neyret and vmesh.
    A tilted plate is where an element's "some point of the ray is below the plane" and "some
    point is inside the edge", tested apart, covered rays that pass beyond the far edge (the exact
-   test needs one point meeting both: models/hn_masks.h), and where a double-sided sheet, turned to
+   test needs one point meeting both: models/heitz_neyret/hn_masks.h), and where a double-sided sheet, turned to
    face the viewer, covered rays that cross its plane outside the near edge and go on under it.
    Closed solids: a sphere (a 128 x 64 UV sphere on the optical axis, so it projects to a disc; the
    reference is the Embree truth's covered area, perimeter 2 pi r of the disc of that area) and a
@@ -49,7 +49,7 @@ the whole pixel is covered). The Embree truth is measured the same way, as a che
    the camera orbiting at azimuth 20 degrees, so rays cross the voxel layer obliquely):
      binary, heitz-neyret: >= 0.98 (an opaque surface is opaque: the issue's threshold).
      alpha (the "averages" model): its opacity is the fraction of the voxel's sample rays that
-       occlude it under the shared classification (Brito et al. §3.2, tracer/bake.h): the ray's
+       occlude it under the shared classification (Brito et al. §3.2, tracer/bake/bake.h): the ray's
        line crosses one of the voxel's own triangles, inside the voxel (a) or outside it (b). For
        the large plate nearly every line through an interior voxel crosses its own triangle
        somewhere; plate_sampler_mc computes the mean voxel opacity a from the paper's definition,
@@ -64,7 +64,7 @@ the whole pixel is covered). The Embree truth is measured the same way, as a che
        see no hit: opacity 0). vmesh_opacity implements the paper's directional opacity from its
        text (a 4x4 window bounding the voxel's projection, sub-cells as disks, per window cell the
        largest opacity x overlap ratio, the mean; with the normalisation by a solid voxel that
-       models/vmesh_opacity.h documents, and the tracer's frame for the window's orientation, which
+       models/vmesh/vmesh_opacity.h documents, and the tracer's frame for the window's orientation, which
        the paper leaves open), and the expected coverage is 1 - E[(1 - a(d))^n] over the interior
        pixels' rays as for alpha: ~0.986 / 0.802 / 0.900 at 0 / 35 / 60 degrees (obliquely the
        voxel's hexagonal projection leaves the square window's corners empty, which the paper's
@@ -433,8 +433,8 @@ def vmesh_opacity(dirs, sub):
     bounding the voxel's parallel projection, 4x4 cells; each sub-cell's enclosing sphere (radius
     sqrt(3)/6) projected as a disk; per cell the largest opacity x (overlap with the disk inscribed
     in the cell / that disk's area); the mean of the 16 cells. Two choices the paper leaves open or
-    that voxlab documents (models/vmesh_opacity.h): the square's orientation in the view plane is
-    the tracer's frame (Duff et al.'s branchless basis, tracer/vec.h), and the mean is divided by the
+    that voxlab documents (models/vmesh/vmesh_opacity.h): the square's orientation in the view plane is
+    the tracer's frame (Duff et al.'s branchless basis, tracer/core/vec.h), and the mean is divided by the
     same mean for a solid voxel (all 27 opacities 1), so that a solid voxel is opaque from every
     side."""
     out = np.empty(len(dirs))
@@ -466,8 +466,8 @@ def vmesh_opacity(dirs, sub):
 
 
 def plate_sampler_mc(rng, res=128, voxels=400, rays=1500):
-    """Monte Carlo of the bake's sampler and its classification (Brito et al. §3.2, tracer/bake.h) on
-    the plate's real voxels, written from the paper and the grid mapping (tracer/grid.h), not from
+    """Monte Carlo of the bake's sampler and its classification (Brito et al. §3.2, tracer/bake/bake.h) on
+    the plate's real voxels, written from the paper and the grid mapping (tracer/grid/grid.h), not from
     the C code: interior voxels of the one-voxel layer (the plate lies on the layer's cell centres),
     each with its own triangles (those of the plate's two whose 2-D footprint meets the cell's),
     rays uniform in direction and over the voxel's projection; a ray occludes (value 1) when its

@@ -1,4 +1,4 @@
-"""`--dry-run` and the up-front memory check (tracer/estimate.c): a dry run computes and writes
+"""`--dry-run` and the up-front memory check (tracer/cli/estimate.c): a dry run computes and writes
 nothing, and says what the run would need; a run whose estimate exceeds the memory available
 ($VOXLAB_MEMORY_BUDGET here, the machine's MemAvailable and ulimit -v otherwise) is refused at once
 with the estimate, exit status 1, no output. The estimates are checked against independent

@@ -82,7 +82,7 @@ def bad_vox(name, data):
     return p
 
 
-# The file ends with the records and an 8-byte checksum (tracer/voxfile.h): damage the last record
+# The file ends with the records and an 8-byte checksum (tracer/bake/voxfile.h): damage the last record
 # byte, whatever the header's size.
 flipped = bytearray(raw)
 flipped[len(raw) - 8 - 1] ^= 0x10

@@ -4,7 +4,7 @@ out-of-range fields is refused with the voxel index and the field, exit status 1
 the exit status and exact message of a model mismatch (it once freed the records twice), header
 fields that name the file, and that a bake's file is a pure function of its inputs.
 
-The files are crafted here from the layout in tracer/voxfile.h (magic, header, records, FNV-1a
+The files are crafted here from the layout in tracer/bake/voxfile.h (magic, header, records, FNV-1a
 checksum), independently of voxlab's reader; the checksum is recomputed so that only the record
 validation can catch them."""
 import os

@@ -1,4 +1,4 @@
-/* The shared bake sampler (tracer/bake.h) against independent expectations.
+/* The shared bake sampler (tracer/bake/bake.h) against independent expectations.
  *
  * Generation: directions uniform on the sphere (mean 0, second moment I/3); origins outside the
  * scene's bounding sphere; [t_entry, t_exit] equal to a double-precision slab test of the line
@@ -34,7 +34,7 @@
 #include "tribox.h"
 #include "unit.h"
 
-/* ---------- the test's own random numbers (xorshift64*, not tracer/rng.h) ---------- */
+/* ---------- the test's own random numbers (xorshift64*, not tracer/core/rng.h) ---------- */
 
 static uint64_t rnd_u64(uint64_t *s)
 {

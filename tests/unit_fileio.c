@@ -1,4 +1,4 @@
-/* tracer/fileio.c and tracer/readfile.c: a signal that ends the run removes the temporary file
+/* tracer/core/fileio.c and tracer/core/readfile.c: a signal that ends the run removes the temporary file
  * being written (checked in a child that is killed by the signal, as a user's Ctrl-C would), and
  * input files are read only when they are regular files. */
 #include <dirent.h>

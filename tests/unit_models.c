@@ -27,7 +27,7 @@
 #include "unit.h"
 #include "voxfile.h"
 
-/* ---------- the test's own random numbers (xorshift64*, independent of tracer/rng.h) ---------- */
+/* ---------- the test's own random numbers (xorshift64*, independent of tracer/core/rng.h) ---------- */
 
 static uint64_t rnd_u64(uint64_t *s)
 {
@@ -609,7 +609,7 @@ static void run_geometry(const vx_model *m, const bake_case *c, const geometry *
     if (memcmp(rec, rec2, m->voxel_bytes) != 0)
         fail(vp, "baking the same samples twice gave different records");
     /* What the bake writes must be what the model says a record may hold: otherwise a genuine .vox
-     * file would be refused on load (tracer/record_check.c). */
+     * file would be refused on load (tracer/bake/record_check.c). */
     if (m->validate_record) {
         vx_record_context rctx = {.level = 0, .cell_size = (float)geo->size, .rays = c->n};
         char why[256] = "";

@@ -8,7 +8,7 @@
  *    recipe (direction uniform on the sphere, origin uniform over the voxel's projection) and are
  *    classified against analytic planes here, not by Embree; the expectations are the planes'
  *    projected areas and Lambert (plus Beckmann) of the planes' own normals;
- *  - one end-to-end case through the real sampler (tracer/bake.h) on a one-quad scene.
+ *  - one end-to-end case through the real sampler (tracer/bake/bake.h) on a one-quad scene.
  * Lines starting with '#' report the curves the checks look at. */
 #include <math.h>
 #include <stdio.h>
@@ -162,7 +162,7 @@ static double overlap_numeric(double r1, double r2, double d)
     return sum * h * h;
 }
 
-/* vx_acosf (tracer/portable_acos.h, used by the disk overlap): within 2 ulp of double acos on a
+/* vx_acosf (tracer/core/portable_acos.h, used by the disk overlap): within 2 ulp of double acos on a
  * fine sweep of [-1, 1], exact at the ends, and never decreasing the wrong way. */
 static void test_portable_acos(void)
 {
@@ -244,7 +244,7 @@ typedef struct {
 
 enum { SYN_PLANES = 0, SYN_FOAM = 1, SYN_EMPTY = 2 };
 
-/* The shared sampler's recipe (tracer/bake.c) re-implemented on the unit voxel: direction uniform on
+/* The shared sampler's recipe (tracer/bake/bake.c) re-implemented on the unit voxel: direction uniform on
  * the sphere, origin uniform over the voxel's projection (rejection in the bounding rectangle),
  * backed up 10 units. */
 static void synth(int mode, const sheet *sh, int nsh, int n, uint64_t seed, vx_sample *out)

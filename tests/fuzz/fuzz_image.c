@@ -1,11 +1,11 @@
 /* libFuzzer harness: the image readers behind `voxlab compare` (OpenImageIO through
- * tracer/image_oiio.cpp, with our checks around it) and the metrics run on what they return. The
+ * tracer/image/image_oiio.cpp, with our checks around it) and the metrics run on what they return. The
  * first byte picks the file name's extension (readers are chosen by it), the rest is the file. */
 #include "fuzz_common.h"
 #include "image.h"
 #include "metrics.h"
 
-int vx_oiio_read(const char *path, image *out, vx_err *e); /* tracer/image_oiio.cpp */
+int vx_oiio_read(const char *path, image *out, vx_err *e); /* tracer/image/image_oiio.cpp */
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {

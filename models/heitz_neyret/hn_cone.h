@@ -1,0 +1,159 @@
+/* Heitz–Neyret's cone element (the model's cone_element): the stencil of records around a point
+ * on two MIP levels, then the coverage mask and the radiance (hn_eval.h). Portable C: the C model
+ * (heitz_neyret.c) and the OpenCL cone kernel (tracer/backends/opencl/cl/render_cone.cl) both call
+ * hn_cone_element_eval, the grid's lookups being grid_core.h's and the mask table q->table (a
+ * plain array in C, a buffer under OpenCL). */
+#ifndef VX_HN_CONE_H
+#define VX_HN_CONE_H
+
+#include "floor_int.h"
+#include "grid_core.h"
+#include "hn_eval.h"
+
+/* Dense indices of cells (x, y, z) and (x, y, z + 1) of level L (-1: empty or outside), for x, y
+ * inside the level: the two cells share their column and, but for z % 64 = 63, its word, so the
+ * column, the word and its prefix are read once (grid_level_index reads them per cell). */
+VX_HOT_INLINE void hn_column_pair(const grid_level *L, int x, int y, int z, int64_t idx[2])
+{
+    idx[0] = idx[1] = -1;
+    uint64_t col = L->cols[(size_t)x * (size_t)L->n + (size_t)y];
+    uint32_t mask = (uint32_t)(col & 0xffffu);
+    if (!mask)
+        return;
+    long w_prev = -1;
+    uint64_t bits = 0;
+    VX_UNROLL
+    for (int dz = 0; dz < 2; dz++) {
+        int zz = z + dz;
+        if ((unsigned)zz >= (unsigned)L->n)
+            continue;
+        unsigned j = (unsigned)zz >> 6, b = (unsigned)zz & 63u;
+        if (!((mask >> j) & 1u))
+            continue;
+        long w = (long)(col >> 16) + (long)VX_POPCOUNT32(mask & ((1u << j) - 1u));
+        if (w != w_prev) {
+            bits = L->bits[w];
+            w_prev = w;
+        }
+        if ((bits >> b) & 1u)
+            idx[dz] = (int64_t)L->prefix[w] + (int64_t)VX_POPCOUNT64(bits & ((((uint64_t)1) << b) - 1u));
+    }
+}
+
+/* Fills the stencil of the cone element at p (world) and fractional level `level` of grid g:
+ * the 8 cells around p on floor(level) and on the next level, with their trilinear weights (the
+ * empty ones too, index -1).
+ * Record indices count every level's records, level 0 first (vx_model.uses_levels). The cells go
+ * in the order x, y, z major to minor (the blends sum in that order); a column's two cells are
+ * looked up together (hn_column_pair), and the weights' and centres' per-axis factors are computed
+ * once per level (the same expressions, so the same values, as per cell). */
+VX_INLINE void hn_fill_stencil(const voxel_grid *g, vec3 p, float level, hn_stencil *st)
+{
+    st->count = 0;
+    st->level_frac = 0.0f;
+    if (!g || g->levels < 1)
+        return;
+    float lv = fminf(fmaxf(level, 0.0f), (float)(g->levels - 1)); /* NaN -> 0 */
+    int L0 = (int)floorf(lv);
+    int L1 = L0 + 1 < g->levels ? L0 + 1 : L0;
+    st->level_frac = L1 > L0 ? lv - (float)L0 : 0.0f;
+    double lat[3];
+    grid_to_lattice(g, p, lat);
+    size_t off = 0;
+    for (int l = 0; l < L0; l++)
+        off += g->level[l].count;
+    for (int slot = 0; slot < (L1 > L0 ? 2 : 1); slot++) {
+        int L = slot ? L1 : L0;
+        if (slot)
+            off += g->level[L0].count; /* records of level L1 = L0 + 1 follow level L0's */
+        const grid_level *lev = &g->level[L];
+        unsigned n = (unsigned)lev->n;
+        double scale = vx_inv_pow2(L), size = g->voxel_size_d * (double)(1u << L);
+        int i0[3];
+        double wt[3][2];
+        float centre[3][2];
+        VX_UNROLL
+        for (int a = 0; a < 3; a++) {
+            double u = lat[a] * scale - 0.5;
+            if (!(fabs(u) < 1e9))
+                return; /* far outside (or NaN): nothing there */
+            i0[a] = vx_floor_int(u);
+            double f = u - i0[a];
+            wt[a][0] = 1 - f;
+            wt[a][1] = f;
+            for (int d = 0; d < 2; d++)
+                centre[a][d] = (float)(g->origin_d[a] + (i0[a] + d + 0.5) * size);
+        }
+        /* Every cell of the 2x2x2 block goes in, the empty ones (and those outside the grid) with
+         * index -1: the edge field (hn_blend_edge) needs a value where there is no surface. */
+        VX_UNROLL
+        for (int dx = 0; dx < 2; dx++) {
+            int in_x = (unsigned)(i0[0] + dx) < n;
+            VX_UNROLL
+            for (int dy = 0; dy < 2; dy++) {
+                int64_t idx[2] = {-1, -1};
+                if (in_x && (unsigned)(i0[1] + dy) < n)
+                    hn_column_pair(lev, i0[0] + dx, i0[1] + dy, i0[2], idx);
+                VX_UNROLL
+                for (int dz = 0; dz < 2; dz++) {
+                    int s = st->count++;
+                    st->slot[s] = slot;
+                    st->weight[s] = (float)(wt[0][dx] * wt[1][dy] * wt[2][dz]);
+                    st->centre[s] = v3(centre[0][dx], centre[1][dy], centre[2][dz]);
+                    st->size[s] = (float)size;
+                    st->index[s] = idx[dz] < 0 ? -1L : (long)(off + (size_t)idx[dz]);
+                }
+            }
+        }
+    }
+}
+
+/* One cone element: geometry and mask at the element's centre; for an element that shows and has
+ * lights, the attributes at the foot of the centre on the blended plane (see hn_blend_attributes:
+ * they describe the surface, wherever the element sits above or below it). q->table is the mask
+ * table (hn_masks.h). */
+VX_INLINE void hn_cone_element_eval(const vx_query *q, vx_answer *a)
+{
+    a->radiance = v3(0.0f, 0.0f, 0.0f);
+    a->opacity = 0.0f;
+    hn_mask_set(a->mask, 0u);
+    if (!q->grid || !q->records || !q->table)
+        return;
+    VX_GLOBAL const hn_record *records = (VX_GLOBAL const hn_record *)q->records;
+    VX_GLOBAL const unsigned int *table = (VX_GLOBAL const unsigned int *)q->table;
+    hn_stencil st;
+    hn_fill_stencil(q->grid, q->position, q->level, &st);
+    hn_sample s;
+    if (!hn_blend_geometry(records, &st, q->position, &s))
+        return;
+    hn_blend_edge(records, &st, q->position, &s);
+    vec3 N = hn_mask_answer(table, &s, q, fmaxf(q->footprint, 0.0f), a);
+    if (q->light_count <= 0 || !(a->opacity > 0.0f))
+        return;
+    vec3 nu = v3_normalize_or(s.n, N);
+    vec3 foot = v3_madd(q->position, nu, -s.D);
+    if (!(fabsf(s.D) < 1e30f))
+        foot = q->position;
+    hn_fill_stencil(q->grid, foot, q->level, &st);
+    hn_blend_attributes(records, &st, foot, nu, &s);
+    /* Point lights from the foot, where the surface is, as the truth lights its hit points: from
+     * the element's centre a light lying on the surface would be seen at a slant and at a distance
+     * as small as the centre's height, so its 1/d^2 would blow up (a light on the ground lit the
+     * elements around it 75x brighter than the truth). The distance is bounded by the element's
+     * radius: the element stands for its footprint, over which the irradiance is averaged. */
+    vx_query ql = *q;
+    for (int i = 0; i < ql.light_count && i < VX_MAX_LIGHTS; i++) {
+        float d = q->light_distance[i];
+        if (!(d > 0.0f) || !(d < 1e30f))
+            continue; /* directional, or unknown */
+        vec3 v = v3_add(v3_scale(q->to_light[i], d), v3_sub(q->position, foot));
+        float d2 = v3_dot(v, v), r = fmaxf(q->footprint, 0.0f);
+        if (!(d2 < 1e30f))
+            continue;
+        ql.to_light[i] = v3_normalize_or(v, q->to_light[i]);
+        ql.irradiance[i] = v3_scale(q->irradiance[i], d * d / fmaxf(d2, fmaxf(r * r, 1e-30f)));
+    }
+    a->radiance = hn_radiance(&s, N, &ql);
+}
+
+#endif

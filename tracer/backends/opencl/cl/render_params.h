@@ -1,0 +1,49 @@
+/* What the host hands the OpenCL tracer (tracer/backends/opencl/opencl_backend.c -> tracer/backends/opencl/cl/render.cl): one
+ * parameter block and the cache entry, compiled on both sides so that the layouts agree. Only types
+ * whose size and alignment C on x86-64 and OpenCL C define alike (double, 64/32-bit integers, float,
+ * vec3 = three floats, and camera.h's camera and light.h's light, made of those); the program checks
+ * sizeof against the host's (VX_CL_PARAMS_BYTES). */
+#ifndef VX_CL_RENDER_PARAMS_H
+#define VX_CL_RENDER_PARAMS_H
+
+#include "camera.h"
+#include "grid_params.h"
+#include "light.h"
+#include "model.h"
+
+typedef struct {
+    vx_cl_grid_params grid;
+    uint64_t seed;
+    camera cam;               /* the scene's, as it is */
+    vec3 background;
+    light lights[VX_MAX_LIGHTS];
+    float spread;             /* footprint radius per unit distance (camera_pixel_spread) */
+    float stop_opacity;
+    int width, height, spp;
+    int strata_x, strata_y;   /* truth_strata(spp) */
+    int light_count;
+    unsigned effects;         /* VX_EFFECT_* */
+    int shadow_skip, cache;
+    int voxel_count;          /* non-empty level-0 voxels */
+} vx_cl_params;
+
+/* Pixels a work-item takes at a time from the shared tile counter (see vx_render): small enough
+ * that the last tiles even out the threads' finishing times (a tile is ~1/1000 of a 256x256
+ * render), large enough that the counter is rarely touched and that the threads seldom share cache
+ * lines of the image and the shading cache. 64 measured faster than 16 and than whole 256-pixel rows. */
+#define VX_CL_TILE_PIXELS 64
+
+/* A voxel's answer for the direction voxel -> camera (the C tracer's cache_entry; its state is a
+ * separate int array, zeroed by the host). */
+typedef struct {
+    float radiance[3];
+    float opacity;
+    unsigned int mask[VX_MASK_WORDS];
+} vx_cl_cache;
+
+/* A work-item's counters (render_counts' fields; cache hits are the visits that needed no model
+ * evaluation, so the host derives them). The kernel adds them up per work-group, each as a 64-bit
+ * sum in two 32-bit words (low, high), and the host sums the groups. */
+enum { VX_CL_VISITS = 0, VX_CL_SHADOW_RAYS = 1, VX_CL_EVALS = 2, VX_CL_COUNTERS = 3 };
+
+#endif
