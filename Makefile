@@ -73,6 +73,18 @@ $(EMBEDDED): tracer/backends/opencl/embed_sources.sh $(KERNEL_SOURCES) Makefile
 	@mkdir -p $(dir $@)
 	sh $< $@ $(SOURCE_DIRS)
 
+# The version `voxlab --version` prints: the commit (git describe), rewritten only when it changes so
+# that an unchanged tree rebuilds nothing.
+VERSION_H = $(BUILD)/gen/version.h
+VERSION_TEXT := $(shell git describe --always --dirty --tags 2>/dev/null || echo unknown)
+$(VERSION_H): FORCE
+	@mkdir -p $(dir $@)
+	@printf '#define VOXLAB_VERSION "%s"\n' "$(VERSION_TEXT)" >$@.tmp
+	@cmp -s $@.tmp $@ && rm -f $@.tmp || mv $@.tmp $@
+FORCE:
+$(BUILD)/tracer/cli/main.c.o: $(VERSION_H)
+$(BUILD)/tracer/cli/main.c.o: CFLAGS += -I$(BUILD)/gen
+
 $(EMBEDDED).o: $(EMBEDDED)
 	$(CC) $(CFLAGS) -c -o $@ $<
 

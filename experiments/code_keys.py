@@ -11,7 +11,7 @@ whole binary (experiments/README.md, "What a cache key holds"):
   the headers only those the remaining files include (directly or not); plus Embree's version.
 - bake and render of model M: tracer/ and scenes/generators/ without the truth-only units in
   TRUTH_ONLY, models/model.h, and M's own folder models/<m>/ (its .c files) with every models/ header
-  those include (models/common/ among them). models/registry.c (one line per model) and the other
+  those include (models/common/ among them). models/registry.c and registry.def (one line per model) and the other
   models' folders are not part of it: adding a model leaves every other model's entries valid.
 - compare: tracer/ and scenes/generators/ (metrics, image readers).
 
@@ -37,7 +37,7 @@ EMBREE_HEADER = "/usr/include/embree3/rtcore_config.h"
 # (cmd_bake.c stays in: it defines peak_rss_bytes, which the truth's stats report; the linker check in
 # tests/test_cache_keys.py found it.)
 VOXEL_ONLY = ["tracer/bake/bake.c", "tracer/cli/cmd_render.c", "tracer/cli/cmd_compare.c",
-              "tracer/render/cone_light_cache.c", "tracer/render/cone_skip.c", "tracer/grid/grid.c", "tracer/grid/grid_traverse.c",
+              "tracer/render/cone_light_cache.c", "tracer/render/cone_skip.c", "tracer/grid/grid.c",
               "tracer/image/metrics.c", "tracer/backends/opencl/opencl_backend.c", "tracer/backends/opencl/opencl_cone.c", "tracer/backends/opencl/opencl_program.c",
               "tracer/backends/opencl/opencl_runtime.c", "tracer/render/render.c", "tracer/render/render_cone.c", "tracer/grid/tribox.c",
               "tracer/bake/voxfile.c", "tracer/bake/vox_load.c", "tracer/bake/record_check.c", "tracer/backends/opencl/cl/*"]

@@ -1,18 +1,20 @@
-/* The appearance-model interface. A model is one file in models/ plus one line in
+/* The appearance-model interface. A model is one folder models/<name>/ plus one line in
  * models/registry.c; the tracer only ever talks to this interface and never names a model.
  *
- * What a model declares:
- *  - its name, a one-line description and the bytes of its per-voxel record;
- *  - how it bakes a voxel's record from the shared bake sampler's rays (bake_voxel), and optionally
- *    a pass over the whole grid afterwards (bake_finish: MIP levels, neighbourhood filters);
- *  - how it answers a query (voxel, view direction, pixel footprint, lights): its directional
- *    opacity (also used for shadow rays) and its radiance, plus an A-buffer coverage mask for models
- *    that composite with masks;
- *  - which compositing rule the tracer applies: first hit, front-to-back alpha, or coverage masks.
+ * What a model declares (vx_model, at the end):
+ *  - identity: its name and a one-line description;
+ *  - its per-voxel record: bytes, a layout version (checked when a .vox is loaded) and whether it
+ *    has MIP levels;
+ *  - its bake: a voxel's record from the shared bake sampler's rays (bake_voxel), optionally a pass
+ *    over the whole grid afterwards (bake_finish: MIP levels, neighbourhood filters), its
+ *    parameters and what a valid record may hold (validate_record);
+ *  - exactly one evaluation protocol: per voxel (vx_voxel_eval: directional opacity, also used for
+ *    shadow rays, and radiance; first-hit or alpha compositing) or per cone element (vx_cone_eval:
+ *    coverage mask and radiance; A-buffer compositing).
  *
- * Per-voxel evaluation (opacity, shade) is portable C: no libc beyond <math.h>, no allocation, no
- * I/O, fixed-size structs, buffers behind the VX_GLOBAL address-space macro, so that the same source
- * compiles as OpenCL C for the OpenCL backend. */
+ * Evaluation is portable C: no libc beyond <math.h>, no allocation, no I/O, fixed-size structs,
+ * buffers behind the VX_GLOBAL address-space macro, so that the same source compiles as OpenCL C
+ * for the OpenCL backend. ARCHITECTURE.md says how to add a model. */
 #ifndef VX_MODEL_H
 #define VX_MODEL_H
 
@@ -35,12 +37,6 @@ enum {
     VX_COMPOSITE_COVERAGE = 2,  /* A-buffer: L += L_d popcount(M_d & ~A) / 128, A |= M_d */
 };
 
-enum {
-    VX_MARCH_VOXELS = 0, /* the tracer visits the level-0 voxels along each ray (3D-DDA) */
-    VX_MARCH_CONE = 1,   /* the tracer steps cone elements (length = diameter) along each ray, the
-                            MIP level following the cone's width, and asks cone_element at each */
-};
-
 /* Effect bits a model may test (same values as scene.h's EFFECT_*). */
 enum { VX_EFFECT_SHADOWS = 1, VX_EFFECT_SPECULAR = 2, VX_EFFECT_DOF = 4, VX_EFFECT_TEXTURES = 8 };
 
@@ -61,7 +57,7 @@ typedef struct {
      * 0 when the tracer did not say), so that a model whose surface lies away from the element's
      * centre can light the surface where it is, as the ground truth does. */
     float light_distance[VX_MAX_LIGHTS];
-    /* Cone marching (VX_MARCH_CONE) only: the element's centre, its MIP level (fractional: the
+    /* Cone evaluation (vx_cone_eval) only: the element's centre, its MIP level (fractional: the
      * model interpolates between floor and ceil), and the grid and records to look up. */
     vec3 position;
     float level;
@@ -132,6 +128,7 @@ typedef struct {
     vec3 lo;            /* lower corner */
     float size;         /* edge length */
     unsigned effects;
+    const struct vx_bake_params *params; /* the model's parameters (vx_model.params), by index */
 } vx_voxel;
 
 struct voxel_grid;
@@ -144,58 +141,118 @@ typedef struct {
     int rays;        /* sample rays per voxel of the bake (a bound on any per-voxel sample count) */
 } vx_record_context;
 
+/* The interface version a model was written against: the registry refuses a model built for
+ * another (tests/unit_models.c checks every registered model). Bump it when a field's meaning
+ * changes, so that an out-of-tree model fails loudly instead of rendering garbage. */
+#define VX_MODEL_ABI_VERSION 2
+
+/* A portable evaluation function as both backends see it: the C function and its name in the
+ * model's portable source, which the OpenCL program calls (OpenCL C has no function pointers).
+ * Declare it with VX_PORTABLE(function) so that the two cannot name different functions. */
+#define VX_PORTABLE(fn) {fn, #fn}
+typedef struct {
+    float (*fn)(VX_GLOBAL const void *record, const vx_query *q);
+    const char *name;
+} vx_opacity_fn;
+typedef struct {
+    void (*fn)(VX_GLOBAL const void *record, const vx_query *q, vx_answer *a);
+    const char *name;
+} vx_shade_fn;
+typedef struct {
+    void (*fn)(const vx_query *q, vx_answer *a);
+    const char *name;
+} vx_cone_element_fn;
+
+/* Protocol 1, voxel evaluation: the tracer visits the level-0 voxels along each ray (3D-DDA) and
+ * composites their answers with `compositing` (VX_COMPOSITE_FIRST_HIT or VX_COMPOSITE_ALPHA). */
+typedef struct {
+    int compositing;
+    const char *source; /* the portable header holding both functions (compiles as OpenCL C) */
+    /* Directional opacity along q->ray_dir (for a shadow ray, the direction toward the light). */
+    vx_opacity_fn opacity;
+    /* Radiance toward q->to_viewer; a->opacity holds the opacity the tracer already computed. */
+    vx_shade_fn shade;
+} vx_voxel_eval;
+
+/* Protocol 2, cone evaluation: the tracer steps cone elements (length = diameter) along each ray,
+ * the MIP level following the cone's width, and composites the elements' coverage masks A-buffer
+ * style (VX_COMPOSITE_COVERAGE); shadows march light cones the same way. The record has levels. */
+typedef struct {
+    const char *source; /* the portable header holding `element` */
+    /* The answer of the element described by q (position, level, footprint, to_viewer, lights),
+     * looked up in q->grid / q->records, with q->table the table below. */
+    vx_cone_element_fn element;
+    /* Optional (may be NULL): a constant table the element reads through q->table (e.g.
+     * precomputed masks), built once per process on the host, outside every render timer; the C
+     * backend hands it over, OpenCL uploads it as a buffer. Returns the table and its bytes. */
+    const void *(*table)(size_t *bytes);
+} vx_cone_eval;
+
+/* A model parameter (`--param name=value` on bake): a number with a default and a range. A bake
+ * with an unknown name, or a value out of range, is refused; the values a bake used are written
+ * into the .vox header. */
+typedef struct {
+    const char *name;
+    double fallback; /* the default */
+    double min, max;
+    const char *doc; /* one line: what it changes */
+} vx_param;
+#define VX_MAX_PARAMS 8
+
+struct vx_bake_params {
+    double value[VX_MAX_PARAMS]; /* in the order of vx_model.params */
+};
+
 typedef struct vx_model {
+    int abi_version; /* VX_MODEL_ABI_VERSION */
     const char *name;
     const char *description;
-    size_t voxel_bytes;  /* size of one per-voxel record */
-    int compositing;     /* VX_COMPOSITE_* */
-    /* 0: one record per non-empty level-0 voxel. 1: records for every MIP level too, level 0 first,
-     * then level 1, ... (each level's records in its dense-index order); bake_voxel fills level 0
-     * and bake_finish the coarser levels. */
-    int uses_levels;
-    int march; /* VX_MARCH_* */
-    /* Fills the record `out` (voxel_bytes, zeroed) from the voxel's n sample rays. Called from
+    /* The per-voxel record. */
+    struct {
+        size_t bytes;       /* one record */
+        int layout_version; /* written into .vox and checked on load: bump it when the layout changes */
+        /* 0: one record per non-empty level-0 voxel. 1: records for every MIP level too, level 0
+         * first, then level 1, ... (each level's records in its dense-index order); bake_voxel
+         * fills level 0 and bake_finish the coarser levels. */
+        int levels;
+    } record;
+    /* Optional (NULL-terminated by name; may be NULL): the model's parameters. */
+    const vx_param *params;
+    /* Fills the record `out` (record.bytes, zeroed) from the voxel's n sample rays. Called from
      * several threads at once, for different voxels. */
     void (*bake_voxel)(const vx_voxel *v, const vx_sample *samples, int n, void *out);
     /* Optional (may be NULL): runs once after every voxel is baked, with the whole grid and all
-     * records (see uses_levels). Returns 0, or -1 on failure. */
-    int (*bake_finish)(const struct voxel_grid *g, void *records);
-    /* Directional opacity of the voxel along q->ray_dir (for a shadow ray, the direction toward the
-     * light). */
-    float (*opacity)(VX_GLOBAL const void *record, const vx_query *q);
-    /* Radiance toward q->to_viewer (and the coverage mask for VX_COMPOSITE_COVERAGE); a->opacity
-     * holds the opacity the tracer already computed. */
-    void (*shade)(VX_GLOBAL const void *record, const vx_query *q, vx_answer *a);
-    /* VX_MARCH_CONE models only (NULL otherwise): the answer of the cone element described by q
-     * (position, level, footprint, to_viewer, lights), looked up in q->grid / q->records. */
-    void (*cone_element)(const vx_query *q, vx_answer *a);
-    /* The OpenCL backend (tracer/backends/opencl/opencl_backend.c) compiles the model's per-voxel evaluation from
-     * the same source as the C build: cl_source names a header under models/ (e.g.
-     * "binary_eval.h") that compiles as OpenCL C, and cl_opacity / cl_shade name its functions there
-     * with the signatures of opacity and shade above (the C model points opacity and shade at those
-     * same functions, or at thin wrappers of them). NULL cl_source: the model cannot run on OpenCL,
-     * and `render --backend opencl` says so. The tracer reads these fields and never names a model. */
-    const char *cl_source;
-    const char *cl_opacity;
-    const char *cl_shade;
-    /* VX_MARCH_CONE models: cl_cone_element names the function in cl_source with cone_element's
-     * signature (the C model's cone_element calls the same function), which the OpenCL cone kernel
-     * (tracer/backends/opencl/cl/render_cone.cl) calls; then cl_opacity and cl_shade may be NULL. */
-    const char *cl_cone_element;
-    /* Optional (may be NULL): a constant table the model's evaluation reads through q->table (e.g.
-     * precomputed masks), built once on the host; the tracer hands it to cone_element on the C
-     * backend and uploads it as a buffer on OpenCL. Returns the table and its size in bytes. */
-    const void *(*table)(size_t *bytes);
+     * records (see record.levels). Returns 0, or -1 on failure. */
+    int (*bake_finish)(const struct voxel_grid *g, void *records, const struct vx_bake_params *p);
     /* Optional (may be NULL): states what a record may hold, for records read from a .vox file
      * (a checksum only guards against accidents; a crafted or buggy file must not reach the
      * evaluation with NaN, infinities or out-of-range codes). Returns 0 when the record is one the
      * bake could have written, else writes "FIELD: what is wrong" into why and returns -1. */
     int (*validate_record)(const void *record, const vx_record_context *c, char *why, size_t why_size);
+    /* Exactly one evaluation protocol; the other is NULL. */
+    const vx_voxel_eval *voxel;
+    const vx_cone_eval *cone;
 } vx_model;
+
+/* The compositing rule the tracer applies to model m's answers (VX_COMPOSITE_*). */
+static inline int vx_model_compositing(const vx_model *m)
+{
+    return m->cone ? VX_COMPOSITE_COVERAGE : m->voxel->compositing;
+}
+
+/* The portable header of m's evaluation (the OpenCL program includes it). */
+static inline const char *vx_model_source(const vx_model *m)
+{
+    return m->cone ? m->cone->source : m->voxel->source;
+}
 
 /* The registry (models/registry.c). */
 const vx_model *model_find(const char *name);
 const vx_model *const *model_all(void); /* NULL-terminated */
+/* 0 when m keeps the interface's rules (ABI version, exactly one protocol with its functions and
+ * source, a compositing rule the protocol allows, levels for cones, parameters with defaults in
+ * range), else -1 with the first broken rule in why. */
+int model_check(const vx_model *m, char *why, size_t why_size);
 #endif
 
 #endif

@@ -1,18 +1,19 @@
-/* Every model voxlab knows, one line each. Adding a model = adding its file and one line here. */
+/* The registry: the models listed in registry.def (one line each), found by name, and the check of
+ * the interface's rules every registered model must keep. */
+#include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "model.h"
 
-extern const vx_model model_binary;
-extern const vx_model model_alpha;
-extern const vx_model model_heitz_neyret;
-extern const vx_model model_vmesh;
+#define VX_MODEL(x) extern const vx_model model_##x;
+#include "registry.def"
+#undef VX_MODEL
 
 static const vx_model *const models[] = {
-    &model_binary,
-    &model_alpha,
-    &model_heitz_neyret,
-    &model_vmesh,
+#define VX_MODEL(x) &model_##x,
+#include "registry.def"
+#undef VX_MODEL
     NULL,
 };
 
@@ -24,4 +25,54 @@ const vx_model *model_find(const char *name)
         if (strcmp((*m)->name, name) == 0)
             return *m;
     return NULL;
+}
+
+#define BROKEN(...) (snprintf(why, why_size, __VA_ARGS__), -1)
+
+static int portable_name_ok(const char *name)
+{
+    if (!name || !*name)
+        return 0;
+    for (const char *c = name; *c; c++)
+        if (!((*c >= 'a' && *c <= 'z') || (*c >= 'A' && *c <= 'Z') || (*c >= '0' && *c <= '9') || *c == '_'))
+            return 0;
+    return 1;
+}
+
+int model_check(const vx_model *m, char *why, size_t why_size)
+{
+    if (m->abi_version != VX_MODEL_ABI_VERSION)
+        return BROKEN("abi_version %d, but this voxlab implements model interface version %d", m->abi_version,
+                      VX_MODEL_ABI_VERSION);
+    if (!m->name || !*m->name || !m->description)
+        return BROKEN("a name and a description are required");
+    if (m->record.bytes == 0 || m->record.layout_version < 1)
+        return BROKEN("record.bytes and record.layout_version (>= 1) are required");
+    if (!m->bake_voxel)
+        return BROKEN("bake_voxel is required");
+    if (!m->voxel == !m->cone)
+        return BROKEN("exactly one evaluation protocol (voxel or cone) is required");
+    if (m->voxel) {
+        const vx_voxel_eval *v = m->voxel;
+        if (v->compositing != VX_COMPOSITE_FIRST_HIT && v->compositing != VX_COMPOSITE_ALPHA)
+            return BROKEN("voxel evaluation composites first hit or alpha, not rule %d", v->compositing);
+        if (!v->source || !v->opacity.fn || !v->shade.fn || !portable_name_ok(v->opacity.name) ||
+            !portable_name_ok(v->shade.name))
+            return BROKEN("voxel evaluation needs its source and opacity/shade declared with VX_PORTABLE");
+    } else {
+        if (!m->cone->source || !m->cone->element.fn || !portable_name_ok(m->cone->element.name))
+            return BROKEN("cone evaluation needs its source and element declared with VX_PORTABLE");
+        if (!m->record.levels)
+            return BROKEN("cone evaluation reads MIP levels: record.levels must be 1");
+    }
+    int n = 0;
+    for (const vx_param *p = m->params; p && p->name; p++, n++) {
+        if (n >= VX_MAX_PARAMS)
+            return BROKEN("more than %d parameters", VX_MAX_PARAMS);
+        if (!portable_name_ok(p->name) || !p->doc)
+            return BROKEN("parameter %d: a name of letters, digits and _ and a doc line are required", n);
+        if (!(p->min <= p->fallback && p->fallback <= p->max))
+            return BROKEN("parameter %s: default %g outside [%g, %g]", p->name, p->fallback, p->min, p->max);
+    }
+    return 0;
 }

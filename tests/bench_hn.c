@@ -13,7 +13,7 @@
 #include <time.h>
 
 #include "bench.h"
-#include "commands.h"
+#include "bake.h"
 #include "parallel.h"
 #include "render.h"
 

@@ -16,7 +16,7 @@
 #include <time.h>
 
 #include "bench.h"
-#include "commands.h"
+#include "bake.h"
 #include "opencl_backend.h"
 #include "parallel.h"
 #include "render.h"
@@ -60,7 +60,7 @@ static int bench_model(const scene *s, const vx_model *m, int res, int size)
     int rc = 0;
     for (int run = 0; run < RUNS && !rc; run++) {
         render_counts cnt;
-        opencl_counts oc;
+        backend_counts oc;
         image_free(&img_c);
         image_free(&img_cl);
         double cpu0 = cpu_seconds();
@@ -88,7 +88,7 @@ static int bench_model(const scene *s, const vx_model *m, int res, int size)
         double ccpu = bench_median(c_cpu, RUNS), clcpu = bench_median(cl_cpu, RUNS);
         /* A cone-marching model traces one cone per pixel whatever the spp option says. */
         char rays[32];
-        if (m->march == VX_MARCH_CONE)
+        if (m->cone != NULL)
             snprintf(rays, sizeof rays, "1 cone/pixel");
         else
             snprintf(rays, sizeof rays, "%d spp", o.spp);

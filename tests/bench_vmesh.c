@@ -61,7 +61,7 @@ static int bench_bake(const rt_scene *rt, const vx_model *vm, const vx_model *al
     double t = bench_median(v, RUNS);
     printf("vmesh  %-8s %d^3 bake %.2f s (alpha %.2f s; vmesh/alpha %.2f), %zu B/voxel, %d threads; time/target %.2f "
            "(target %.0f s, <= 1 meets it); paper (single-threaded, %.0f s)/ours %.1fx (median of %d)\n",
-           rt->scene->name, res, t, bench_median(a, RUNS), bench_median(ratio, RUNS), vm->voxel_bytes, threads, t / target, target,
+           rt->scene->name, res, t, bench_median(a, RUNS), bench_median(ratio, RUNS), vm->record.bytes, threads, t / target, target,
            paper, paper / t, RUNS);
     return 0;
 }

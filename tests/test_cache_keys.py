@@ -124,7 +124,7 @@ def sweep_checks():
     # Adding a model: its folder and a registry line. Nothing already computed reruns.
     os.makedirs(os.path.join(root, "models", "newmodel"))
     shutil.copy(os.path.join(root, "models", "alpha", "alpha.c"), os.path.join(root, "models", "newmodel", "newmodel.c"))
-    edit(root, "models/registry.c", "/* extern const vx_model model_newmodel; */\n")
+    edit(root, "models/registry.def", "VX_MODEL(newmodel)\n")
     rebuilt(root)
     p, ran = sweep(root)
     report("adding a model reruns no other model's job and no truth", p.returncode == 0 and ran == [] and

@@ -7,17 +7,21 @@ fields that name the file, and that a bake's file is a pure function of its inpu
 The files are crafted here from the layout in tracer/bake/voxfile.h (magic, header, records, FNV-1a
 checksum), independently of voxlab's reader; the checksum is recomputed so that only the record
 validation can catch them."""
+import json
 import os
 import random
 import struct
+import subprocess
 
-from testlib import REPO, TMP, finish, report, voxlab
+from testlib import REPO, TMP, VOXLAB, finish, report, voxlab
 
 SPHERES = os.path.join(REPO, "scenes", "spheres.json")
 SMALL = ["--size", "16x16", "--spp", "1"]
-HEADER = 96  # 8 magic bytes + voxfile_header (version 2): records start here
-# voxfile_header offsets (after the magic): n at 48, voxel_bytes 64, record_count 72, voxels 80
+HEADER = 360  # 8 magic bytes + voxfile_header (version 3): records start here
+# voxfile_header offsets (after the magic): n at 48, voxel_bytes 64, record_count 72, voxels 80,
+# layout_version 88, params 96 (256 bytes)
 OFF_N, OFF_VOXEL_BYTES, OFF_RECORDS, OFF_VOXELS = 8 + 48, 8 + 64, 8 + 72, 8 + 80
+OFF_LAYOUT, OFF_PARAMS = 8 + 88, 8 + 96
 
 
 def path(name):
@@ -130,6 +134,31 @@ err = render_fails(name, craft(name + ".vox", raw, lambda b: struct.pack_into("<
                    ["do not match"])
 report("count mismatch: says what this grid expects (not 'expected 0')",
        f"expected {u64(raw, OFF_RECORDS)} of {u64(raw, OFF_VOXEL_BYTES)} for {voxels}" in err, err)
+
+# ---------- the record layout version and the model parameters in the header ----------
+name = "layout_mismatch"
+render_fails(name, craft(name + ".vox", raw, lambda b: struct.pack_into("<I", b, OFF_LAYOUT, 7)),
+             ["header field layout_version is 7", "record layout 1", "bake it again"])
+hn = open(bakes["heitz-neyret"], "rb").read()
+params = hn[OFF_PARAMS:OFF_PARAMS + 256].split(b"\0")[0].decode()
+report("the bake's model parameters are in the header", params == "edge_clear=0.40000000000000002", params)
+tuned = path("hn_edge0.vox")
+voxlab("bake", SPHERES, "--model", "heitz-neyret", "--res", "16", "--rays", "16", "--threads", "1",
+       "--param", "edge_clear=0", "-o", tuned)
+t = open(tuned, "rb").read()
+report("--param edge_clear=0 is written and changes the coarser levels",
+       t[OFF_PARAMS:OFF_PARAMS + 16].startswith(b"edge_clear=0\0") and t[HEADER:] != hn[HEADER:])
+st = path("hn_edge0.json")
+voxlab("render", SPHERES, "--vox", tuned, *SMALL, "-o", path("hn_edge0.exr"), "--stats", st)
+report("render --stats reports the .vox's parameters", json.load(open(st))["model_params"] == "edge_clear=0")
+p = subprocess.run([VOXLAB, "bake", SPHERES, "--model", "heitz-neyret", "--res", "8", "--param", "edge=1", "-o",
+                    path("nope.vox")], capture_output=True, text=True)
+report("an unknown --param is refused, naming the model's parameters",
+       p.returncode == 1 and 'no parameter "edge"' in p.stderr and "edge_clear" in p.stderr
+       and not os.path.exists(path("nope.vox")), p.stderr)
+p = subprocess.run([VOXLAB, "bake", SPHERES, "--model", "heitz-neyret", "--res", "8", "--param", "edge_clear=0.9",
+                    "-o", path("nope.vox")], capture_output=True, text=True)
+report("a --param out of range is refused with the range", p.returncode == 1 and "[0, 0.5]" in p.stderr, p.stderr)
 
 # ---------- a bake is a pure function of its inputs ----------
 for model in ("alpha", "heitz-neyret"):

@@ -17,7 +17,7 @@
 
 #include "cone_skip.h"
 #include "grid.h"
-#include "grid_traverse.h"
+#include "grid_traverse_core.h"
 #include "mesh.h"
 #include "rng.h"
 #include "tribox.h"
@@ -426,9 +426,9 @@ static void test_face_on_plane(void)
             grid_iter it;
             grid_hit h;
             vec3 org = v3(sgn > 0 ? o - 10 : o + 40, o + 10.5f, o + 10.5f);
-            int ok = grid_iter_init(&it, &g, 0, org, v3((float)sgn, 0, 0), 0, INFINITY), x = sgn > 0 ? 5 : 16;
+            int ok = gt_iter_init(&it, &g, 0, org, v3((float)sgn, 0, 0), 0, INFINITY), x = sgn > 0 ? 5 : 16;
             int seen = 0;
-            while (grid_iter_next(&it, &h)) {
+            while (gt_iter_next(&it, &h)) {
                 double t0, t1;
                 if (sgn > 0) {
                     t0 = (x - 1.5) + 10.0;
@@ -451,8 +451,8 @@ static void test_face_on_plane(void)
             grid_iter it;
             grid_hit h[8];
             int k = 0;
-            grid_iter_init(&it, &g, 0, v3(o + 9, o + 9, o + 20), v3(0, 0, -2), 0, INFINITY);
-            while (k < 8 && grid_iter_next(&it, &h[k]))
+            gt_iter_init(&it, &g, 0, v3(o + 9, o + 9, o + 20), v3(0, 0, -2), 0, INFINITY);
+            while (k < 8 && gt_iter_next(&it, &h[k]))
                 k++;
             /* Lattice z of the origin is 21.5 and d = -2: layer k spans t in [(20.5-k)/2, (21.5-k)/2]. */
             int ok = k == 3 && h[0].z == 12 && h[1].z == 11 && h[2].z == 1 && h[0].x == 10 && h[0].y == 10 &&
@@ -461,21 +461,21 @@ static void test_face_on_plane(void)
             snprintf(name, sizeof name, "grid DDA (offset %g): vertical ray hits layers 12, 11, 1 with exact t", (double)o);
             CHECK(name, ok);
             /* Shadow ray stopping between the layers: only layer 12 and part of 11. */
-            grid_iter_init(&it, &g, 0, v3(o + 9, o + 9, o + 20), v3(0, 0, -2), 0, 5.0f);
+            gt_iter_init(&it, &g, 0, v3(o + 9, o + 9, o + 20), v3(0, 0, -2), 0, 5.0f);
             k = 0;
-            while (k < 8 && grid_iter_next(&it, &h[k]))
+            while (k < 8 && gt_iter_next(&it, &h[k]))
                 k++;
             snprintf(name, sizeof name, "grid DDA (offset %g): t_max clips the walk", (double)o);
             CHECK(name, k == 2 && h[1].z == 11 && h[1].t1 == 5.0f);
             /* Restart after the first hit: the same second hit. */
-            grid_iter_init(&it, &g, 0, v3(o + 9, o + 9, o + 20), v3(0, 0, -2), h[0].t1, INFINITY);
+            gt_iter_init(&it, &g, 0, v3(o + 9, o + 9, o + 20), v3(0, 0, -2), h[0].t1, INFINITY);
             grid_hit r;
             snprintf(name, sizeof name, "grid DDA (offset %g): restart at t1 continues with the next cell", (double)o);
-            CHECK(name, grid_iter_next(&it, &r) && r.z == 11 && r.t0 == 4.75f);
+            CHECK(name, gt_iter_next(&it, &r) && r.z == 11 && r.t0 == 4.75f);
             /* Origin exactly on the plane z = 12 going down: starts in layer 11, not 12. */
-            grid_iter_init(&it, &g, 0, v3(o + 9, o + 9, o + 10.5f), v3(0, 0, -1), 0, INFINITY);
+            gt_iter_init(&it, &g, 0, v3(o + 9, o + 9, o + 10.5f), v3(0, 0, -1), 0, INFINITY);
             snprintf(name, sizeof name, "grid DDA (offset %g): origin on a plane moving down starts below it", (double)o);
-            CHECK(name, grid_iter_next(&it, &r) && r.z == 11 && r.t0 == 0.0f && r.t1 == 1.0f);
+            CHECK(name, gt_iter_next(&it, &r) && r.z == 11 && r.t0 == 0.0f && r.t1 == 1.0f);
         }
         grid_free(&g);
         mesh_free(&m);
@@ -635,8 +635,8 @@ static void test_degenerate(void)
                                                           g.voxel_size_d > 0 && mip_consistent(&g));
     grid_iter it;
     grid_hit h;
-    grid_iter_init(&it, &g, 0, v3(0, 0, 0), v3(1, 1, 1), 0, INFINITY);
-    CHECK("grid DDA through an empty grid yields nothing", !grid_iter_next(&it, &h));
+    gt_iter_init(&it, &g, 0, v3(0, 0, 0), v3(1, 1, 1), 0, INFINITY);
+    CHECK("grid DDA through an empty grid yields nothing", !gt_iter_next(&it, &h));
     grid_free(&g);
     mesh_free(&m);
     /* A scene far smaller than a voxel of a unit-sized grid, and one near 1e6. */
@@ -724,11 +724,11 @@ static int check_ray(const voxel_grid *g, int level, vec3 org, vec3 dir, float t
     qsort(buf, nb, sizeof *buf, cmp_slab);
     grid_iter it;
     grid_hit h;
-    grid_iter_init(&it, g, level, org, dir, tmin, tmax);
+    gt_iter_init(&it, g, level, org, dir, tmin, tmax);
     size_t j = 0;
     double last_t1 = -INFINITY;
     int steps = 0;
-    while (grid_iter_next(&it, &h)) {
+    while (gt_iter_next(&it, &h)) {
         if (++steps > 100000) {
             printf("# runaway traversal\n");
             return 0;
@@ -826,13 +826,13 @@ static void test_traversal(void)
         grid_iter it;
         grid_hit h;
         vec3 far = v3(g.origin.x - ext, g.origin.y - ext, g.origin.z - ext);
-        CHECK("grid DDA: ray pointing away misses", !grid_iter_init(&it, &g, 0, far, v3(-1, -1, -1), 0, INFINITY) &&
-                                                       !grid_iter_next(&it, &h));
-        CHECK("grid DDA: zero direction yields nothing", !grid_iter_init(&it, &g, 0, g.origin, v3(0, 0, 0), 0, INFINITY));
-        CHECK("grid DDA: NaN direction yields nothing", !grid_iter_init(&it, &g, 0, g.origin, v3(NAN, 1, 0), 0, INFINITY));
-        CHECK("grid DDA: invalid level yields nothing", !grid_iter_init(&it, &g, g.levels, g.origin, v3(1, 1, 1), 0, INFINITY));
+        CHECK("grid DDA: ray pointing away misses", !gt_iter_init(&it, &g, 0, far, v3(-1, -1, -1), 0, INFINITY) &&
+                                                       !gt_iter_next(&it, &h));
+        CHECK("grid DDA: zero direction yields nothing", !gt_iter_init(&it, &g, 0, g.origin, v3(0, 0, 0), 0, INFINITY));
+        CHECK("grid DDA: NaN direction yields nothing", !gt_iter_init(&it, &g, 0, g.origin, v3(NAN, 1, 0), 0, INFINITY));
+        CHECK("grid DDA: invalid level yields nothing", !gt_iter_init(&it, &g, g.levels, g.origin, v3(1, 1, 1), 0, INFINITY));
         CHECK("grid DDA: axis ray outside the slab misses",
-              !grid_iter_init(&it, &g, 0, v3(far.x, g.origin.y + ext * 0.5f, g.origin.z + ext * 1.5f), v3(1, 0, 0), 0, INFINITY));
+              !gt_iter_init(&it, &g, 0, v3(far.x, g.origin.y + ext * 0.5f, g.origin.z + ext * 1.5f), v3(1, 0, 0), 0, INFINITY));
         grid_free(&g);
     }
     free(buf);
@@ -922,9 +922,9 @@ static void test_bunny(void)
         for (int k = 0; k < rays; k++) {
             grid_iter it;
             grid_hit h;
-            grid_iter_init(&it, &g, 0, org[k], dir[k], 0, INFINITY);
+            gt_iter_init(&it, &g, 0, org[k], dir[k], 0, INFINITY);
             int first = 1;
-            while (grid_iter_next(&it, &h)) {
+            while (gt_iter_next(&it, &h)) {
                 visited++;
                 first_hits += first;
                 first = 0;
@@ -936,8 +936,8 @@ static void test_bunny(void)
         for (int k = 0; k < rays; k++) {
             grid_iter it;
             grid_hit h;
-            grid_iter_init(&it, &g, 0, org[k], dir[k], 0, INFINITY);
-            any += (size_t)grid_iter_next(&it, &h);
+            gt_iter_init(&it, &g, 0, org[k], dir[k], 0, INFINITY);
+            any += (size_t)gt_iter_next(&it, &h);
         }
         double first_only = now_s() - t0;
         printf("# bunny n=%d DDA: %d rays, %.1f%% hit, %.1f voxels per hitting ray; all voxels %.0f ns/ray, "

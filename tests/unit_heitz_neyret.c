@@ -12,11 +12,14 @@
 #include <string.h>
 
 #include "bake.h"
+#include "bake_params.h"
 #include "grid.h"
 #include "hn_host.h"
 #include "mesh.h"
 #include "model.h"
 #include "unit.h"
+
+static struct vx_bake_params hn_defaults; /* the model's parameters at their defaults (main) */
 
 static int finite3(vec3 v) { return isfinite(v.x) && isfinite(v.y) && isfinite(v.z); }
 
@@ -381,7 +384,7 @@ static void bake_gaussian(const vx_model *m, double h0, double s, double sn, dou
         smp[i].specular = 0.04f;
         smp[i].roughness = 0.3f;
     }
-    vx_voxel v = {0, 0, 0, 0, v3(0, 0, 0), 1.0f, 0};
+    vx_voxel v = {0, 0, 0, 0, v3(0, 0, 0), 1.0f, 0, NULL};
     memset(rec, 0, sizeof *rec);
     m->bake_voxel(&v, smp, n, rec);
     free(smp);
@@ -393,9 +396,9 @@ static void bake(void)
     CHECK("registered as heitz-neyret", m != NULL);
     if (!m)
         return;
-    CHECK("record is 28 bytes", m->voxel_bytes == 28 && sizeof(hn_record) == 28);
+    CHECK("record is 28 bytes", m->record.bytes == 28 && sizeof(hn_record) == 28);
     CHECK("declares cone marching, coverage masks and levels",
-          m->march == VX_MARCH_CONE && m->compositing == VX_COMPOSITE_COVERAGE && m->uses_levels && m->cone_element);
+          m->cone != NULL && vx_model_compositing(m) == VX_COMPOSITE_COVERAGE && m->record.levels && m->cone->element.fn);
     hn_record rec;
     hn_data d;
     bake_gaussian(m, 0.1, 0.05, 0.3, 0.5, 0.3, &rec, 20000);
@@ -426,7 +429,7 @@ static void bake(void)
         two[i] = (vx_sample){v3_madd(hit, dir, -5.0f), dir, 4.5f, 5.5f, 5.0f, VX_SAMPLE_INSIDE_FRONT,
                              v3(0, 0, sgn), v3(0.2f, 0.8f, 0.2f), 0, 0.5f, 0, 0};
     }
-    vx_voxel v = {0, 0, 0, 0, v3(0, 0, 0), 1.0f, 0};
+    vx_voxel v = {0, 0, 0, 0, v3(0, 0, 0), 1.0f, 0, NULL};
     m->bake_voxel(&v, two, 400, &rec);
     hn_decode(&rec, 1.0f, &d);
     CHECK("bake: opposite normals give a two-sided sheet along their axis",
@@ -482,7 +485,7 @@ static void mip_edge(void)
         }
         hn_encode(&d, vs, &recs[i]);
     }
-    CHECK("bake_finish succeeds (edge)", m->bake_finish(&g, recs) == 0);
+    CHECK("bake_finish succeeds (edge)", m->bake_finish(&g, recs, &hn_defaults) == 0);
     double worst = 0;
     int cut = 0;
     size_t off = grid_count(&g, 0);
@@ -541,7 +544,7 @@ static void grid_cases(void)
         d.has_color = 1;
         hn_encode(&d, g.voxel_size, &recs[i]);
     }
-    CHECK("bake_finish succeeds", m->bake_finish(&g, recs) == 0);
+    CHECK("bake_finish succeeds", m->bake_finish(&g, recs, &hn_defaults) == 0);
     /* Every coarser record must describe the same plane: h = 0.3 - centre.z. */
     double worst = 0;
     size_t off = grid_count(&g, 0);
@@ -573,6 +576,7 @@ static void grid_cases(void)
             memset(&q, 0, sizeof q);
             q.grid = &g;
             q.records = recs;
+            q.table = hn_mask_table(); /* as both backends hand it over (vx_cone_eval.table) */
             q.position = points[pi];
             q.level = levels[li];
             q.footprint = isfinite(levels[li]) ? 0.5f * g.voxel_size * exp2f(fminf(fmaxf(levels[li], 0.0f), 40.0f)) : 1.0f;
@@ -583,7 +587,7 @@ static void grid_cases(void)
             q.irradiance[0] = v3(1, 1, 1);
             q.effects = VX_EFFECT_SHADOWS | VX_EFFECT_SPECULAR;
             vx_answer a;
-            m->cone_element(&q, &a);
+            m->cone->element.fn(&q, &a);
             ok &= finite3(a.radiance) && a.radiance.x >= 0 && isfinite(a.opacity) && a.opacity >= 0 && a.opacity <= 1;
             if (pi == 1 && li <= 1)
                 covered_below &= a.opacity == 1.0f;
@@ -600,7 +604,7 @@ static void grid_cases(void)
     vx_query q;
     memset(&q, 0, sizeof q);
     vx_answer a;
-    m->cone_element(&q, &a);
+    m->cone->element.fn(&q, &a);
     CHECK("cone element without a grid answers nothing", a.opacity == 0.0f && hn_mask_count(a.mask) == 0);
     free(recs);
     grid_free(&g);
@@ -660,6 +664,7 @@ int main(int argc, char **argv)
 {
     if (argc > 1 && strcmp(argv[1], "--lambda") == 0)
         return print_lambda(argc, argv);
+    bake_params_defaults(model_find("heitz-neyret"), &hn_defaults);
     element_table();
     scalar_table();
     fastmath();

@@ -21,6 +21,7 @@
 #include <string.h>
 
 #include "bake.h"
+#include "bake_params.h"
 #include "grid.h"
 #include "mesh.h"
 #include "model.h"
@@ -453,7 +454,7 @@ static void check_answer(const vx_model *m, const sample_summary *sum, const vx_
              rmax, bound, sum->albedo_max, sum->f0_max, sum->spec_peak);
         return;
     }
-    if (m->compositing == VX_COMPOSITE_COVERAGE && !(opacity > 0.0f))
+    if (vx_model_compositing(m) == VX_COMPOSITE_COVERAGE && !(opacity > 0.0f))
         for (int w = 0; w < VX_MASK_WORDS; w++)
             if (a->mask[w]) {
                 fail(v, "%s: opacity 0 but coverage mask word %d = %08x", where, w, a->mask[w]);
@@ -493,7 +494,7 @@ static void query_all(const vx_model *m, const bake_case *c, const sample_summar
         int x, y, z;
         vec3 hi;
         grid_coords(g, 0, 0, &x, &y, &z);
-        grid_cell_box(g, 0, x, y, z, &lo, &hi);
+        grid_cell_corners(g, 0, x, y, z, &lo, &hi);
     }
     double centre[3] = {lo.x + 0.5 * size, lo.y + 0.5 * size, lo.z + 0.5 * size};
     char where[512], ldesc[96];
@@ -525,20 +526,21 @@ static void query_all(const vx_model *m, const bake_case *c, const sample_summar
                         if (g) { /* cone marching: levels 0, 0.5 and the top */
                             q.grid = g;
                             q.records = records;
+                            size_t table_bytes;
+                            q.table = m->cone->table ? m->cone->table(&table_bytes) : NULL;
                             q.position = v3((float)centre[0], (float)centre[1], (float)centre[2]);
                             const float levels[3] = {0.0f, 0.5f, (float)(g->levels - 1)};
                             for (int l = 0; l < 3; l++) {
                                 q.level = levels[l];
                                 memset(&a, 0, sizeof a);
-                                m->cone_element(&q, &a);
+                                m->cone->element.fn(&q, &a);
                                 check_answer(m, sum, &q, a.opacity, &a, where, v);
                             }
                             continue;
                         }
-                        float op = m->opacity(record, &q);
+                        float op = m->voxel->opacity.fn(record, &q);
                         a.opacity = op;
-                        if (m->shade)
-                            m->shade(record, &q, &a);
+                        m->voxel->shade.fn(record, &q, &a);
                         check_answer(m, sum, &q, op, &a, where, v);
                         check_baseline(m, c, sum, op, where, v);
                     }
@@ -559,18 +561,21 @@ static void *bake_grid(const vx_model *m, const vx_sample *samples, int n, voxel
     }
     mesh_free(&me);
     size_t count = bake_record_count(m, g);
-    unsigned char *rec = calloc(count ? count : 1, m->voxel_bytes);
+    struct vx_bake_params defaults;
+    bake_params_defaults(m, &defaults);
+    unsigned char *rec = calloc(count ? count : 1, m->record.bytes);
     for (size_t i = 0; i < grid_count(g, 0); i++) {
         vx_voxel vv;
         vec3 hi;
         grid_coords(g, 0, i, &vv.x, &vv.y, &vv.z);
-        grid_cell_box(g, 0, vv.x, vv.y, vv.z, &vv.lo, &hi);
+        grid_cell_corners(g, 0, vv.x, vv.y, vv.z, &vv.lo, &hi);
         vv.index = (long long)i;
         vv.size = g->voxel_size;
         vv.effects = VX_EFFECT_SPECULAR | VX_EFFECT_SHADOWS;
-        m->bake_voxel(&vv, samples, n, rec + i * m->voxel_bytes);
+        vv.params = &defaults;
+        m->bake_voxel(&vv, samples, n, rec + i * m->record.bytes);
     }
-    if (m->bake_finish && m->bake_finish(g, rec) != 0) {
+    if (m->bake_finish && m->bake_finish(g, rec, &defaults) != 0) {
         free(rec);
         grid_free(g);
         return NULL;
@@ -597,16 +602,16 @@ static void run_geometry(const vx_model *m, const bake_case *c, const geometry *
                    .lo = v3((float)geo->lo[0], (float)geo->lo[1], (float)geo->lo[2]),
                    .size = (float)geo->size, .effects = VX_EFFECT_SPECULAR | VX_EFFECT_SHADOWS};
     /* The record is zeroed (the interface's promise) and followed by a guard the bake must not touch. */
-    unsigned char *rec = calloc(1, m->voxel_bytes + GUARD), *rec2 = calloc(1, m->voxel_bytes + GUARD);
-    memset(rec + m->voxel_bytes, 0xa5, GUARD);
+    unsigned char *rec = calloc(1, m->record.bytes + GUARD), *rec2 = calloc(1, m->record.bytes + GUARD);
+    memset(rec + m->record.bytes, 0xa5, GUARD);
     m->bake_voxel(&vv, samples, c->n, rec);
     m->bake_voxel(&vv, samples, c->n, rec2);
     for (int i = 0; i < GUARD; i++)
-        if (rec[m->voxel_bytes + (size_t)i] != 0xa5) {
-            fail(vp, "bake_voxel wrote past voxel_bytes (%zu) at byte +%d", m->voxel_bytes, i);
+        if (rec[m->record.bytes + (size_t)i] != 0xa5) {
+            fail(vp, "bake_voxel wrote past voxel_bytes (%zu) at byte +%d", m->record.bytes, i);
             break;
         }
-    if (memcmp(rec, rec2, m->voxel_bytes) != 0)
+    if (memcmp(rec, rec2, m->record.bytes) != 0)
         fail(vp, "baking the same samples twice gave different records");
     /* What the bake writes must be what the model says a record may hold: otherwise a genuine .vox
      * file would be refused on load (tracer/bake/record_check.c). */
@@ -616,24 +621,24 @@ static void run_geometry(const vx_model *m, const bake_case *c, const geometry *
         if (m->validate_record(rec, &rctx, why, sizeof why) != 0)
             fail(vp, "its own bake's record fails validate_record: %s", why);
     }
-    unsigned char *copy = malloc(m->voxel_bytes);
-    memcpy(copy, rec, m->voxel_bytes);
+    unsigned char *copy = malloc(m->record.bytes);
+    memcpy(copy, rec, m->record.bytes);
 
-    /* Every model answers per voxel: cone-marching ones too, for the shadow rays that march the
-     * level-0 voxels with m->opacity (shade is optional for them). */
-    query_all(m, c, &sum, rec, geo, NULL, NULL, vp);
-    if (memcmp(copy, rec, m->voxel_bytes) != 0)
+    /* Voxel-evaluation models answer per voxel (cone-evaluation ones below, on a grid). */
+    if (m->voxel)
+        query_all(m, c, &sum, rec, geo, NULL, NULL, vp);
+    if (memcmp(copy, rec, m->record.bytes) != 0)
         fail(vp, "opacity/shade modified the record");
     /* Models with a grid pass or cone marching: the same samples in every voxel of a small grid,
      * answers looked up after bake_finish (only once per case: the grid has its own geometry). */
-    if ((m->bake_finish || m->march == VX_MARCH_CONE) && geo == &geometries[0]) {
+    if ((m->bake_finish || m->cone != NULL) && geo == &geometries[0]) {
         voxel_grid g;
         void *records = bake_grid(m, samples, c->n, &g);
         if (!records)
             fail(vp, "bake_finish failed on a 4^3 grid");
         else {
             const void *rec0 = records; /* level 0, voxel 0 */
-            if (m->march == VX_MARCH_CONE)
+            if (m->cone != NULL)
                 query_all(m, c, &sum, NULL, NULL, &g, records, vp);
             else
                 query_all(m, c, &sum, rec0, geo, NULL, NULL, vp);
@@ -685,16 +690,84 @@ static void check_registry(void)
         for (const vx_model *const *q = all; *q; q++)
             same += (*q)->name && !strcmp((*q)->name, m->name);
         CHECK(name, same == 1);
-        snprintf(name, sizeof name, "registry: %s: voxel_bytes > 0, rules and functions declared", m->name);
-        CHECK(name, m->voxel_bytes > 0 && m->compositing >= VX_COMPOSITE_FIRST_HIT &&
-                        m->compositing <= VX_COMPOSITE_COVERAGE && m->bake_voxel && m->opacity &&
-                        (m->march == VX_MARCH_VOXELS || m->march == VX_MARCH_CONE) &&
-                        (m->march == VX_MARCH_CONE ? m->cone_element != NULL : m->shade != NULL));
+        char why[256] = "";
+        snprintf(name, sizeof name, "registry: %s: keeps the model interface's rules (model_check)", m->name);
+        int rc = model_check(m, why, sizeof why);
+        CHECK(name, rc == 0);
+        if (rc)
+            printf("#   %s\n", why);
         snprintf(name, sizeof name, "registry: %s: levels are filled by bake_finish", m->name);
-        CHECK(name, !m->uses_levels || m->bake_finish);
+        CHECK(name, !m->record.levels || m->bake_finish);
     }
     CHECK("registry: binary and alpha registered", have_binary && have_alpha && count >= 2);
     CHECK("registry: unknown name gives NULL", model_find("no-such-model") == NULL && model_find("") == NULL);
+}
+
+/* model_check refuses each broken rule of the interface (a copy of a registered model, one field
+ * broken at a time), and the parameters' parsing refuses what it must. */
+static const vx_param test_params[] = {{"k", 0.5, 0.0, 1.0, "a test knob"}, {"n", 3, 1, 8, "another"}, {0}};
+static const vx_param bad_default[] = {{"k", 2.0, 0.0, 1.0, "default outside its range"}, {0}};
+
+static void check_interface_rules(void)
+{
+    const vx_model *binary = model_find("binary"), *hn = model_find("heitz-neyret");
+    char why[256];
+    vx_model m = *binary;
+    CHECK("model_check: binary as registered passes", model_check(&m, why, sizeof why) == 0);
+    m.abi_version = VX_MODEL_ABI_VERSION + 1;
+    CHECK("model_check: another ABI version is refused",
+          model_check(&m, why, sizeof why) && strstr(why, "abi_version"));
+    m = *binary;
+    m.cone = hn->cone;
+    CHECK("model_check: two protocols are refused", model_check(&m, why, sizeof why) && strstr(why, "exactly one"));
+    m = *binary;
+    m.voxel = NULL;
+    CHECK("model_check: no protocol is refused", model_check(&m, why, sizeof why) && strstr(why, "exactly one"));
+    vx_voxel_eval ve = *binary->voxel;
+    m = *binary;
+    m.voxel = &ve;
+    ve.compositing = VX_COMPOSITE_COVERAGE;
+    CHECK("model_check: voxel evaluation with coverage compositing is refused",
+          model_check(&m, why, sizeof why) && strstr(why, "first hit or alpha"));
+    ve = *binary->voxel;
+    ve.shade.name = "binary eval shade";
+    CHECK("model_check: a portable name that is not an identifier is refused",
+          model_check(&m, why, sizeof why) && strstr(why, "VX_PORTABLE"));
+    m = *hn;
+    m.record.levels = 0;
+    CHECK("model_check: cone evaluation without levels is refused",
+          model_check(&m, why, sizeof why) && strstr(why, "levels"));
+    m = *binary;
+    m.record.layout_version = 0;
+    CHECK("model_check: a missing layout version is refused", model_check(&m, why, sizeof why) != 0);
+    m.record.layout_version = 1;
+    m.params = bad_default;
+    CHECK("model_check: a parameter's default outside its range is refused",
+          model_check(&m, why, sizeof why) && strstr(why, "default"));
+    m.params = test_params;
+    CHECK("model_check: parameters with defaults in range pass", model_check(&m, why, sizeof why) == 0);
+
+    struct vx_bake_params p;
+    vx_err e;
+    bake_params_defaults(&m, &p);
+    CHECK("params: defaults", p.value[0] == 0.5 && p.value[1] == 3);
+    CHECK("params: name=value sets it", bake_params_assign(&m, "n=5", &p, &e) == 0 && p.value[1] == 5);
+    CHECK("params: an unknown name is refused, naming the known ones",
+          bake_params_assign(&m, "q=1", &p, &e) && strstr(e.msg, "no parameter \"q\"") && strstr(e.msg, "k, n"));
+    CHECK("params: a value out of range is refused with the range",
+          bake_params_assign(&m, "k=1.5", &p, &e) && strstr(e.msg, "[0, 1]"));
+    CHECK("params: a value that is not a number is refused", bake_params_assign(&m, "k=abc", &p, &e) != 0);
+    CHECK("params: no '=' is refused", bake_params_assign(&m, "k", &p, &e) && strstr(e.msg, "name=value"));
+    CHECK("params: a model without parameters refuses any", bake_params_assign(binary, "k=1", &p, &e) &&
+                                                                 strstr(e.msg, "(its parameters: none)"));
+    char text[256];
+    struct vx_bake_params back;
+    bake_params_assign(&m, "k=0.1", &p, &e);
+    CHECK("params: formatted text reads back exactly",
+          bake_params_format(&m, &p, text, sizeof text) == 0 && !strcmp(text, "k=0.10000000000000001,n=5") &&
+              bake_params_parse(&m, text, &back, &e) == 0 && back.value[0] == p.value[0] && back.value[1] == 5);
+    CHECK("params: heitz-neyret declares edge_clear",
+          hn->params && !strcmp(hn->params[0].name, "edge_clear") && hn->params[0].fallback == 0.4);
 }
 
 /* The bound itself must be right, or the table proves nothing: G_sup and D_max against hand values. */
@@ -714,6 +787,7 @@ static void check_bound_helpers(void)
 int main(void)
 {
     check_registry();
+    check_interface_rules();
     check_bound_helpers();
     for (const vx_model *const *p = model_all(); *p; p++)
         for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++)

@@ -355,7 +355,7 @@ static float opacity_of(const vmesh_record *r, vec3 dir)
     memset(&q, 0, sizeof q);
     q.ray_dir = v3_normalize(dir);
     q.to_viewer = v3_scale(q.ray_dir, -1.0f);
-    return model_vmesh.opacity(r, &q);
+    return model_vmesh.voxel->opacity.fn(r, &q);
 }
 
 /* ---------- subgrid traversal ---------- */
@@ -589,8 +589,8 @@ static vec3 shade_of(const vmesh_record *r, const vx_query *q)
 {
     vx_answer a;
     memset(&a, 0, sizeof a);
-    a.opacity = model_vmesh.opacity(r, q);
-    model_vmesh.shade(r, q, &a);
+    a.opacity = model_vmesh.voxel->opacity.fn(r, q);
+    model_vmesh.voxel->shade.fn(r, q, &a);
     return a.radiance;
 }
 
@@ -769,7 +769,7 @@ static void test_shading(void)
         vx_query qq = light_query(w, random_sphere(&rd), E, VX_EFFECT_SPECULAR);
         for (int k = 0; k < 4; k++) {
             vec3 c1 = shade_of(recs[k], &qq), c2 = shade_of(recs[k], &qq);
-            float o1 = model_vmesh.opacity(recs[k], &qq);
+            float o1 = model_vmesh.voxel->opacity.fn(recs[k], &qq);
             ok &= finite3(c1) && c1.x >= 0 && c1.y >= 0 && c1.z >= 0 && c1.x == c2.x && c1.y == c2.y && c1.z == c2.z;
             ok &= o1 >= 0.0f && o1 <= 1.0f;
         }
@@ -826,7 +826,7 @@ static void test_real_sampler(void)
         CHECK("real sampler: scene loads and voxelises", 0);
         return;
     }
-    bake_options o = {150, 1, 2, 0};
+    bake_options o = {.rays = 150, .seed = 1, .threads = 2};
     void *records = NULL;
     bake_counts counts;
     if (bake_run(&rt, &g, &model_vmesh, &o, &records, &counts, &e)) {
@@ -863,7 +863,7 @@ static void test_real_sampler(void)
 
 int main(void)
 {
-    CHECK("record: 139 bytes, no padding", sizeof(vmesh_record) == 139 && model_vmesh.voxel_bytes == 139);
+    CHECK("record: 139 bytes, no padding", sizeof(vmesh_record) == 139 && model_vmesh.record.bytes == 139);
     test_sggx();
     test_portable_acos();
     test_overlap();

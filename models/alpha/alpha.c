@@ -30,16 +30,19 @@ static int alpha_validate(const void *record, const vx_record_context *c, char *
     return average_validate_fields(r->color, r->normal, r->specular, r->roughness, r->double_sided, why, why_size);
 }
 
+static const vx_voxel_eval alpha_eval = {
+    .compositing = VX_COMPOSITE_ALPHA,
+    .source = "alpha_eval.h",
+    .opacity = VX_PORTABLE(alpha_eval_opacity),
+    .shade = VX_PORTABLE(alpha_eval_shade),
+};
+
 const vx_model model_alpha = {
+    .abi_version = VX_MODEL_ABI_VERSION,
     .name = "alpha",
     .description = "averages: one colour, normal and opacity (occluding fraction of the samples) per voxel; front-to-back alpha",
-    .voxel_bytes = sizeof(alpha_record),
-    .compositing = VX_COMPOSITE_ALPHA,
+    .record = {.bytes = sizeof(alpha_record), .layout_version = 1},
     .bake_voxel = alpha_bake,
-    .opacity = alpha_eval_opacity,
-    .shade = alpha_eval_shade,
-    .cl_source = "alpha_eval.h",
-    .cl_opacity = "alpha_eval_opacity",
-    .cl_shade = "alpha_eval_shade",
     .validate_record = alpha_validate,
+    .voxel = &alpha_eval,
 };

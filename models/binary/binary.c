@@ -23,16 +23,19 @@ static int binary_validate(const void *record, const vx_record_context *c, char 
     return average_validate_fields(r->color, r->normal, r->specular, r->roughness, r->double_sided, why, why_size);
 }
 
+static const vx_voxel_eval binary_eval = {
+    .compositing = VX_COMPOSITE_FIRST_HIT,
+    .source = "binary_eval.h",
+    .opacity = VX_PORTABLE(binary_eval_opacity),
+    .shade = VX_PORTABLE(binary_eval_shade),
+};
+
 const vx_model model_binary = {
+    .abi_version = VX_MODEL_ABI_VERSION,
     .name = "binary",
     .description = "0/1 opacity: opaque where any sample hit a front face; mean colour and normal; first hit",
-    .voxel_bytes = sizeof(binary_record),
-    .compositing = VX_COMPOSITE_FIRST_HIT,
+    .record = {.bytes = sizeof(binary_record), .layout_version = 1},
     .bake_voxel = binary_bake,
-    .opacity = binary_eval_opacity,
-    .shade = binary_eval_shade,
-    .cl_source = "binary_eval.h",
-    .cl_opacity = "binary_eval_opacity",
-    .cl_shade = "binary_eval_shade",
     .validate_record = binary_validate,
+    .voxel = &binary_eval,
 };

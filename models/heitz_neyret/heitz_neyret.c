@@ -545,9 +545,10 @@ static void moments_of_record(const hn_data *d, float size, moments *m)
     m->var_brdf = m->wf * d->var_brdf;
 }
 
-/* A child sees the edge (it is cut by it) when |psi| < HN_EDGE_CLEAR size: clear of the saturated
- * values +-size/2 by more than a covered child's sampled psi wanders. */
-#define HN_EDGE_CLEAR 0.4f
+/* A child sees the edge (it is cut by it) when |psi| < edge_clear size: clear of the saturated
+ * values +-size/2 by more than a covered child's sampled psi wanders. The model's parameter
+ * `edge_clear` (0 turns the correction below off). */
+#define HN_EDGE_CLEAR_DEFAULT 0.4
 
 /* A coarser cell's psi from its children's, where a child sees the edge (its psi is not
  * saturated): each such child predicts the in-plane distance from the parent's centre to the edge
@@ -562,7 +563,7 @@ static void moments_of_record(const hn_data *d, float size, moments *m)
  * 2.5e-3, island 9.2e-3 -> 9.0e-3, city 3.8e-3 -> 3.7e-3, bunny 4.9e-4 -> 4.8e-4). Without an
  * edge child (the edge runs along children's faces, or there is none) the moments are exact and
  * stay. */
-static void parent_edge_from_children(const hn_data kids[8], float child, float size, hn_data *d)
+static void parent_edge_from_children(const hn_data kids[8], float child, float size, float edge_clear, hn_data *d)
 {
     /* Only where the moments see an edge too: a plate on cell faces leaves its children a few
      * hits each, whose psi wanders off saturation without any edge (and made holes). */
@@ -578,7 +579,7 @@ static void parent_edge_from_children(const hn_data kids[8], float child, float 
         float psi;
         if (kids[k].area > 0.0f) {
             psi = kids[k].psi;
-            any_edge |= fabsf(psi) < HN_EDGE_CLEAR * child;
+            any_edge |= fabsf(psi) < edge_clear * child;
         } else if (fabsf(v3_dot(N, centre[k]) - d->h) <= support * child) {
             psi = 0.5f * child; /* the plane runs through an empty child: the surface ended */
         } else {
@@ -593,7 +594,7 @@ static void parent_edge_from_children(const hn_data kids[8], float child, float 
     vec3 u = v3_scale(grad, 1.0f / gl);
     double sw = 0.0, sp = 0.0;
     for (int k = 0; k < 8; k++) {
-        if (!(kids[k].area > 0.0f) || !(fabsf(kids[k].psi) < HN_EDGE_CLEAR * child))
+        if (!(kids[k].area > 0.0f) || !(fabsf(kids[k].psi) < edge_clear * child))
             continue;
         sw += kids[k].area;
         sp += kids[k].area * (kids[k].psi - v3_dot(u, centre[k]));
@@ -602,9 +603,10 @@ static void parent_edge_from_children(const hn_data kids[8], float child, float 
 }
 
 /* Coarser levels, each cell from its (up to 8) children. */
-static int hn_bake_finish(const voxel_grid *g, void *records)
+static int hn_bake_finish(const voxel_grid *g, void *records, const struct vx_bake_params *p)
 {
     hn_record *rec = records;
+    float edge_clear = (float)p->value[0]; /* hn_params[0] */
     for (int l = 1; l < g->levels; l++) {
         size_t off = bake_level_offset(g, l), child_off = bake_level_offset(g, l - 1);
         float size = (float)ldexp(g->voxel_size_d, l), child = (float)ldexp(g->voxel_size_d, l - 1);
@@ -630,33 +632,14 @@ static int hn_bake_finish(const voxel_grid *g, void *records)
             }
             hn_data d;
             derive(&sum, size, &d);
-            parent_edge_from_children(kids, child, size, &d);
+            parent_edge_from_children(kids, child, size, edge_clear, &d);
             hn_encode(&d, size, &rec[off + i]);
         }
     }
     return 0;
 }
 
-/* ---- Evaluation glue ---------------------------------------------------------------------------- */
-
-static void answer_clear(vx_answer *a)
-{
-    a->radiance = v3(0.0f, 0.0f, 0.0f);
-    a->opacity = 0.0f;
-    hn_mask_set(a->mask, 0u);
-}
-
-/* One cone element (hn_cone.h), the mask table from q->table, else this file's own. */
-static void hn_cone_element(const vx_query *q, vx_answer *a)
-{
-    if (q->table) {
-        hn_cone_element_eval(q, a);
-        return;
-    }
-    vx_query qt = *q;
-    qt.table = hn_mask_table();
-    hn_cone_element_eval(&qt, a);
-}
+/* ---- The model ---------------------------------------------------------------------------------- */
 
 static const void *hn_table(size_t *bytes)
 {
@@ -664,72 +647,27 @@ static const void *hn_table(size_t *bytes)
     return hn_mask_table();
 }
 
-/* Voxel-marching entry points (opacity for shadow rays and the hard-case tests, shade): the
- * level-0 record alone, as an element of the voxel's size centred on the ray's midpoint in it. */
-static int single_record(VX_GLOBAL const void *record, const vx_query *q, hn_sample *s, vec3 *p)
-{
-    float size = q->voxel_size;
-    if (!record || !(size > 0.0f) || !(size < 1e30f))
-        return 0;
-    hn_stencil st;
-    st.count = 1;
-    st.level_frac = 0.0f;
-    st.slot[0] = 0;
-    st.weight[0] = 1.0f;
-    st.centre[0] = v3_add(q->voxel_lo, v3(0.5f * size, 0.5f * size, 0.5f * size));
-    st.size[0] = size;
-    st.index[0] = 0;
-    float tm = 0.5f * (q->t0 + q->t1);
-    *p = isfinite(tm) ? v3_madd(q->ray_origin, q->ray_dir, tm) : st.centre[0];
-    if (!isfinite(p->x) || !isfinite(p->y) || !isfinite(p->z))
-        *p = st.centre[0];
-    VX_GLOBAL const hn_record *r = (VX_GLOBAL const hn_record *)record;
-    if (!hn_blend_geometry(r, &st, *p, s))
-        return 0;
-    hn_blend_attributes(r, &st, st.centre[0], s->n, s);
-    return 1;
-}
+static const vx_param hn_params[] = {
+    {"edge_clear", HN_EDGE_CLEAR_DEFAULT, 0.0, 0.5,
+     "coarser levels: a child whose |psi| < edge_clear x its size sees the edge (0: the moments' edge alone)"},
+    {0},
+};
 
-static float hn_opacity(VX_GLOBAL const void *record, const vx_query *q)
-{
-    hn_sample s;
-    vec3 p;
-    if (!single_record(record, q, &s, &p))
-        return 0.0f;
-    vx_query lq = *q;
-    lq.light_count = 0;
-    vx_answer a;
-    hn_answer(hn_mask_table(), &s, &lq, 0.5f * q->voxel_size, &a);
-    return a.opacity;
-}
-
-static void hn_shade(VX_GLOBAL const void *record, const vx_query *q, vx_answer *a)
-{
-    float opacity = a->opacity;
-    answer_clear(a);
-    hn_sample s;
-    vec3 p;
-    if (!single_record(record, q, &s, &p))
-        return;
-    hn_answer(hn_mask_table(), &s, q, 0.5f * q->voxel_size, a);
-    a->opacity = opacity;
-}
+static const vx_cone_eval hn_eval = {
+    .source = "hn_cone.h",
+    .element = VX_PORTABLE(hn_cone_element_eval),
+    .table = hn_table,
+};
 
 const vx_model model_heitz_neyret = {
+    .abi_version = VX_MODEL_ABI_VERSION,
     .name = "heitz-neyret",
     .description = "Heitz & Neyret 2012: mean plane, height and slope variances, colour vs depth per cell of every "
                    "MIP level; cone marching with 128-sample coverage masks",
-    .voxel_bytes = sizeof(hn_record),
-    .compositing = VX_COMPOSITE_COVERAGE,
-    .uses_levels = 1,
-    .march = VX_MARCH_CONE,
+    .record = {.bytes = sizeof(hn_record), .layout_version = 1, .levels = 1},
+    .params = hn_params,
     .bake_voxel = hn_bake,
     .bake_finish = hn_bake_finish,
-    .opacity = hn_opacity,
-    .shade = hn_shade,
-    .cone_element = hn_cone_element,
-    .cl_source = "hn_cone.h",
-    .cl_cone_element = "hn_cone_element_eval",
-    .table = hn_table,
     .validate_record = hn_validate_record,
+    .cone = &hn_eval,
 };

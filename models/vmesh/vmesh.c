@@ -64,19 +64,20 @@ static int vmesh_validate(const void *record, const vx_record_context *c, char *
     return 0;
 }
 
+static const vx_voxel_eval vmesh_eval = {
+    .compositing = VX_COMPOSITE_ALPHA,
+    .source = "vmesh_eval.h",
+    .opacity = VX_PORTABLE(vmesh_eval_opacity),
+    .shade = VX_PORTABLE(vmesh_eval_shade),
+};
+
 const vx_model model_vmesh = {
+    .abi_version = VX_MODEL_ABI_VERSION,
     .name = "vmesh",
     .description = "virtual mesh + 3x3x3 opacity subgrid (Brito et al. 2023): SGGX octahedron faces with "
                    "colours and normals, directional opacity from projected sub-cells; front-to-back alpha",
-    .voxel_bytes = sizeof(vmesh_record),
-    .compositing = VX_COMPOSITE_ALPHA,
-    .uses_levels = 0,
-    .march = VX_MARCH_VOXELS,
+    .record = {.bytes = sizeof(vmesh_record), .layout_version = 1},
     .bake_voxel = vmesh_bake_voxel,
-    .opacity = vmesh_eval_opacity,
-    .shade = vmesh_eval_shade,
-    .cl_source = "vmesh_eval.h",
-    .cl_opacity = "vmesh_eval_opacity",
-    .cl_shade = "vmesh_eval_shade",
     .validate_record = vmesh_validate,
+    .voxel = &vmesh_eval,
 };

@@ -59,10 +59,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     vx_err e;
     if (vox_load(&fuzz_scene_, path, NULL, &m, &g, &records, &h, &gs, &e) != 0)
         return 0;
-    if (m->march == VX_MARCH_VOXELS) {
+    if (m->voxel != NULL) {
         static const float dirs[3][3] = {{0, 0, 1}, {0.6f, 0.8f, 0}, {-0.577f, -0.577f, 0.577f}};
         for (size_t i = 0; i < grid_count(&g, 0); i++) {
-            const void *r = (const unsigned char *)records + i * m->voxel_bytes;
+            const void *r = (const unsigned char *)records + i * m->record.bytes;
             for (int d = 0; d < 3; d++) {
                 vx_query q;
                 memset(&q, 0, sizeof q);
@@ -78,8 +78,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 q.records = records;
                 vx_answer a;
                 memset(&a, 0, sizeof a);
-                a.opacity = m->opacity(r, &q);
-                m->shade(r, &q, &a);
+                a.opacity = m->voxel->opacity.fn(r, &q);
+                m->voxel->shade.fn(r, &q, &a);
             }
         }
     }

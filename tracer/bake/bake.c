@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "bake_params.h"
 #include "parallel.h"
 #include "rng.h"
 #include "shading.h"
@@ -17,7 +18,7 @@ void bake_generate_rays(const rt_scene *rt, const voxel_grid *g, size_t index, u
     int x, y, z;
     grid_coords(g, 0, index, &x, &y, &z);
     vec3 lo, hi;
-    grid_cell_box(g, 0, x, y, z, &lo, &hi);
+    grid_cell_corners(g, 0, x, y, z, &lo, &hi);
     float blo[3] = {lo.x, lo.y, lo.z}, bhi[3] = {hi.x, hi.y, hi.z};
     const scene *s = rt->scene;
     vec3 sc = v3_scale(v3_add(s->bounds_lo, s->bounds_hi), 0.5f);
@@ -158,7 +159,7 @@ void bake_trace(const rt_scene *rt, const voxel_grid *g, size_t index, vx_sample
     int x, y, z;
     grid_coords(g, 0, index, &x, &y, &z);
     vec3 lo, hi;
-    grid_cell_box(g, 0, x, y, z, &lo, &hi);
+    grid_cell_corners(g, 0, x, y, z, &lo, &hi);
     /* Triangles lying on the voxel's faces are hit exactly at t_entry or t_exit: widen a little. */
     float slack = 1e-4f * g->voxel_size + rt->epsilon * 0.1f;
     own_triangle stack[OWN_STACK];
@@ -215,7 +216,7 @@ size_t bake_level_offset(const voxel_grid *g, int level)
 
 size_t bake_record_count(const vx_model *m, const voxel_grid *g)
 {
-    return m->uses_levels ? bake_level_offset(g, g->levels) : grid_count(g, 0);
+    return m->record.levels ? bake_level_offset(g, g->levels) : grid_count(g, 0);
 }
 
 typedef struct {
@@ -223,6 +224,7 @@ typedef struct {
     const voxel_grid *g;
     const vx_model *m;
     const bake_options *o;
+    const struct vx_bake_params *params;
     unsigned char *records;
     vx_sample **scratch; /* per thread */
 } bake_job;
@@ -239,11 +241,12 @@ static void bake_item(void *p, int64_t item, int thread)
         vx_voxel v;
         grid_coords(j->g, 0, i, &v.x, &v.y, &v.z);
         vec3 hi;
-        grid_cell_box(j->g, 0, v.x, v.y, v.z, &v.lo, &hi);
+        grid_cell_corners(j->g, 0, v.x, v.y, v.z, &v.lo, &hi);
         v.index = (long long)i;
         v.size = j->g->voxel_size;
         v.effects = j->rt->scene->effects;
-        j->m->bake_voxel(&v, samples, j->o->rays, j->records + i * j->m->voxel_bytes);
+        v.params = j->params;
+        j->m->bake_voxel(&v, samples, j->o->rays, j->records + i * j->m->record.bytes);
     }
 }
 
@@ -253,7 +256,7 @@ int bake_run(const rt_scene *rt, const voxel_grid *g, const vx_model *m, const b
     if (o->rays < 1)
         return vx_fail(e, "--rays %d: expected at least 1 ray per voxel", o->rays);
     size_t nrec = bake_record_count(m, g);
-    unsigned char *rec = calloc(nrec ? nrec : 1, m->voxel_bytes);
+    unsigned char *rec = calloc(nrec ? nrec : 1, m->record.bytes);
     int threads = parallel_threads(o->threads);
     vx_sample **scratch = calloc((size_t)threads, sizeof *scratch);
     int ok = rec && scratch;
@@ -264,9 +267,14 @@ int bake_run(const rt_scene *rt, const voxel_grid *g, const vx_model *m, const b
             free(scratch[t]);
         free(scratch);
         free(rec);
-        return vx_fail(e, "out of memory for %zu voxel records of %zu bytes", nrec, m->voxel_bytes);
+        return vx_fail(e, "out of memory for %zu voxel records of %zu bytes", nrec, m->record.bytes);
     }
-    bake_job j = {rt, g, m, o, rec, scratch};
+    struct vx_bake_params params;
+    if (o->params_set)
+        params = o->params;
+    else
+        bake_params_defaults(m, &params);
+    bake_job j = {rt, g, m, o, &params, rec, scratch};
     size_t voxels = grid_count(g, 0);
     double t0 = now_seconds();
     parallel_for((int64_t)((voxels + VOXELS_PER_ITEM - 1) / VOXELS_PER_ITEM), threads, bake_item, &j,
@@ -275,7 +283,7 @@ int bake_run(const rt_scene *rt, const voxel_grid *g, const vx_model *m, const b
     for (int t = 0; t < threads; t++)
         free(scratch[t]);
     free(scratch);
-    if (m->bake_finish && m->bake_finish(g, rec)) {
+    if (m->bake_finish && m->bake_finish(g, rec, &params)) {
         free(rec);
         return vx_fail(e, "model %s: bake_finish failed", m->name);
     }
@@ -285,4 +293,23 @@ int bake_run(const rt_scene *rt, const voxel_grid *g, const vx_model *m, const b
     counts->voxels = voxels;
     *records = rec;
     return 0;
+}
+
+int bake_scene(const scene *s, const vx_model *m, int res, const bake_options *o, voxel_grid *g, void **records,
+               bake_counts *counts, double *grid_seconds, vx_err *e)
+{
+    double t0 = now_seconds();
+    if (grid_build(g, &s->mesh, res, e))
+        return -1;
+    *grid_seconds = now_seconds() - t0;
+    rt_scene rt;
+    if (rt_build(&rt, s, e)) {
+        grid_free(g);
+        return -1;
+    }
+    int rc = bake_run(&rt, g, m, o, records, counts, e);
+    rt_free(&rt);
+    if (rc)
+        grid_free(g);
+    return rc;
 }

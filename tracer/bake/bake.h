@@ -36,6 +36,9 @@ typedef struct {
     uint64_t seed; /* samples of voxel i come from rng stream (seed, i): thread-independent */
     int threads;   /* 0 = every core */
     int progress;  /* progress on stderr when it is a terminal */
+    /* The model's parameters (bake_params.h); when params_set is 0 the bake uses the defaults. */
+    struct vx_bake_params params;
+    int params_set;
 } bake_options;
 
 typedef struct {
@@ -54,8 +57,13 @@ void bake_trace(const rt_scene *rt, const voxel_grid *g, size_t index, vx_sample
 
 /* Number of records a model keeps for a grid (level 0, or every level when it uses levels). */
 size_t bake_record_count(const vx_model *m, const voxel_grid *g);
-/* Index of the first record of `level` (models with uses_levels). */
+/* Index of the first record of `level` (models whose record has levels). */
 size_t bake_level_offset(const voxel_grid *g, int level);
+
+/* Builds the grid of scene s at resolution res and bakes model m over it (the grid's and the bake's
+ * times in *grid_seconds and counts). */
+int bake_scene(const scene *s, const vx_model *m, int res, const bake_options *o, voxel_grid *g, void **records,
+               bake_counts *counts, double *grid_seconds, vx_err *e);
 
 /* Bakes every voxel: *records (bake_record_count * voxel_bytes, malloc'ed) on success. */
 int bake_run(const rt_scene *rt, const voxel_grid *g, const vx_model *m, const bake_options *o, void **records,

@@ -7,14 +7,14 @@ int record_check_all(const vx_model *m, const voxel_grid *g, const void *records
         return 0;
     const unsigned char *rec = records;
     size_t index = 0;
-    int levels = m->uses_levels ? g->levels : 1;
+    int levels = m->record.levels ? g->levels : 1;
     for (int level = 0; level < levels; level++) {
         vx_record_context c = {.level = level, .cell_size = (float)(g->voxel_size_d * (double)(1 << level)),
                                .rays = rays};
         size_t n = grid_count(g, level);
         for (size_t i = 0; i < n && index < count; i++, index++) {
             char why[256] = "";
-            if (m->validate_record(rec + index * m->voxel_bytes, &c, why, sizeof why) == 0)
+            if (m->validate_record(rec + index * m->record.bytes, &c, why, sizeof why) == 0)
                 continue;
             int x, y, z;
             grid_coords(g, level, i, &x, &y, &z);

@@ -20,6 +20,9 @@ int vox_load(const scene *s, const char *path, const char *model_name, const vx_
         rc = vx_fail(e, "%s: baked with model \"%s\", which this voxlab does not have", path, h->model);
     else if (model_name && strcmp(model_name, h->model) != 0)
         rc = vx_fail(e, "%s: baked with model \"%s\", not --model %s", path, h->model, model_name);
+    else if (h->layout_version != (uint32_t)(*m)->record.layout_version)
+        rc = vx_fail(e, "%s: header field layout_version is %u, but model %s reads record layout %d: bake it again",
+                     path, h->layout_version, h->model, (*m)->record.layout_version);
     else if (h->n < 1 || h->n > GRID_MAX_N) /* said here, not by grid_build, so that the file is named */
         rc = vx_fail(e, "%s: header field n (grid resolution) is %d, outside 1..%d", path, (int)h->n, GRID_MAX_N);
     if (rc == 0) {
@@ -32,11 +35,11 @@ int vox_load(const scene *s, const char *path, const char *model_name, const vx_
         /* Counted before the grid is freed: the message must say what this grid expects. */
         size_t expected = bake_record_count(*m, g);
         unsigned long long voxels = (unsigned long long)grid_count(g, 0);
-        if (h->voxel_bytes != (*m)->voxel_bytes || h->record_count != expected || h->voxels != voxels) {
+        if (h->voxel_bytes != (*m)->record.bytes || h->record_count != expected || h->voxels != voxels) {
             rc = vx_fail(e, "%s: records do not match model %s on this grid (%llu records of %llu bytes for %llu "
                             "voxels, expected %zu of %zu for %llu)",
                          path, h->model, (unsigned long long)h->record_count, (unsigned long long)h->voxel_bytes,
-                         (unsigned long long)h->voxels, expected, (*m)->voxel_bytes, voxels);
+                         (unsigned long long)h->voxels, expected, (*m)->record.bytes, voxels);
             grid_free(g);
         }
     }

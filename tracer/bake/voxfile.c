@@ -82,6 +82,7 @@ int voxfile_read(const char *path, uint64_t scene_identity, voxfile_header *h, v
                        VOXFILE_VERSION);
     }
     h->model[sizeof h->model - 1] = 0;
+    h->params[sizeof h->params - 1] = 0;
     if (h->scene_identity != scene_identity) {
         close(fd);
         return vx_fail(e, "%s: baked from another scene (identity %016llx, this scene is %016llx): bake it again",

@@ -10,8 +10,10 @@
 #include "error.h"
 
 /* Version 2: no bake timing in the header, so that a file is a pure function of its inputs (the
- * same scene, model, resolution, rays and seed give the same bytes); timings are in --stats. */
-#define VOXFILE_VERSION 2
+ * same scene, model, resolution, rays and seed give the same bytes); timings are in --stats.
+ * Version 3: the model's record layout version (checked on load, so that records of an older
+ * layout of the same size are refused rather than misread) and the model parameters of the bake. */
+#define VOXFILE_VERSION 3
 
 typedef struct {
     uint32_t version;
@@ -23,6 +25,9 @@ typedef struct {
     uint64_t voxel_bytes; /* one record */
     uint64_t record_count;
     uint64_t voxels;      /* non-empty level-0 voxels (checked against the rebuilt grid) */
+    uint32_t layout_version; /* the model's record.layout_version */
+    uint32_t reserved;       /* 0 */
+    char params[256];        /* the model's parameters, bake_params_format's text (NUL-terminated) */
 } voxfile_header;
 
 int voxfile_write(const char *path, const voxfile_header *h, const void *records, vx_err *e);

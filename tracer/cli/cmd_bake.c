@@ -6,66 +6,45 @@
 #include <sys/resource.h>
 
 #include "bake.h"
+#include "bake_params.h"
 #include "cli.h"
 #include "commands.h"
 #include "estimate.h"
 #include "fileio.h"
 #include "parallel.h"
+#include "stats.h"
 #include "voxfile.h"
 
-double peak_rss_bytes(void)
-{
-    struct rusage ru;
-    getrusage(RUSAGE_SELF, &ru);
-    return (double)ru.ru_maxrss * 1024.0; /* Linux reports kilobytes */
-}
+#define BAKE_SYNOPSIS                                                                                         \
+    "voxlab bake SCENE --model M --res N [--rays K] [--seed S] [--threads T] [--param NAME=VALUE]...\n"          \
+    "                   [--dry-run] -o OUT.vox [--stats S.json]"
 
-int bake_scene(const scene *s, const vx_model *m, int res, const bake_options *o, voxel_grid *g, void **records,
-               bake_counts *counts, double *grid_seconds, vx_err *e)
-{
-    double t0 = now_seconds();
-    if (grid_build(g, &s->mesh, res, e))
-        return -1;
-    *grid_seconds = now_seconds() - t0;
-    rt_scene rt;
-    if (rt_build(&rt, s, e)) {
-        grid_free(g);
-        return -1;
-    }
-    int rc = bake_run(&rt, g, m, o, records, counts, e);
-    rt_free(&rt);
-    if (rc)
-        grid_free(g);
-    return rc;
-}
-
-void stats_add_bake(cJSON *j, const vx_model *m, const voxel_grid *g, const bake_counts *c, int rays,
-                    double grid_seconds)
-{
-    cJSON_AddStringToObject(j, "model", m->name);
-    cJSON_AddNumberToObject(j, "res", g->n);
-    cJSON_AddNumberToObject(j, "voxels", (double)grid_count(g, 0));
-    cJSON_AddNumberToObject(j, "bytes_per_voxel", (double)m->voxel_bytes);
-    cJSON_AddNumberToObject(j, "records", (double)bake_record_count(m, g));
-    cJSON_AddNumberToObject(j, "model_bytes", (double)(bake_record_count(m, g) * m->voxel_bytes));
-    cJSON_AddNumberToObject(j, "grid_bytes", (double)grid_bytes(g));
-    cJSON_AddNumberToObject(j, "grid_seconds", grid_seconds);
-    if (c->seconds < 0) /* rendered from a .vox file: the bake's time is in that bake's --stats */
-        cJSON_AddNullToObject(j, "bake_seconds");
-    else
-        cJSON_AddNumberToObject(j, "bake_seconds", c->seconds + c->finish_seconds);
-    cJSON_AddNumberToObject(j, "bake_rays", (double)c->rays);
-    cJSON_AddNumberToObject(j, "rays_per_voxel", rays);
-}
+const cli_command cmd_bake_help = {
+    "bake", BAKE_SYNOPSIS,
+    "Builds the voxel grid of SCENE at N^3 and bakes model M's records from the shared sampler's rays into a .vox.",
+    (const cli_option[]){
+        {"--model", "M", NULL, "required: the appearance model (voxlab models lists them)"},
+        {"--res", "N", NULL, "required: voxels per side of the grid (1..1024)"},
+        {"-o", "OUT.vox", NULL, "required: the baked file (written atomically)"},
+        {"--rays", "K", "150", "sample rays per voxel (Brito et al. 2023, section 3.2)"},
+        {"--seed", "S", "1", "the samples' random seed"},
+        {"--threads", "T", "every core", "threads"},
+        {"--param", "NAME=VALUE", "the model's", "a model parameter (repeatable; voxlab models lists them)"},
+        {"--dry-run", NULL, NULL, "print the memory and time estimate and stop"},
+        {"--stats", "S.json", "none", "write statistics (times, bytes, rays) as JSON"},
+        {0}}};
 
 int cmd_bake(int argc, char **argv)
 {
-    static const char usage[] =
-        "usage: voxlab bake SCENE --model M --res N [--rays K] [--seed S] [--threads T] [--dry-run] -o OUT.vox\n"
-        "                   [--stats S.json]\n";
+    static const char usage[] = "usage: " BAKE_SYNOPSIS "\n";
+    if (cli_wants_help(argc, argv)) {
+        cli_print_help(&cmd_bake_help, stdout);
+        return 0;
+    }
     const char *scene_path = NULL, *out_path = NULL, *stats_path = NULL, *model_name = NULL;
     bake_options o = {.rays = 150, .seed = 1, .progress = 1};
-    int res = 0, dry_run = 0;
+    int res = 0, dry_run = 0, param_count = 0;
+    const char *param_assign[64];
     long long v;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *val = NULL;
@@ -77,6 +56,13 @@ int cmd_bake(int argc, char **argv)
             return 1;
         if (strcmp(a, "--model") == 0)
             model_name = val;
+        else if (strcmp(a, "--param") == 0) {
+            if (param_count == (int)(sizeof param_assign / sizeof *param_assign)) {
+                fprintf(stderr, "voxlab bake: --param given more than %d times\n", param_count);
+                return 1;
+            }
+            param_assign[param_count++] = val;
+        }
         else if (strcmp(a, "-o") == 0)
             out_path = val;
         else if (strcmp(a, "--stats") == 0)
@@ -117,6 +103,11 @@ int cmd_bake(int argc, char **argv)
         return 1;
     }
     vx_err e;
+    o.params_set = 1;
+    if (bake_params_apply(m, param_assign, param_count, &o.params, &e)) {
+        fprintf(stderr, "voxlab bake: %s\n", e.msg);
+        return 1;
+    }
     scene s;
     if (fileio_check_writable(out_path, &e) || (stats_path && fileio_check_writable(stats_path, &e)) ||
         scene_load(scene_path, &s, &e)) {
@@ -148,7 +139,9 @@ int cmd_bake(int argc, char **argv)
     h.n = res;
     h.rays = o.rays;
     h.seed = o.seed;
-    h.voxel_bytes = m->voxel_bytes;
+    h.voxel_bytes = m->record.bytes;
+    h.layout_version = (uint32_t)m->record.layout_version;
+    bake_params_format(m, &o.params, h.params, sizeof h.params);
     h.record_count = bake_record_count(m, &g);
     h.voxels = grid_count(&g, 0);
     if (voxfile_write(out_path, &h, records, &e)) {
@@ -158,7 +151,7 @@ int cmd_bake(int argc, char **argv)
     if (stats_path) {
         cJSON *j = stats_scene_fields(&s);
         cJSON_AddStringToObject(j, "command", "bake");
-        stats_add_bake(j, m, &g, &c, o.rays, grid_seconds);
+        stats_add_bake(j, m, &o.params, &g, &c, o.rays, grid_seconds);
         cJSON_AddNumberToObject(j, "seconds", c.seconds + c.finish_seconds);
         cJSON_AddNumberToObject(j, "rays", (double)c.rays);
         cJSON_AddNumberToObject(j, "shadow_rays", 0);
@@ -176,17 +169,30 @@ done:
     return rc;
 }
 
+const cli_command cmd_models_help = {
+    "models", "voxlab models [--params]",
+    "Lists the appearance models, one line each (name first): bytes per voxel, compositing, description.",
+    (const cli_option[]){{"--params", NULL, NULL, "list the models' parameters instead (model, name, default, range, doc)"},
+                         {0}}};
+
 int cmd_models(int argc, char **argv)
 {
-    (void)argv;
-    if (argc > 1) {
-        fprintf(stderr, "usage: voxlab models\n");
+    if (cli_wants_help(argc, argv)) {
+        cli_print_help(&cmd_models_help, stdout);
+        return 0;
+    }
+    int params = argc == 2 && strcmp(argv[1], "--params") == 0;
+    if (argc > 1 && !params) {
+        fprintf(stderr, "usage: %s\n", cmd_models_help.synopsis);
         return 1;
     }
     for (const vx_model *const *m = model_all(); *m; m++) {
         static const char *const rules[] = {"first-hit", "alpha", "coverage"};
-        printf("%-14s %4zu B/voxel  %-9s  %s\n", (*m)->name, (*m)->voxel_bytes, rules[(*m)->compositing],
-               (*m)->description);
+        if (!params)
+            printf("%-14s %4zu B/voxel  %-9s  %s\n", (*m)->name, (*m)->record.bytes, rules[vx_model_compositing(*m)],
+                   (*m)->description);
+        for (const vx_param *p = (*m)->params; params && p && p->name; p++)
+            printf("%-14s %s=%g (%g..%g): %s\n", (*m)->name, p->name, p->fallback, p->min, p->max, p->doc);
     }
     return 0;
 }

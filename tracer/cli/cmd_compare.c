@@ -7,10 +7,19 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "cli.h"
 #include "image.h"
 #include "metrics.h"
 
-static const char usage[] = "usage: voxlab compare A B [--json] [--heatmap OUT.png]";
+#define COMPARE_SYNOPSIS "voxlab compare A B [--json] [--heatmap OUT.png]"
+static const char usage[] = "usage: " COMPARE_SYNOPSIS;
+
+const cli_command cmd_compare_help = {
+    "compare", COMPARE_SYNOPSIS,
+    "Compares image B with reference A (EXR, PNG, PFM): MSE, RMSE, PSNR and SSIM (scikit-image's definition).",
+    (const cli_option[]){{"--json", NULL, NULL, "print one JSON object (doubles round-trip exactly)"},
+                         {"--heatmap", "OUT.png", "none", "write the per-pixel error as a heat map"},
+                         {0}}};
 
 static int fail(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 static int fail(const char *fmt, ...)
@@ -46,7 +55,7 @@ int cmd_compare(int argc, char **argv)
                 return fail("--heatmap needs an output file name (e.g. --heatmap err.png)\n%s", usage);
             heatmap = argv[++i];
         } else if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
-            puts(usage);
+            cli_print_help(&cmd_compare_help, stdout);
             return 0;
         } else if (arg[0] == '-' && arg[1] != '\0') {
             return fail("unknown option '%s'\n%s", arg, usage);

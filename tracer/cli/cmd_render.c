@@ -1,5 +1,6 @@
-/* voxlab render SCENE --model M (--res N [--rays K] | --vox FILE) [--spp N] [--size WxH] [--seed S]
- *               [--threads T] [--no-cache] [--no-shadow-skip] [--backend c|opencl] -o OUT [--stats S.json] */
+/* voxlab render SCENE --model M (--res N [--rays K] [--param NAME=VALUE]... | --vox FILE) [--spp N]
+ *               [--size WxH] [--seed S] [--threads T] [--no-cache] [--no-shadow-skip] [--backend NAME]
+ *               -o OUT [--stats S.json] */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -7,25 +8,54 @@
 #include "bake.h"
 #include "cli.h"
 #include "commands.h"
+#include "stats.h"
 #include "estimate.h"
 #include "fileio.h"
-#include "opencl_backend.h"
+#include "backend.h"
+#include "bake_params.h"
 #include "parallel.h"
 #include "render.h"
 #include "vox_load.h"
 #include "voxfile.h"
 
-static const char usage[] =
-    "usage: voxlab render SCENE --model M (--res N [--rays K] | --vox FILE) [--spp N] [--size WxH] [--seed S]\n"
-    "                     [--threads T] [--no-cache] [--no-shadow-skip] [--backend c|opencl] [--dry-run]\n"
-    "                     -o OUT.exr|OUT.png [--stats S.json]\n";
+#define RENDER_SYNOPSIS                                                                                      \
+    "voxlab render SCENE --model M (--res N [--rays K] [--param NAME=VALUE]... | --vox FILE) [--spp N]\n"         \
+    "                     [--size WxH] [--seed S] [--threads T] [--no-cache] [--no-shadow-skip] [--backend c|opencl]\n" \
+    "                     [--dry-run] -o OUT.exr|OUT.png [--stats S.json]"
+static const char usage[] = "usage: " RENDER_SYNOPSIS "\n";
+
+const cli_command cmd_render_help = {
+    "render", RENDER_SYNOPSIS,
+    "Renders SCENE through a voxel model: baked here (--model, --res) or read from a .vox (--vox).",
+    (const cli_option[]){
+        {"-o", "OUT.exr|OUT.png", NULL, "required: the image (written atomically)"},
+        {"--model", "M", NULL, "the appearance model (required with --res; with --vox, checked against the file)"},
+        {"--res", "N", NULL, "bake at N^3 voxels (one of --res and --vox is required)"},
+        {"--vox", "FILE", NULL, "render a baked .vox instead of baking (one of --res and --vox is required)"},
+        {"--rays", "K", "150", "bake: sample rays per voxel"},
+        {"--param", "NAME=VALUE", "the model's", "bake: a model parameter (repeatable)"},
+        {"--spp", "N", "4", "rays per pixel (cone models: one cone per pixel)"},
+        {"--size", "WxH", "the scene's", "image size"},
+        {"--seed", "S", "1", "random seed of the bake and the render"},
+        {"--threads", "T", "every core", "threads"},
+        {"--backend", "NAME", "c", "c or opencl"},
+        {"--no-cache", NULL, NULL, "evaluate every voxel per ray (default: cache each voxel's answer toward the camera)"},
+        {"--no-shadow-skip", NULL, NULL, "shadow rays test the voxels next to the shaded one too (default: skip 1.5 voxels)"},
+        {"--dry-run", NULL, NULL, "print the memory and time estimate and stop"},
+        {"--stats", "S.json", "none", "write statistics (times, rays, cache hits) as JSON"},
+        {0}}};
 
 int cmd_render(int argc, char **argv)
 {
+    if (cli_wants_help(argc, argv)) {
+        cli_print_help(&cmd_render_help, stdout);
+        return 0;
+    }
     const char *scene_path = NULL, *out_path = NULL, *stats_path = NULL, *model_name = NULL, *vox = NULL,
                *size = NULL;
-    int opencl = 0; /* --backend opencl */
-    int dry_run = 0;
+    const vx_backend *backend = backend_find("c");
+    int dry_run = 0, param_count = 0;
+    const char *param_assign[64];
     render_options o;
     render_default_options(&o);
     bake_options bo = {.rays = 150, .seed = 1, .progress = 1};
@@ -57,12 +87,20 @@ int cmd_render(int argc, char **argv)
             stats_path = val;
         else if (strcmp(a, "--size") == 0)
             size = val;
-        else if (strcmp(a, "--backend") == 0) {
-            if (strcmp(val, "c") != 0 && strcmp(val, "opencl") != 0) {
-                fprintf(stderr, "voxlab render: --backend %s: expected c or opencl\n%s", val, usage);
+        else if (strcmp(a, "--param") == 0) {
+            if (param_count == (int)(sizeof param_assign / sizeof *param_assign)) {
+                fprintf(stderr, "voxlab render: --param given more than %d times\n", param_count);
                 return 1;
             }
-            opencl = strcmp(val, "opencl") == 0;
+            param_assign[param_count++] = val;
+        } else if (strcmp(a, "--backend") == 0) {
+            if (!(backend = backend_find(val))) {
+                fprintf(stderr, "voxlab render: --backend %s: expected one of", val);
+                for (const vx_backend *const *b = backend_all(); *b; b++)
+                    fprintf(stderr, " %s", (*b)->name);
+                fprintf(stderr, "\n%s", usage);
+                return 1;
+            }
         }
         else if (strcmp(a, "--res") == 0) {
             if (cli_int("render", a, val, 1, GRID_MAX_N, &v))
@@ -104,6 +142,14 @@ int cmd_render(int argc, char **argv)
         return 1;
     }
     vx_err e;
+    if (vox && param_count) {
+        fprintf(stderr, "voxlab render: --param applies to a bake (--res); a .vox file keeps its bake's parameters\n");
+        return 1;
+    }
+    if (m && (bo.params_set = 1, bake_params_apply(m, param_assign, param_count, &bo.params, &e))) {
+        fprintf(stderr, "voxlab render: %s\n", e.msg);
+        return 1;
+    }
     scene s;
     if (image_check_output(out_path, &e) || (stats_path && fileio_check_writable(stats_path, &e)) ||
         scene_load(scene_path, &s, &e)) {
@@ -120,7 +166,7 @@ int cmd_render(int argc, char **argv)
     double grid_seconds = 0;
     image img = {0};
     render_counts rcnt;
-    opencl_counts ocnt = {0};
+    backend_counts bcnt = {0};
     if (size && scene_parse_size_string(size, &o.width, &o.height, &e))
         goto fail;
     /* With --vox the resolution is the file's: the estimate covers the scene and the image, and the
@@ -140,33 +186,32 @@ int cmd_render(int argc, char **argv)
             goto fail;
         bc.seconds = -1; /* not baked by this run */
         bo.rays = h.rays;
-    } else if ((opencl && opencl_model_check(m, &e)) || bake_scene(&s, m, res, &bo, &g, &records, &bc, &grid_seconds, &e)) {
+        if (bake_params_parse(m, h.params, &bo.params, &e)) {
+            have_grid = 1;
+            goto fail;
+        }
+    } else if (backend->check(m, &o, &e) || bake_scene(&s, m, res, &bo, &g, &records, &bc, &grid_seconds, &e)) {
         goto fail;
     }
     have_grid = 1;
-    if ((opencl ? render_image_opencl(&s, &g, m, records, &o, &img, &rcnt, &ocnt, &e)
-                : render_image(&s, &g, m, records, &o, &img, &rcnt, &e)) ||
+    if ((vox && backend->check(m, &o, &e)) || backend->render(&s, &g, m, records, &o, &img, &rcnt, &bcnt, &e) ||
         image_write(&img, out_path, &e))
         goto fail;
     if (stats_path) {
         cJSON *j = stats_scene_fields(&s);
         cJSON_AddStringToObject(j, "command", "render");
-        stats_add_bake(j, m, &g, &bc, bo.rays, grid_seconds);
-        cJSON_AddStringToObject(j, "backend", opencl ? "opencl" : "c");
+        stats_add_bake(j, m, &bo.params, &g, &bc, bo.rays, grid_seconds);
+        cJSON_AddStringToObject(j, "backend", backend->name);
         cJSON_AddNumberToObject(j, "seconds", rcnt.seconds);
-        if (opencl) {
-            /* Device time is not split between traversal and model; compile time is apart from seconds. */
-            cJSON_AddNullToObject(j, "traversal_seconds");
-            cJSON_AddNullToObject(j, "model_seconds");
-            cJSON_AddNumberToObject(j, "opencl_compile_seconds", ocnt.compile_seconds);
-            cJSON_AddNumberToObject(j, "opencl_kernel_seconds", ocnt.kernel_seconds);
-            cJSON_AddNumberToObject(j, "opencl_kernel_cpu_seconds", ocnt.kernel_cpu_seconds);
-            cJSON_AddStringToObject(j, "opencl_device", ocnt.device);
-            cJSON_AddNumberToObject(j, "opencl_compute_units", ocnt.compute_units);
-        } else {
+        if (backend->splits_model_time) {
             cJSON_AddNumberToObject(j, "traversal_seconds", rcnt.traversal_seconds);
             cJSON_AddNumberToObject(j, "model_seconds", rcnt.model_seconds);
+        } else {
+            cJSON_AddNullToObject(j, "traversal_seconds");
+            cJSON_AddNullToObject(j, "model_seconds");
         }
+        if (backend->has_device) /* NAME_compile_seconds ...: compile time is apart from seconds */
+            stats_add_backend(j, backend->name, &bcnt);
         cJSON_AddNumberToObject(j, "rays", (double)rcnt.rays);
         cJSON_AddNumberToObject(j, "shadow_rays", (double)rcnt.shadow_rays);
         cJSON_AddNumberToObject(j, "voxel_visits", (double)rcnt.voxel_visits);

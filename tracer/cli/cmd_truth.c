@@ -6,63 +6,36 @@
 
 #include "cli.h"
 #include "commands.h"
+#include "stats.h"
 #include "estimate.h"
 #include "fileio.h"
 #include "parallel.h"
 #include "truth.h"
 
-static const char usage[] =
-    "usage: voxlab truth SCENE [--spp N] [--size WxH] [--seed S] [--threads T] [--dry-run] -o OUT.exr|OUT.png\n"
-    "                    [--stats S.json]\n";
+#define TRUTH_SYNOPSIS                                                                                       \
+    "voxlab truth SCENE [--spp N] [--size WxH] [--seed S] [--threads T] [--dry-run] -o OUT.exr|OUT.png\n"          \
+    "                    [--stats S.json]"
+static const char usage[] = "usage: " TRUTH_SYNOPSIS "\n";
 
-cJSON *stats_scene_fields(const scene *s)
-{
-    cJSON *j = cJSON_CreateObject();
-    cJSON_AddStringToObject(j, "scene", s->name);
-    cJSON_AddNumberToObject(j, "triangles", (double)s->mesh.triangle_count);
-    cJSON_AddNumberToObject(j, "degenerate_triangles", (double)s->degenerate_triangles);
-    cJSON *fx = cJSON_AddArrayToObject(j, "effects");
-    for (unsigned bit = 1; bit <= EFFECT_TEXTURES; bit <<= 1)
-        if (s->effects & bit)
-            cJSON_AddItemToArray(fx, cJSON_CreateString(effect_name(bit)));
-    return j;
-}
-
-void stats_add_image(cJSON *j, int spp, int width, int height, uint64_t seed, int threads)
-{
-    cJSON_AddNumberToObject(j, "spp", spp);
-    cJSON_AddNumberToObject(j, "width", width);
-    cJSON_AddNumberToObject(j, "height", height);
-    cJSON_AddNumberToObject(j, "seed", (double)seed);
-    cJSON_AddNumberToObject(j, "threads", parallel_threads(threads));
-    cJSON_AddNumberToObject(j, "peak_rss_bytes", peak_rss_bytes());
-}
-
-int stats_finish(cJSON *j, const char *path, const char *cmd, const char *output)
-{
-    char *text = cJSON_Print(j);
-    cJSON_Delete(j);
-    vx_err e;
-    int rc = -1;
-    size_t n = text ? strlen(text) : 0;
-    char *line = text ? realloc(text, n + 2) : NULL;
-    if (!line) {
-        free(text);
-        snprintf(e.msg, sizeof e.msg, "%s: out of memory for the statistics", path);
-    } else {
-        line[n] = '\n', line[n + 1] = 0;
-        rc = fileio_write_text(path, line, &e);
-        free(line);
-    }
-    if (rc) {
-        fprintf(stderr, "voxlab %s: --stats %s\n", cmd, e.msg);
-        remove(output);
-    }
-    return rc;
-}
+const cli_command cmd_truth_help = {
+    "truth", TRUTH_SYNOPSIS,
+    "Renders SCENE's ground truth with Embree: stratified jittered rays, box filter, the scene's declared effects.",
+    (const cli_option[]){
+        {"-o", "OUT.exr|OUT.png", NULL, "required: the image (written atomically)"},
+        {"--spp", "N", "1024", "samples per pixel"},
+        {"--size", "WxH", "the scene's", "image size"},
+        {"--seed", "S", "1", "random seed"},
+        {"--threads", "T", "every core", "threads"},
+        {"--dry-run", NULL, NULL, "print the memory and time estimate and stop"},
+        {"--stats", "S.json", "none", "write statistics (times, rays) as JSON"},
+        {0}}};
 
 int cmd_truth(int argc, char **argv)
 {
+    if (cli_wants_help(argc, argv)) {
+        cli_print_help(&cmd_truth_help, stdout);
+        return 0;
+    }
     const char *scene_path = NULL, *out_path = NULL, *stats_path = NULL, *size = NULL;
     truth_options o = {.spp = 1024, .seed = 1, .progress = 1};
     int dry_run = 0;

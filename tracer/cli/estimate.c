@@ -99,7 +99,7 @@ void estimate_voxels(const scene *s, const vx_model *m, int res, int rays, int w
     /* The build's dense bits (n^3 bits, plus an eighth for the next level), the columns of every
      * level (n^2 words, plus a third for the coarser ones), and per voxel its coordinates and bits. */
     out->grid_bytes = n * n * n / 8 * 1.15 + n * n * 8 * 1.34 + v * 1.15 * 8;
-    out->record_bytes = v * (double)m->voxel_bytes * (m->uses_levels ? 1.15 : 1.0);
+    out->record_bytes = v * (double)m->record.bytes * (m->record.levels ? 1.15 : 1.0);
     out->work_bytes = (double)parallel_threads(threads) * rays * sizeof(vx_sample);
     if (width > 0) {
         double px = (double)width * height;

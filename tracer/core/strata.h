@@ -29,12 +29,4 @@ VX_INLINE void truth_strata_sample(int i, int sx, int sy, float r1, float r2, fl
     }
 }
 
-/* Sample i of n in one step (for callers that do not keep the strata counts). */
-VX_INLINE void truth_stratified_sample(int i, int n, float r1, float r2, float *x, float *y)
-{
-    int sx, sy;
-    truth_strata(n, &sx, &sy);
-    truth_strata_sample(i, sx, sy, r1, r2, x, y);
-}
-
 #endif

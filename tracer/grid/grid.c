@@ -433,11 +433,6 @@ size_t grid_bytes(const voxel_grid *g)
     return bytes;
 }
 
-void grid_cell_box(const voxel_grid *g, int level, int x, int y, int z, vec3 *lo, vec3 *hi)
-{
-    grid_cell_corners(g, level, x, y, z, lo, hi);
-}
-
 vec3 grid_cell_center(const voxel_grid *g, int level, int x, int y, int z)
 {
     double s = ldexp(g->voxel_size_d, level);

@@ -53,9 +53,7 @@ void grid_free(voxel_grid *g);
 /* Bytes allocated by the grid (all levels, tables, coordinates). */
 size_t grid_bytes(const voxel_grid *g);
 
-/* World-space corners and centre of a cell of `level` (grid_cell_box is grid_core.h's
- * grid_cell_corners, which the OpenCL kernel calls too). */
-void grid_cell_box(const voxel_grid *g, int level, int x, int y, int z, vec3 *lo, vec3 *hi);
+/* World-space centre of a cell of `level` (its corners: grid_core.h's grid_cell_corners). */
 vec3 grid_cell_center(const voxel_grid *g, int level, int x, int y, int z);
 
 VX_INLINE size_t grid_count(const voxel_grid *g, int level)

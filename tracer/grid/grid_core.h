@@ -92,8 +92,8 @@ VX_INLINE int64_t grid_index(const voxel_grid *g, int level, int x, int y, int z
     return grid_level_index(L, x, y, z);
 }
 
-/* World-space corners of a cell of `level`. grid.c's grid_cell_box (which the C tracer calls) is
- * this function, so both backends hand models bit-identical voxel corners. */
+/* World-space corners of a cell of `level`: both backends call this, so they hand models
+ * bit-identical voxel corners. */
 VX_INLINE void grid_cell_corners(const voxel_grid *g, int level, int x, int y, int z, vec3 *lo, vec3 *hi)
 {
     double s = ldexp(g->voxel_size_d, level);

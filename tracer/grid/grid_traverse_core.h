@@ -1,9 +1,35 @@
-/* The hierarchical 3D-DDA over a voxel_grid (behaviour and conventions documented in
- * grid_traverse.h), as portable C: no libc beyond <math.h>, no allocation. grid_traverse.c wraps
- * it for the C tracer and the OpenCL backend compiles this same file as OpenCL C
- * (tracer/backends/opencl/cl/render.cl), so both backends visit exactly the same cells with the same [t0, t1]:
+/* Front-to-back traversal of the non-empty cells of one level of a voxel_grid along a ray: a 3D-DDA
+ * (Amanatides & Woo 1987) that skips empty space using the coarser MIP levels. The DDA runs over
+ * blocks of 2^k cells (the cells k levels up): an empty block is stepped over like a cell, k goes
+ * up while the parent block is empty too, and a non-empty block makes k go down (into the child the
+ * ray is in) until single cells are reached. A ray through an empty region thus costs about log2 of
+ * its length in steps rather than one per cell; a step is a few multiply-adds and one or two
+ * occupancy lookups.
+ *
+ * Iterator style: gt_iter_init, then gt_iter_next until it returns 0; stop whenever you like.
+ * The iterator is a plain value, so copying it saves the position; to resume from a distance t
+ * later, init again with t_min = t. For a shadow ray toward a point light pass t_max = the
+ * distance to the light (same units as t, i.e. in multiples of |dir|).
+ *
+ * Conventions:
+ *  - t is the parameter of origin + t * dir in world space (dir need not be unit length); the
+ *    reported [t0, t1] is the ray's overlap with the cell clipped to [t_min, t_max], t0 <= t1, and
+ *    successive cells have non-decreasing t0 (t1 of one cell = t0 of the next, whether or not the
+ *    cells in between were empty).
+ *  - A cell is [x, x+1) on an axis where the ray does not move: a ray lying exactly in a grid
+ *    plane (a zero direction component with the origin on a cell boundary) belongs to the cells
+ *    above the plane, and one on the grid's upper boundary plane misses the grid.
+ *  - Where the ray is moving, the starting cell is the one it occupies just after t_min (an
+ *    origin on a boundary going down starts below it). A ray crossing an edge or corner exactly
+ *    may report a cell with t0 == t1 there.
+ *  - A zero or non-finite direction, a NaN origin or an invalid level gives no cells.
+ *
+ * Portable C: no libc beyond <math.h>, no allocation. Both backends compile this same file (the C
+ * marchers and the OpenCL kernels), so they visit exactly the same cells with the same [t0, t1]:
  * all the decisions are made in double by the same expressions (OpenCL C needs cl_khr_fp64 and
- * FP_CONTRACT OFF, which tracer/backends/opencl/cl/prelude.h sets, so that no multiply-add is fused differently). */
+ * FP_CONTRACT OFF, which tracer/backends/opencl/cl/prelude.h sets, so that no multiply-add is fused
+ * differently). gt_iter_init returns 1 when the ray overlaps the grid (with positive length), 0 when
+ * it misses it; gt_iter_next fills the next non-empty cell and returns 1, or returns 0. */
 #ifndef VX_GRID_TRAVERSE_CORE_H
 #define VX_GRID_TRAVERSE_CORE_H
 
@@ -90,12 +116,12 @@ VX_INLINE int gt_cell_at(const grid_iter *it, int a, double t, int lo, int hi)
     return c;
 }
 
-/* grid_iter_init (see grid_traverse.h). */
+/* The iterator's set-up (see the top of this file). */
 GT_ITER_INLINE int gt_iter_init(grid_iter *it, const voxel_grid *g, int level, vec3 origin, vec3 dir, float t_min,
                            float t_max)
 {
     /* Only the fields a walk reads before it writes them are set (not the whole struct zeroed:
-     * this runs once per ray): grid_iter_next reads g, level, active, k and parent_ok first. */
+     * this runs once per ray): gt_iter_next reads g, level, active, k and parent_ok first. */
     it->g = g;
     it->level = level;
     it->active = 0;
@@ -217,7 +243,7 @@ GT_ITER_INLINE void gt_walk_store(grid_iter *it, const gt_walk *w, int active)
     it->active = active;
 }
 
-/* grid_iter_next (see grid_traverse.h). */
+/* The next non-empty cell (see the top of this file). */
 GT_ITER_INLINE int gt_iter_next(grid_iter *it, grid_hit *hit)
 {
     if (!it->active)

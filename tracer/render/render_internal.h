@@ -1,12 +1,9 @@
-/* Internals shared by the voxel tracer's files (render.c: voxel marching; render_cone.c: cone
- * marching for models that declare VX_MARCH_CONE). Not part of the public interface. */
+/* Internals shared by the C tracer's files: render.c (the driver: options, threads, rows, counts),
+ * render_voxel.c (voxel marching, render_voxel_core.h) and render_cone.c (cone marching,
+ * render_cone_core.h). Each marcher knows only the job; neither knows the other. */
 #ifndef VX_RENDER_INTERNAL_H
 #define VX_RENDER_INTERNAL_H
 
-#include <stdatomic.h>
-
-#include "cone_light_cache.h"
-#include "cone_skip.h"
 #include "parallel.h"
 #include "render.h"
 
@@ -17,44 +14,33 @@ static inline uint64_t cycles(void) { return __rdtsc(); }
 static inline uint64_t cycles(void) { return (uint64_t)(now_seconds() * 1e9); }
 #endif
 
-/* A voxel's cached answer for the direction voxel -> camera. state: 0 empty, 1 being computed,
- * 2 ready. The value depends only on the voxel, so whichever thread computes it writes the same
- * numbers: the image stays independent of the thread count. */
-typedef struct {
-    vec3 radiance;
-    float opacity;
-    unsigned int mask[VX_MASK_WORDS];
-    atomic_int state;
-} cache_entry;
-
+/* One thread's counters, on its own cache line. */
 typedef struct {
     uint64_t rays, shadow_rays, voxel_visits, model_evals, cache_hits, model_cycles, total_cycles;
     char pad[64];
 } thread_counts;
 
-typedef struct {
+typedef struct render_job {
     const scene *s;
     const voxel_grid *g;
     const vx_model *m;
     const unsigned char *records;
     const render_options *o;
     image *out;
-    cache_entry *cache;
     thread_counts *tc;
     float spread; /* footprint radius per unit distance */
-    cone_light_cache *light_cache; /* cone marching with shadows and the cache on; else NULL */
-    const dilated_grid *skip;      /* cone marching: the empty-space bitmaps; else NULL */
-    const void *model_table;       /* the model's constant table (vx_model.table) or NULL */
+    void *state;  /* the marcher's own (its caches) */
 } render_job;
 
-const void *record_of(const render_job *j, int64_t index);
-/* Transmittance from p toward a light through the level-0 voxels (the model's own opacity). */
-float shadow_transmittance(const render_job *j, vx_query *q, int64_t self, vec3 p, vec3 to_light, float distance,
-                           thread_counts *tc);
-/* Fills q's lights for a point c (shadows applied when the scene declares them; self = the voxel
- * to ignore, or -1). */
-void gather_lights(const render_job *j, vx_query *q, int64_t self, vec3 c, thread_counts *tc);
-/* One camera ray through a VX_MARCH_CONE model (render_cone.c). */
-vec3 cone_trace_ray(const render_job *j, vec3 org, vec3 dir, thread_counts *tc);
+/* A way of marching the pixels of a model's protocol. prepare allocates the marcher's state before
+ * the render's clock starts; row renders one image row on thread `thread` (parallel_for). */
+typedef struct {
+    int (*prepare)(render_job *j, vx_err *e);
+    void (*row)(void *job, int64_t row, int thread);
+    void (*release)(render_job *j);
+} render_marcher;
+
+extern const render_marcher render_voxel_marcher; /* render_voxel.c: vx_voxel_eval models */
+extern const render_marcher render_cone_marcher;  /* render_cone.c: vx_cone_eval models */
 
 #endif

@@ -1,33 +1,23 @@
-/* `render --backend opencl`: the voxel tracer of render.c run as OpenCL kernels (tracer/backends/opencl/cl/render.cl)
- * built from the same portable sources as the C backend: the DDA (grid_traverse_core.h), the camera
- * rays (camera.h), the random numbers (rng.h) and the model's own per-voxel evaluation (its
- * cl_source header). Same image as render_image to float rounding of the math library (see
- * tests/test_opencl.py), with the same shading cache (filled by the first ray that visits a voxel).
+/* The OpenCL backend (backend.h's "opencl"): the marchers of the C backend run as OpenCL kernels
+ * (cl/render.cl for voxel evaluation, cl/render_cone.cl for cone evaluation) built from the same
+ * portable sources: the marchers' cores (render_voxel_core.h, render_cone_core.h), the DDA, the
+ * camera rays, the random numbers and the model's own evaluation. Same image as the C backend to
+ * float rounding of the math library (tests/test_opencl.py).
  *
  * Kernels are compiled once per model and kept by PoCL's cache (POCL_CACHE_DIR, by default
- * pocl-cache/ in the build directory); the compile time is reported apart from the render time.
- * Models that march cones (VX_MARCH_CONE) run in their own kernel (opencl_cone.c, from their
- * cl_cone_element); a model without portable evaluation code is refused with a message. */
+ * pocl-cache/ beside the executable); the compile time is reported apart from the render time. */
 #ifndef VX_OPENCL_BACKEND_H
 #define VX_OPENCL_BACKEND_H
 
-#include "render.h"
+#include "backend.h"
 
-typedef struct {
-    double compile_seconds; /* assembling the program, building it (or loading it from the cache), preparing the kernels */
-    double kernel_seconds;  /* the render kernel alone (part of render_counts.seconds, with the transfers) */
-    double kernel_cpu_seconds; /* CPU time the process spent meanwhile (all threads: PoCL's workers run in it) */
-    char device[256];       /* the device's name */
-    unsigned compute_units;
-} opencl_counts;
+/* 0 when an OpenCL device with double precision opens here (with PoCL's settings for o), else -1
+ * with why. */
+int opencl_check_available(const vx_model *m, const render_options *o, vx_err *e);
 
-/* 0 when model m can run on this backend, else -1 with a message naming the model and why (cone
- * marching, no cl_source): cmd_render asks before baking, so the answer comes at once. */
-int opencl_model_check(const vx_model *m, vx_err *e);
-
-/* Like render_image (render.h); counts->seconds is the render without the compile time, and
+/* backend.h's render; counts->seconds is the render without the compile time, and
  * traversal_seconds / model_seconds are not measured (0). */
 int render_image_opencl(const scene *s, const voxel_grid *g, const vx_model *m, const void *records,
-                        const render_options *o, image *out, render_counts *counts, opencl_counts *oc, vx_err *e);
+                        const render_options *o, image *out, render_counts *counts, backend_counts *bc, vx_err *e);
 
 #endif

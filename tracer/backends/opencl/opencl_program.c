@@ -170,40 +170,39 @@ static int expand_text(expander *x, text *out, const char *body, const char *rel
     return 0;
 }
 
-char *opencl_program_text(const vx_model *m, size_t params_bytes, vx_err *e)
+static char *opencl_program_expand(const char *root, vx_err *e);
+
+char *opencl_program_text(const vx_model *m, const char *defines, const char *kernel_file, vx_err *e)
 {
-    if (!m->cl_source || !m->cl_opacity || !m->cl_shade) {
-        vx_fail(e, "model %s cannot run on OpenCL: it declares no portable evaluation source (cl_source, "
-                   "cl_opacity, cl_shade in models/model.h); use --backend c",
-                m->name);
+    const char *source = vx_model_source(m);
+    char rel[PATH_MAX];
+    if (!resolve("", source, rel, sizeof rel)) {
+        vx_fail(e, "model %s: its portable source %s is not among the sources embedded at build time (a header in a "
+                   "folder of models/)",
+                m->name, source);
         return NULL;
     }
-    if (m->cl_source[0] == '/' || strstr(m->cl_source, "..")) {
-        vx_fail(e, "model %s: cl_source \"%s\" must name a header under models/", m->name, m->cl_source);
+    size_t size = strlen(defines) + strlen(source) + strlen(kernel_file) + 512;
+    char *root = malloc(size);
+    if (!root) {
+        vx_fail(e, "out of memory assembling the OpenCL program");
         return NULL;
     }
-    char root[4 * PATH_MAX];
-    snprintf(root, sizeof root,
+    snprintf(root, size,
              "/* voxlab OpenCL program for model %s (assembled by tracer/backends/opencl/opencl_program.c) */\n"
-             "#define VX_CL_OPACITY %s\n"
-             "#define VX_CL_SHADE %s\n"
-             "#define VX_CL_COMPOSITING %d\n"
-             "#define VX_CL_RECORD_BYTES %zu\n"
-             "#define VX_CL_PARAMS_BYTES %zu\n"
+             "%s"
              "#include \"prelude.h\"\n"
              "#include \"%s\"\n"
-             "#include \"render.cl\"\n",
-             m->name, m->cl_opacity, m->cl_shade, m->compositing, m->voxel_bytes, params_bytes, m->cl_source);
-    char rel[PATH_MAX];
-    if (!resolve("", m->cl_source, rel, sizeof rel)) {
-        vx_fail(e, "model %s: its OpenCL source %s is not among the embedded sources (a header in a folder "
-                   "of models/)", m->name, m->cl_source);
-        return NULL;
-    }
-    return opencl_program_expand(root, e);
+             "#include \"%s\"\n",
+             m->name, defines, source, kernel_file);
+    char *text = opencl_program_expand(root, e);
+    free(root);
+    return text;
 }
 
-char *opencl_program_expand(const char *root, vx_err *e)
+/* A program text from `root`, its #include "..." lines expanded from the embedded sources and the
+ * test hook applied. */
+static char *opencl_program_expand(const char *root, vx_err *e)
 {
     expander x = {.e = e};
     text out = {0};

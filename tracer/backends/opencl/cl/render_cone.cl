@@ -1,11 +1,12 @@
-/* The OpenCL cone tracer: tracer/render/render_cone_core.h (the C backend's cone marcher, the same file)
- * as one kernel, persistent work-items taking tiles of pixels. tracer/backends/opencl/opencl_cone.c assembles the program:
- * tracer/backends/opencl/cl/prelude.h, the model's cl_source header, then this file, with
- *   VX_CL_CONE_ELEMENT   the model's cl_cone_element function
+/* The OpenCL cone tracer: tracer/render/render_cone_core.h (the C backend's cone marcher, the same
+ * file) as one kernel, persistent work-items taking tiles of pixels. opencl_cone.c has the program
+ * assembled (opencl_program.c): prelude.h, the model's portable source, then this file, with
+ *   VX_CL_CONE_ELEMENT   the model's cone element function (by name)
  *   VX_CL_PARAMS_BYTES   sizeof(vx_cl_cone_params) on the host
  * The light cache is shared by all work-items as the C backend's is by its threads: a value depends
  * only on its cell, so the image does not depend on the order in which work-items run. */
 #include "camera.h"
+#include "flush_counts.h"
 #include "render_cone_params.h"
 
 #define CONE_ELEMENT(x, q, a) VX_CL_CONE_ELEMENT(q, a)
@@ -13,24 +14,6 @@
 
 /* A mismatch between the host's and this compiler's layout would read garbage: refuse to build. */
 typedef char vx_cl_cone_params_size_matches_host[sizeof(vx_cl_cone_params) == VX_CL_PARAMS_BYTES ? 1 : -1];
-
-/* Adds a work-item's counters to its work-group's slot (64-bit sums as low and high words, so
- * that OpenCL 1.2's 32-bit atomics suffice). */
-static void cone_cl_flush_counts(__global uint *counts, const cone_counts *c)
-{
-    ulong v[VX_CONE_COUNTERS] = {c->elements, c->shadow_rays, c->evals, c->cache_hits};
-    __global uint *slot = counts + (size_t)get_group_id(0) * (2 * VX_CONE_COUNTERS);
-    for (int k = 0; k < VX_CONE_COUNTERS; k++) {
-        uint lo = (uint)v[k], hi = (uint)(v[k] >> 32);
-        if (lo) {
-            uint old = atomic_add(&slot[2 * k], lo);
-            if (old + lo < old)
-                hi++;
-        }
-        if (hi)
-            atomic_add(&slot[2 * k + 1], hi);
-    }
-}
 
 /* Persistent work-items: each takes the next tile of VX_CONE_TILE_PIXELS consecutive pixels from
  * the shared counter *next_tile until none is left, so the work goes to whoever is free, as the C
@@ -94,5 +77,8 @@ __kernel void vx_render_cone(__global const vx_cl_cone_params *P, __global ulong
             dst[2] = c.z;
         }
     }
-    cone_cl_flush_counts(counts, &x.counts);
+    vx_cl_flush_count(counts, VX_CONE_COUNTERS, VX_CONE_ELEMENTS, x.counts.elements);
+    vx_cl_flush_count(counts, VX_CONE_COUNTERS, VX_CONE_SHADOW_RAYS, x.counts.shadow_rays);
+    vx_cl_flush_count(counts, VX_CONE_COUNTERS, VX_CONE_EVALS, x.counts.evals);
+    vx_cl_flush_count(counts, VX_CONE_COUNTERS, VX_CONE_CACHE_HITS, x.counts.cache_hits);
 }

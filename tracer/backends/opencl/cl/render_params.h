@@ -38,12 +38,10 @@ typedef struct {
 typedef struct {
     float radiance[3];
     float opacity;
-    unsigned int mask[VX_MASK_WORDS];
 } vx_cl_cache;
 
-/* A work-item's counters (render_counts' fields; cache hits are the visits that needed no model
- * evaluation, so the host derives them). The kernel adds them up per work-group, each as a 64-bit
- * sum in two 32-bit words (low, high), and the host sums the groups. */
-enum { VX_CL_VISITS = 0, VX_CL_SHADOW_RAYS = 1, VX_CL_EVALS = 2, VX_CL_COUNTERS = 3 };
+/* The marcher's counters (voxel_counts, render_counts' fields). The kernel adds them up per
+ * work-group, each as a 64-bit sum in two 32-bit words (low, high), and the host sums the groups. */
+enum { VX_CL_RAYS, VX_CL_SHADOW_RAYS, VX_CL_VISITS, VX_CL_EVALS, VX_CL_CACHE_HITS, VX_CL_COUNTERS };
 
 #endif

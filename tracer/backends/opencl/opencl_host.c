@@ -1,0 +1,170 @@
+#include "opencl_host.h"
+
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "opencl_program.h"
+
+/* Work-group size: a size every device accepts, or the kernel's maximum when that is smaller. */
+#define LOCAL_SIZE 64
+
+int opencl_launch_build(opencl_launch *L, const opencl_runtime *rt, const vx_model *m, const char *defines,
+                        const char *kernel_file, const char *kernel_name, int buffers, int next_tile, int counters,
+                        const char *build_dir, vx_err *e)
+{
+    memset(L, 0, sizeof *L);
+    L->rt = rt;
+    L->kernel_name = kernel_name;
+    L->buffers = buffers;
+    L->next_tile = next_tile;
+    L->counters = counters;
+    L->groups = rt->compute_units ? rt->compute_units : 1;
+    if (buffers > OPENCL_HOST_MAX_BUFFERS)
+        return vx_fail(e, "OpenCL: kernel %s has more than %d buffers", kernel_name, OPENCL_HOST_MAX_BUFFERS);
+    L->source = opencl_program_text(m, defines, kernel_file, e);
+    if (!L->source)
+        return -1;
+    char what[128], log_path[PATH_MAX + 64];
+    snprintf(what, sizeof what, "model %s", m->name);
+    snprintf(log_path, sizeof log_path, "%s/opencl-build-%s.log", build_dir, m->name);
+    if (opencl_build(rt, L->source, what, log_path, &L->program, e))
+        return -1;
+    cl_int err;
+    L->kernel = clCreateKernel(L->program, kernel_name, &err);
+    if (!L->kernel) {
+        char msg[160];
+        snprintf(msg, sizeof msg, "creating kernel %s", kernel_name);
+        return opencl_check(err, msg, e);
+    }
+    size_t max = 0;
+    L->local = LOCAL_SIZE;
+    if (clGetKernelWorkGroupInfo(L->kernel, rt->device, CL_KERNEL_WORK_GROUP_SIZE, sizeof max, &max, NULL) ==
+            CL_SUCCESS &&
+        max > 0 && max < L->local)
+        L->local = max;
+    return 0;
+}
+
+int opencl_launch_buffer(opencl_launch *L, int which, cl_mem_flags flags, size_t bytes, const void *host, vx_err *e)
+{
+    L->buf[which] = opencl_buffer(L->rt, flags, bytes, host, e);
+    return L->buf[which] ? 0 : -1;
+}
+
+int opencl_launch_counters(opencl_launch *L, int which, vx_err *e)
+{
+    size_t bytes = L->groups * (size_t)L->counters * 2 * sizeof(uint32_t);
+    L->counts = calloc(1, bytes ? bytes : 1);
+    if (!L->counts)
+        return vx_fail(e, "out of memory for the render's counters");
+    return opencl_launch_buffer(L, which, CL_MEM_READ_WRITE, bytes, L->counts, e);
+}
+
+int opencl_launch_grid(opencl_launch *L, int cols, int bits, int prefix, const voxel_grid *g, vx_err *e)
+{
+    size_t ncols = 0, words = 0;
+    for (int l = 0; l < g->levels; l++) {
+        ncols += (size_t)g->level[l].n * (size_t)g->level[l].n;
+        words += g->level[l].words;
+    }
+    if (opencl_launch_buffer(L, cols, CL_MEM_READ_ONLY, ncols * sizeof(uint64_t), NULL, e) ||
+        opencl_launch_buffer(L, bits, CL_MEM_READ_ONLY, words * sizeof(uint64_t), NULL, e) ||
+        opencl_launch_buffer(L, prefix, CL_MEM_READ_ONLY, words * sizeof(uint32_t), NULL, e))
+        return -1;
+    return 0;
+}
+
+int opencl_launch_grid_upload(opencl_launch *L, int cols, int bits, int prefix, const voxel_grid *g, vx_err *e)
+{
+    cl_command_queue q = L->rt->queue;
+    size_t c = 0, w = 0;
+    for (int l = 0; l < g->levels; l++) {
+        const grid_level *G = &g->level[l];
+        size_t nc = (size_t)G->n * (size_t)G->n;
+        cl_int err = clEnqueueWriteBuffer(q, L->buf[cols], CL_FALSE, c * sizeof(uint64_t), nc * sizeof(uint64_t),
+                                          G->cols, 0, NULL, NULL);
+        if (err == CL_SUCCESS && G->words)
+            err = clEnqueueWriteBuffer(q, L->buf[bits], CL_FALSE, w * sizeof(uint64_t), G->words * sizeof(uint64_t),
+                                       G->bits, 0, NULL, NULL);
+        if (err == CL_SUCCESS && G->words)
+            err = clEnqueueWriteBuffer(q, L->buf[prefix], CL_FALSE, w * sizeof(uint32_t),
+                                       G->words * sizeof(uint32_t), G->prefix, 0, NULL, NULL);
+        if (opencl_check(err, "uploading the grid", e))
+            return -1;
+        c += nc;
+        w += G->words;
+    }
+    return 0;
+}
+
+int opencl_launch_zero(opencl_launch *L, int which, size_t bytes, vx_err *e)
+{
+    if (!bytes)
+        return 0;
+    cl_uint zero = 0;
+    return opencl_check(clEnqueueFillBuffer(L->rt->queue, L->buf[which], &zero, sizeof zero, 0, bytes, 0, NULL, NULL),
+                        "clearing a buffer", e);
+}
+
+int opencl_launch_run(opencl_launch *L, int pixels, const char *what, vx_err *e)
+{
+    if (opencl_launch_zero(L, L->next_tile, sizeof(cl_int), e))
+        return -1;
+    cl_int err = CL_SUCCESS;
+    for (int i = 0; i < L->buffers && err == CL_SUCCESS; i++)
+        err = clSetKernelArg(L->kernel, (cl_uint)i, sizeof(cl_mem), &L->buf[i]);
+    if (err == CL_SUCCESS)
+        err = clSetKernelArg(L->kernel, (cl_uint)L->buffers, sizeof(int), &pixels);
+    size_t local = L->local, global = L->groups * local;
+    if (err == CL_SUCCESS)
+        err = clEnqueueNDRangeKernel(L->rt->queue, L->kernel, 1, NULL, &global, &local, 0, NULL, NULL);
+    if (err == CL_SUCCESS)
+        err = clFinish(L->rt->queue);
+    return opencl_check(err, what, e);
+}
+
+int opencl_launch_results(opencl_launch *L, int image_which, float *out, size_t image_bytes, int counts_which,
+                          uint64_t *sums, vx_err *e)
+{
+    cl_command_queue q = L->rt->queue;
+    size_t count_bytes = L->groups * (size_t)L->counters * 2 * sizeof(uint32_t);
+    cl_int err = clEnqueueReadBuffer(q, L->buf[image_which], CL_FALSE, 0, image_bytes, out, 0, NULL, NULL);
+    if (err == CL_SUCCESS)
+        err = clEnqueueReadBuffer(q, L->buf[counts_which], CL_FALSE, 0, count_bytes, L->counts, 0, NULL, NULL);
+    if (err == CL_SUCCESS)
+        err = clFinish(q);
+    if (opencl_check(err, "reading the image and the counters back", e))
+        return -1;
+    for (int k = 0; k < L->counters; k++)
+        sums[k] = 0;
+    for (size_t gi = 0; gi < L->groups; gi++)
+        for (int k = 0; k < L->counters; k++) {
+            const uint32_t *w = &L->counts[(gi * (size_t)L->counters + (size_t)k) * 2];
+            sums[k] += (uint64_t)w[0] | (uint64_t)w[1] << 32;
+        }
+    return 0;
+}
+
+void opencl_launch_release(opencl_launch *L)
+{
+    for (int i = 0; i < OPENCL_HOST_MAX_BUFFERS; i++)
+        if (L->buf[i])
+            clReleaseMemObject(L->buf[i]);
+    if (L->kernel)
+        clReleaseKernel(L->kernel);
+    if (L->program)
+        clReleaseProgram(L->program);
+    free(L->source);
+    free(L->counts);
+    memset(L, 0, sizeof *L);
+}
+
+double opencl_cpu_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}

@@ -1,0 +1,64 @@
+/* What the hosts of both OpenCL kernels share (opencl_voxel.c: vx_render; opencl_cone.c:
+ * vx_render_cone): a launch's program, kernel and buffers and their release; building the model's
+ * program; the grid's level tables; persistent-tile launches (one work-group per compute unit,
+ * work-items taking tiles of pixels from a shared counter until the image is done); the per-group
+ * counters read back and summed. Each kernel's host keeps only its parameters and buffer list. */
+#ifndef VX_OPENCL_HOST_H
+#define VX_OPENCL_HOST_H
+
+#include <stdint.h>
+
+#include "grid.h"
+#include "model.h"
+#include "opencl_runtime.h"
+
+#define OPENCL_HOST_MAX_BUFFERS 16
+
+typedef struct {
+    const opencl_runtime *rt;
+    cl_program program;
+    cl_kernel kernel;
+    const char *kernel_name;
+    cl_mem buf[OPENCL_HOST_MAX_BUFFERS];
+    int buffers;      /* the kernel's buffer arguments, in order; then `int pixels` */
+    int next_tile;    /* which buffer is the tile counter */
+    size_t local;     /* work-group size */
+    size_t groups;    /* one per compute unit */
+    int counters;     /* 64-bit counters per work-group slot (two 32-bit words each) */
+    uint32_t *counts; /* the slots, read back */
+    char *source;
+} opencl_launch;
+
+/* Assembles the program for model m around `kernel_file` (render.cl or render_cone.cl) with the
+ * lines of `defines` first, builds it (or takes it from PoCL's cache; the whole build log goes to
+ * build_dir/opencl-build-MODEL.log when long), creates `kernel_name` and sizes the launch: buffers
+ * buffer arguments of which next_tile is the tile counter, `counters` counters per group. */
+int opencl_launch_build(opencl_launch *L, const opencl_runtime *rt, const vx_model *m, const char *defines,
+                        const char *kernel_file, const char *kernel_name, int buffers, int next_tile, int counters,
+                        const char *build_dir, vx_err *e);
+/* Buffer `which` (see opencl_buffer in opencl_runtime.h). */
+int opencl_launch_buffer(opencl_launch *L, int which, cl_mem_flags flags, size_t bytes, const void *host, vx_err *e);
+/* The counters' buffer `which`, zeroed slots for every group (host memory in L->counts). */
+int opencl_launch_counters(opencl_launch *L, int which, vx_err *e);
+/* Buffers cols, bits and prefix sized for the grid's level tables, level after level (the offsets
+ * vx_cl_grid_params_fill gives); opencl_launch_grid_upload enqueues their contents without waiting
+ * (the grid outlives them). */
+int opencl_launch_grid(opencl_launch *L, int cols, int bits, int prefix, const voxel_grid *g, vx_err *e);
+int opencl_launch_grid_upload(opencl_launch *L, int cols, int bits, int prefix, const voxel_grid *g, vx_err *e);
+/* Enqueues zeroing the first `bytes` of buffer `which`. */
+int opencl_launch_zero(opencl_launch *L, int which, size_t bytes, vx_err *e);
+/* Resets the tile counter, binds the buffers and `pixels`, runs the kernel and waits. With 0 pixels
+ * every work-item finds no tile: PoCL compiles a kernel's work-group function at its first launch,
+ * specialised for the local size, so a launch with nothing to do moves that compile out of the
+ * render's time. */
+int opencl_launch_run(opencl_launch *L, int pixels, const char *what, vx_err *e);
+/* Reads image buffer `image_which` into out and the counters back: both reads enqueued, then one
+ * wait (each blocking call costs a wake-up of PoCL's threads); sums[k] = counter k over the groups. */
+int opencl_launch_results(opencl_launch *L, int image_which, float *out, size_t image_bytes, int counts_which,
+                          uint64_t *sums, vx_err *e);
+void opencl_launch_release(opencl_launch *L);
+
+/* CPU time of the whole process (PoCL's worker threads run in it). */
+double opencl_cpu_seconds(void);
+
+#endif

@@ -1,0 +1,107 @@
+/* The OpenCL host of the voxel marcher (cl/render.cl, a thin driver of render_voxel_core.h): the
+ * parameter block, the buffers (grid, records and image used in place, the shading cache), and the
+ * render's timing, split as the C backend's: compile and the warm-up launch apart from the render. */
+#include "opencl_voxel.h"
+
+#include <stdio.h>
+#include <string.h>
+
+#include "camera.h"
+#include "cl/render_params.h"
+#include "opencl_host.h"
+#include "parallel.h"
+#include "strata.h"
+
+/* vx_render's buffer arguments, in order (render.cl), then the pixel count. */
+enum { B_PARAMS, B_COLS, B_BITS, B_PREFIX, B_RECORDS, B_CACHE, B_STATE, B_IMAGE, B_COUNTS, B_NEXT_TILE, B_N };
+
+static void fill_params(vx_cl_params *p, const scene *s, const voxel_grid *g, const render_options *o)
+{
+    memset(p, 0, sizeof *p);
+    vx_cl_grid_params_fill(&p->grid, g);
+    p->seed = o->seed;
+    p->cam = s->camera;
+    p->background = s->background;
+    p->light_count = s->light_count < VX_MAX_LIGHTS ? s->light_count : VX_MAX_LIGHTS;
+    for (int i = 0; i < p->light_count; i++)
+        p->lights[i] = s->lights[i];
+    p->spread = camera_pixel_spread(&s->camera, o->height);
+    p->stop_opacity = o->stop_opacity;
+    p->width = o->width;
+    p->height = o->height;
+    p->spp = o->spp;
+    truth_strata(o->spp, &p->strata_x, &p->strata_y);
+    p->effects = s->effects;
+    p->shadow_skip = o->shadow_skip;
+    p->cache = o->cache;
+    p->voxel_count = (int)grid_count(g, 0);
+}
+
+static int render(opencl_launch *L, const opencl_runtime *rt, const scene *s, const voxel_grid *g, const vx_model *m,
+                  const void *records, const render_options *o, image *out, render_counts *counts,
+                  backend_counts *bc, const char *build_dir, vx_err *e)
+{
+    size_t voxels = grid_count(g, 0), pixels = (size_t)o->width * (size_t)o->height;
+    double t0 = now_seconds();
+    char defines[512];
+    snprintf(defines, sizeof defines,
+             "#define VX_CL_OPACITY %s\n#define VX_CL_SHADE %s\n#define VX_CL_COMPOSITING %d\n"
+             "#define VX_CL_RECORD_BYTES %zu\n#define VX_CL_PARAMS_BYTES %zu\n",
+             m->voxel->opacity.name, m->voxel->shade.name, m->voxel->compositing, m->record.bytes,
+             sizeof(vx_cl_params));
+    if (opencl_launch_build(L, rt, m, defines, "render.cl", "vx_render", B_N, B_NEXT_TILE, VX_CL_COUNTERS, build_dir, e))
+        return -1;
+    double t_compiled = now_seconds();
+    vx_cl_params params;
+    fill_params(&params, s, g, o);
+    size_t cached = o->cache ? voxels : 0;
+    const cl_mem_flags RO = CL_MEM_READ_ONLY, RW = CL_MEM_READ_WRITE;
+    /* The kernel only reads the records and only writes the image: both used in place. */
+    if (opencl_launch_buffer(L, B_PARAMS, RO, sizeof params, &params, e) ||
+        opencl_launch_buffer(L, B_RECORDS, RO | CL_MEM_USE_HOST_PTR, voxels * m->record.bytes, records, e) ||
+        opencl_launch_buffer(L, B_CACHE, RW, cached * sizeof(vx_cl_cache), NULL, e) ||
+        opencl_launch_buffer(L, B_STATE, RW, cached * sizeof(cl_int), NULL, e) ||
+        opencl_launch_buffer(L, B_IMAGE, CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR, pixels * 3 * sizeof(float), out->data,
+                             e) ||
+        opencl_launch_counters(L, B_COUNTS, e) || opencl_launch_buffer(L, B_NEXT_TILE, RW, sizeof(cl_int), NULL, e) ||
+        opencl_launch_grid(L, B_COLS, B_BITS, B_PREFIX, g, e))
+        return -1;
+    double t_bound = now_seconds();
+    /* The warm-up reads none of the grid, the cache or the image: it runs on the empty buffers. */
+    if (opencl_launch_run(L, 0, "preparing vx_render", e))
+        return -1;
+    double t_warm = now_seconds(), cpu_warm = opencl_cpu_seconds();
+    /* The uploads, the clearing of the cache and the render, enqueued together: one wait, inside the
+     * render's time (each wait costs a wake-up of PoCL's threads). */
+    if (opencl_launch_zero(L, B_STATE, cached * sizeof(cl_int), e) ||
+        opencl_launch_grid_upload(L, B_COLS, B_BITS, B_PREFIX, g, e) ||
+        opencl_launch_run(L, (int)pixels, "running vx_render", e))
+        return -1;
+    double t_traced = now_seconds();
+    bc->kernel_cpu_seconds = opencl_cpu_seconds() - cpu_warm;
+    uint64_t sums[VX_CL_COUNTERS];
+    if (opencl_launch_results(L, B_IMAGE, out->data, pixels * 3 * sizeof(float), B_COUNTS, sums, e))
+        return -1;
+    double t_done = now_seconds();
+    memset(counts, 0, sizeof *counts);
+    counts->rays = sums[VX_CL_RAYS];
+    counts->voxel_visits = sums[VX_CL_VISITS];
+    counts->shadow_rays = sums[VX_CL_SHADOW_RAYS];
+    counts->model_evals = sums[VX_CL_EVALS];
+    counts->cache_hits = sums[VX_CL_CACHE_HITS];
+    bc->compile_seconds = (t_compiled - t0) + (t_warm - t_bound);
+    bc->kernel_seconds = t_traced - t_warm;
+    counts->seconds = (t_bound - t_compiled) + (t_done - t_warm);
+    return 0;
+}
+
+int opencl_render_voxels(const opencl_runtime *rt, const scene *s, const voxel_grid *g, const vx_model *m,
+                         const void *records, const render_options *o, image *out, render_counts *counts,
+                         backend_counts *bc, const char *build_dir, vx_err *e)
+{
+    opencl_launch L;
+    memset(&L, 0, sizeof L);
+    int rc = render(&L, rt, s, g, m, records, o, out, counts, bc, build_dir, e);
+    opencl_launch_release(&L);
+    return rc;
+}

@@ -1,0 +1,107 @@
+/* The --stats JSON every command writes: the scene's fields, the image's, the bake's, and writing
+ * the object atomically. Shared by the commands, so no command's file depends on another's. */
+#include "stats.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+
+#include "bake_params.h"
+#include "fileio.h"
+#include "parallel.h"
+
+double peak_rss_bytes(void)
+{
+    struct rusage ru;
+    getrusage(RUSAGE_SELF, &ru);
+    return (double)ru.ru_maxrss * 1024.0; /* Linux reports kilobytes */
+}
+
+cJSON *stats_scene_fields(const scene *s)
+{
+    cJSON *j = cJSON_CreateObject();
+    cJSON_AddStringToObject(j, "scene", s->name);
+    cJSON_AddNumberToObject(j, "triangles", (double)s->mesh.triangle_count);
+    cJSON_AddNumberToObject(j, "degenerate_triangles", (double)s->degenerate_triangles);
+    cJSON *fx = cJSON_AddArrayToObject(j, "effects");
+    for (unsigned bit = 1; bit <= EFFECT_TEXTURES; bit <<= 1)
+        if (s->effects & bit)
+            cJSON_AddItemToArray(fx, cJSON_CreateString(effect_name(bit)));
+    return j;
+}
+
+void stats_add_image(cJSON *j, int spp, int width, int height, uint64_t seed, int threads)
+{
+    cJSON_AddNumberToObject(j, "spp", spp);
+    cJSON_AddNumberToObject(j, "width", width);
+    cJSON_AddNumberToObject(j, "height", height);
+    cJSON_AddNumberToObject(j, "seed", (double)seed);
+    cJSON_AddNumberToObject(j, "threads", parallel_threads(threads));
+    cJSON_AddNumberToObject(j, "peak_rss_bytes", peak_rss_bytes());
+}
+
+int stats_finish(cJSON *j, const char *path, const char *cmd, const char *output)
+{
+    char *text = cJSON_Print(j);
+    cJSON_Delete(j);
+    vx_err e;
+    int rc = -1;
+    size_t n = text ? strlen(text) : 0;
+    char *line = text ? realloc(text, n + 2) : NULL;
+    if (!line) {
+        free(text);
+        snprintf(e.msg, sizeof e.msg, "%s: out of memory for the statistics", path);
+    } else {
+        line[n] = '\n', line[n + 1] = 0;
+        rc = fileio_write_text(path, line, &e);
+        free(line);
+    }
+    if (rc) {
+        fprintf(stderr, "voxlab %s: --stats %s\n", cmd, e.msg);
+        remove(output);
+    }
+    return rc;
+}
+
+void stats_add_bake(cJSON *j, const vx_model *m, const struct vx_bake_params *params, const voxel_grid *g,
+                    const bake_counts *c, int rays, double grid_seconds)
+{
+    cJSON_AddStringToObject(j, "model", m->name);
+    struct vx_bake_params defaults;
+    if (!params) {
+        bake_params_defaults(m, &defaults);
+        params = &defaults;
+    }
+    char text[256];
+    if (bake_params_format(m, params, text, sizeof text) == 0)
+        cJSON_AddStringToObject(j, "model_params", text);
+    cJSON_AddNumberToObject(j, "res", g->n);
+    cJSON_AddNumberToObject(j, "voxels", (double)grid_count(g, 0));
+    cJSON_AddNumberToObject(j, "bytes_per_voxel", (double)m->record.bytes);
+    cJSON_AddNumberToObject(j, "records", (double)bake_record_count(m, g));
+    cJSON_AddNumberToObject(j, "model_bytes", (double)(bake_record_count(m, g) * m->record.bytes));
+    cJSON_AddNumberToObject(j, "grid_bytes", (double)grid_bytes(g));
+    cJSON_AddNumberToObject(j, "grid_seconds", grid_seconds);
+    if (c->seconds < 0) /* rendered from a .vox file: the bake's time is in that bake's --stats */
+        cJSON_AddNullToObject(j, "bake_seconds");
+    else
+        cJSON_AddNumberToObject(j, "bake_seconds", c->seconds + c->finish_seconds);
+    cJSON_AddNumberToObject(j, "bake_rays", (double)c->rays);
+    cJSON_AddNumberToObject(j, "rays_per_voxel", rays);
+}
+
+void stats_add_backend(cJSON *j, const char *name, const backend_counts *bc)
+{
+    char key[96];
+    snprintf(key, sizeof key, "%s_compile_seconds", name);
+    cJSON_AddNumberToObject(j, key, bc->compile_seconds);
+    snprintf(key, sizeof key, "%s_kernel_seconds", name);
+    cJSON_AddNumberToObject(j, key, bc->kernel_seconds);
+    snprintf(key, sizeof key, "%s_kernel_cpu_seconds", name);
+    cJSON_AddNumberToObject(j, key, bc->kernel_cpu_seconds);
+    snprintf(key, sizeof key, "%s_device", name);
+    cJSON_AddStringToObject(j, key, bc->device);
+    snprintf(key, sizeof key, "%s_compute_units", name);
+    cJSON_AddNumberToObject(j, key, bc->compute_units);
+}

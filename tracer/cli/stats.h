@@ -1,0 +1,28 @@
+/* --stats JSON helpers shared by the commands (tracer/cli/stats.c). */
+#ifndef VX_STATS_H
+#define VX_STATS_H
+
+#include <cjson/cJSON.h>
+#include <stdint.h>
+
+#include "backend.h"
+#include "bake.h"
+#include "scene.h"
+
+/* The scene's fields: name, triangles, effects. */
+cJSON *stats_scene_fields(const scene *s);
+/* Writes j to path atomically and frees it. When that fails the command's output file is removed
+ * too (a run whose statistics were asked for and lost leaves nothing behind) and -1 returned. */
+int stats_finish(cJSON *j, const char *path, const char *cmd, const char *output);
+/* The image fields of --stats: spp, width, height, seed, threads, peak_rss_bytes. */
+void stats_add_image(cJSON *j, int spp, int width, int height, uint64_t seed, int threads);
+/* The bake fields of --stats (model, its parameters, res, voxels, bytes_per_voxel, bake seconds,
+ * ...); params NULL: the model's defaults. */
+void stats_add_bake(cJSON *j, const vx_model *m, const struct vx_bake_params *params, const voxel_grid *g,
+                    const bake_counts *c, int rays, double grid_seconds);
+/* A device backend's figures as NAME_compile_seconds, NAME_kernel_seconds, NAME_kernel_cpu_seconds,
+ * NAME_device, NAME_compute_units. */
+void stats_add_backend(cJSON *j, const char *name, const backend_counts *bc);
+double peak_rss_bytes(void);
+
+#endif

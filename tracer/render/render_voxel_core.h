@@ -1,0 +1,238 @@
+/* Voxel marching for models with per-voxel evaluation (vx_voxel_eval), as portable C: the C tracer
+ * (render_voxel.c) and the OpenCL kernel (backends/opencl/cl/render.cl) both run this code, so the
+ * two backends cannot drift apart.
+ *
+ * Each pixel's rays (stratified jittered samples, the ground truth's strata.h; lens samples with
+ * depth of field) are marched front to back through the level-0 voxels (grid_traverse_core.h's
+ * DDA); each non-empty voxel is handed to the model (opacity, then shade with the lights gathered
+ * when the voxel is not transparent) and the answers are composited by the model's rule: first hit
+ * or front-to-back alpha. Shadows (when the scene declares them) march toward each light through
+ * the same voxels with the model's own opacity, skipping the voxel itself and, with shadow_skip,
+ * the voxels closer than 1.5 voxel sizes (Brito et al. §4).
+ *
+ * With the shading cache, a voxel is evaluated once, for the direction voxel -> camera, by the
+ * first ray that visits it; the answer depends only on the voxel, so whoever computes it writes the
+ * same numbers and the image does not depend on the order in which threads or work-items run.
+ *
+ * The includer defines, before including this file:
+ *   VOXEL_OPACITY(x, rec, q)      the model's opacity (a function pointer call in C, the model's
+ *                                 portable function by name in OpenCL C, which has no pointers)
+ *   VOXEL_SHADE(x, rec, q, a)     the model's shade
+ *   VOXEL_COMPOSITING(x)          the model's VX_COMPOSITE_* rule (a constant in an OpenCL program)
+ *   VOXEL_CACHE_GET(x, index, a)  1 with voxel `index`'s cached answer in *a when it is ready, else 0
+ *   VOXEL_CACHE_PUT(x, index, a)  publishes *a as that voxel's answer (the first writer wins)
+ * and may add its own fields to voxel_ctx through VOXEL_CTX_BACKEND_FIELDS (the cache's memory, the
+ * C backend's model timer). */
+#ifndef VX_RENDER_VOXEL_CORE_H
+#define VX_RENDER_VOXEL_CORE_H
+
+#include "camera.h"
+#include "grid_traverse_core.h"
+#include "light.h"
+#include "model.h"
+#include "rng.h"
+#include "strata.h"
+
+#if !defined(VOXEL_OPACITY) || !defined(VOXEL_SHADE) || !defined(VOXEL_COMPOSITING) || !defined(VOXEL_CACHE_GET) || \
+    !defined(VOXEL_CACHE_PUT)
+#error "define VOXEL_OPACITY, VOXEL_SHADE, VOXEL_COMPOSITING, VOXEL_CACHE_GET and VOXEL_CACHE_PUT first"
+#endif
+#ifndef VOXEL_CTX_BACKEND_FIELDS
+#define VOXEL_CTX_BACKEND_FIELDS
+#endif
+
+/* What a march counts (render statistics). */
+typedef struct {
+    uint64_t rays, shadow_rays, visits, evals, cache_hits;
+} voxel_counts;
+
+/* Everything a march reads, and the counters it adds to: one per thread (C) or work-item (OpenCL). */
+typedef struct voxel_ctx {
+    const voxel_grid *g;
+    VX_GLOBAL const unsigned char *records;
+    size_t record_bytes;
+    camera cam;
+    vec3 background;
+    light lights[VX_MAX_LIGHTS];
+    int light_count;
+    unsigned effects;   /* VX_EFFECT_* */
+    float spread;       /* footprint radius per unit distance (camera_pixel_spread) */
+    float stop_opacity; /* stop marching at this accumulated opacity */
+    int shadow_skip;
+    int cache;
+    voxel_counts counts;
+    VOXEL_CTX_BACKEND_FIELDS
+} voxel_ctx;
+
+VX_INLINE VX_GLOBAL const void *voxel_record(const voxel_ctx *x, int64_t index)
+{
+    return (VX_GLOBAL const void *)(x->records + (size_t)index * x->record_bytes);
+}
+
+/* Transmittance from p toward a light through the voxels (the model's own opacity), skipping the
+ * voxel `self` and, with shadow_skip, every voxel closer than 1.5 voxel sizes. */
+VX_INLINE float voxel_shadow_transmittance(voxel_ctx *x, const vx_query *q, int64_t self, vec3 p, vec3 to_light,
+                                           float distance)
+{
+    const voxel_grid *g = x->g;
+    float t_min = x->shadow_skip ? 1.5f * g->voxel_size : 0.0f;
+    grid_iter it;
+    grid_hit h;
+    float T = 1.0f;
+    x->counts.shadow_rays++;
+    if (!gt_iter_init(&it, g, 0, p, to_light, t_min, distance))
+        return 1.0f;
+    vx_query sq = *q;
+    sq.ray_origin = p;
+    sq.ray_dir = to_light;
+    sq.to_viewer = v3_scale(to_light, -1.0f);
+    while (gt_iter_next(&it, &h)) {
+        if (h.index == self)
+            continue;
+        sq.t0 = h.t0;
+        sq.t1 = h.t1;
+        vec3 hi;
+        grid_cell_corners(g, 0, h.x, h.y, h.z, &sq.voxel_lo, &hi);
+        float a = VOXEL_OPACITY(x, voxel_record(x, h.index), &sq);
+        T *= 1.0f - fminf(fmaxf(a, 0.0f), 1.0f);
+        if (T < 1e-4f)
+            return 0.0f;
+    }
+    return T;
+}
+
+/* Fills q's lights for a voxel centred at c (shadows applied when declared). */
+VX_INLINE void voxel_gather_lights(voxel_ctx *x, vx_query *q, int64_t self, vec3 c)
+{
+    q->light_count = x->light_count;
+    for (int li = 0; li < q->light_count; li++) {
+        vec3 dir, irr;
+        float dist;
+        light_at(&x->lights[li], c, &dir, &irr, &dist);
+        if (x->effects & VX_EFFECT_SHADOWS)
+            irr = v3_scale(irr, voxel_shadow_transmittance(x, q, self, c, dir, dist));
+        q->to_light[li] = dir;
+        q->irradiance[li] = irr;
+    }
+}
+
+/* The model's answer for one voxel along q (opacity; radiance only where it is not transparent). */
+VX_INLINE void voxel_evaluate(voxel_ctx *x, vx_query *q, int64_t index, vec3 centre, vx_answer *a)
+{
+    VX_GLOBAL const void *rec = voxel_record(x, index);
+    a->opacity = VOXEL_OPACITY(x, rec, q);
+    a->radiance = v3(0.0f, 0.0f, 0.0f);
+    x->counts.evals++;
+    if (!(a->opacity > 0.0f))
+        return;
+    voxel_gather_lights(x, q, index, centre);
+    VOXEL_SHADE(x, rec, q, a);
+}
+
+/* The query every voxel starts from: zeroed, with the voxel's box, size and the scene's effects. */
+VX_INLINE void voxel_query(const voxel_ctx *x, const grid_hit *h, vx_query *q, vec3 *centre)
+{
+    vx_query zero = {0};
+    *q = zero;
+    vec3 hi;
+    grid_cell_corners(x->g, 0, h->x, h->y, h->z, &q->voxel_lo, &hi);
+    *centre = v3_scale(v3_add(q->voxel_lo, hi), 0.5f);
+    q->voxel_size = x->g->voxel_size;
+    q->effects = x->effects;
+}
+
+/* The voxel's answer: from the cache (for the direction voxel -> camera), or as this ray sees it. */
+VX_INLINE void voxel_answer(voxel_ctx *x, const grid_hit *h, vec3 org, vec3 dir, vx_answer *a)
+{
+    vx_query q;
+    vec3 centre;
+    if (x->cache) {
+        if (VOXEL_CACHE_GET(x, h->index, a)) {
+            x->counts.cache_hits++;
+            return;
+        }
+        voxel_query(x, h, &q, &centre);
+        /* The cached direction: from the voxel's centre toward the camera. */
+        vec3 to_cam = v3_sub(x->cam.position, centre);
+        float dist = v3_length(to_cam);
+        q.to_viewer = v3_normalize_or(to_cam, v3_scale(dir, -1.0f));
+        q.ray_dir = v3_scale(q.to_viewer, -1.0f);
+        q.ray_origin = x->cam.position;
+        q.t0 = dist - 0.5f * x->g->voxel_size;
+        q.t1 = dist + 0.5f * x->g->voxel_size;
+        q.footprint = dist * x->spread;
+        voxel_evaluate(x, &q, h->index, centre, a);
+        VOXEL_CACHE_PUT(x, h->index, a);
+        return;
+    }
+    voxel_query(x, h, &q, &centre);
+    q.to_viewer = v3_scale(dir, -1.0f);
+    q.ray_origin = org;
+    q.ray_dir = dir;
+    q.t0 = h->t0;
+    q.t1 = h->t1;
+    float tm = 0.5f * (h->t0 + h->t1);
+    q.footprint = tm * x->spread;
+    if ((x->effects & VX_EFFECT_DOF) && x->cam.aperture_radius > 0.0f)
+        q.footprint += x->cam.aperture_radius * fabsf(tm - x->cam.focus_distance) / x->cam.focus_distance;
+    voxel_evaluate(x, &q, h->index, centre, a);
+}
+
+/* One ray: the voxels' answers composited front to back over the background. */
+VX_INLINE vec3 voxel_trace_ray(voxel_ctx *x, vec3 org, vec3 dir)
+{
+    vec3 color = v3(0.0f, 0.0f, 0.0f);
+    float A = 0.0f;
+    int done = 0;
+    grid_iter it;
+    grid_hit h;
+    x->counts.rays++;
+    if (gt_iter_init(&it, x->g, 0, org, dir, 0.0f, INFINITY)) {
+        while (!done && gt_iter_next(&it, &h)) {
+            x->counts.visits++;
+            vx_answer a;
+            voxel_answer(x, &h, org, dir, &a);
+            float alpha = fminf(fmaxf(a.opacity, 0.0f), 1.0f);
+            if (!(alpha > 0.0f))
+                continue;
+            if (VOXEL_COMPOSITING(x) == VX_COMPOSITE_FIRST_HIT) {
+                color = a.radiance;
+                A = 1.0f;
+                done = 1;
+            } else { /* VX_COMPOSITE_ALPHA */
+                color = v3_madd(color, a.radiance, (1.0f - A) * alpha);
+                A += (1.0f - A) * alpha;
+                done = A >= x->stop_opacity;
+            }
+        }
+    }
+    return v3_madd(color, x->background, 1.0f - A);
+}
+
+/* Pixel (px, py) of a width x height image: spp stratified jittered rays (the random stream of
+ * the pixel's index, as the ground truth's), with lens samples under depth of field; the box
+ * filter's mean into dst[0..2]. strata_x * strata_y = truth_strata(spp). */
+VX_INLINE void voxel_render_pixel(voxel_ctx *x, uint64_t seed, int px, int py, int width, int height, int spp,
+                                  int strata_x, int strata_y, VX_GLOBAL float *dst)
+{
+    int dof = (x->effects & VX_EFFECT_DOF) != 0;
+    rng r = rng_seed(seed, (uint64_t)py * (uint64_t)width + (uint64_t)px);
+    vec3 sum = v3(0.0f, 0.0f, 0.0f);
+    for (int i = 0; i < spp; i++) {
+        float sx, sy, lu = 0, lv = 0;
+        float r1 = rng_float(&r), r2 = rng_float(&r);
+        truth_strata_sample(i, strata_x, strata_y, r1, r2, &sx, &sy);
+        if (dof) {
+            lu = rng_float(&r);
+            lv = rng_float(&r);
+        }
+        vec3 org, dir;
+        camera_ray(&x->cam, width, height, (float)px + sx, (float)py + sy, lu, lv, dof, &org, &dir);
+        sum = v3_add(sum, voxel_trace_ray(x, org, dir));
+    }
+    dst[0] = sum.x / (float)spp;
+    dst[1] = sum.y / (float)spp;
+    dst[2] = sum.z / (float)spp;
+}
+
+#endif
