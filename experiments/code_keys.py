@@ -34,16 +34,12 @@ INCLUDE_DIRS = sorted(os.path.relpath(root, REPO) for top in ("tracer", "models"
 EMBREE_HEADER = "/usr/include/embree3/rtcore_config.h"
 
 # Translation units only voxel jobs (bake, render, compare) run: never part of a truth's key.
-# (cmd_bake.c stays in: it defines peak_rss_bytes, which the truth's stats report; the linker check in
-# tests/test_cache_keys.py found it.)
-VOXEL_ONLY = ["tracer/bake/bake.c", "tracer/cli/cmd_render.c", "tracer/cli/cmd_compare.c",
-              "tracer/render/cone_light_cache.c", "tracer/render/cone_skip.c", "tracer/grid/grid.c",
-              "tracer/image/metrics.c", "tracer/backends/opencl/opencl_backend.c", "tracer/backends/opencl/opencl_cone.c", "tracer/backends/opencl/opencl_program.c",
-              "tracer/backends/opencl/opencl_runtime.c", "tracer/render/render.c", "tracer/render/render_cone.c", "tracer/grid/tribox.c",
-              "tracer/bake/voxfile.c", "tracer/bake/vox_load.c", "tracer/bake/record_check.c", "tracer/backends/opencl/cl/*"]
+VOXEL_ONLY = ["tracer/bake/*.c", "tracer/grid/*.c", "tracer/render/*.c", "tracer/backends/*.c",
+              "tracer/backends/opencl/*.c", "tracer/backends/opencl/cl/*", "tracer/cli/cmd_bake.c",
+              "tracer/cli/cmd_render.c", "tracer/cli/cmd_compare.c", "tracer/cli/stats_bake.c",
+              "tracer/image/metrics.c"]
 # Translation units only the truth runs: never part of a model job's key.
-# (cmd_truth.c is not: it defines the --stats helpers every command uses.)
-TRUTH_ONLY = ["tracer/truth/truth.c", "tracer/truth/truth.h"]
+TRUTH_ONLY = ["tracer/truth/truth.c", "tracer/truth/truth.h", "tracer/cli/cmd_truth.c"]
 SOURCE_EXT = (".c", ".h", ".cpp", ".cl")
 _INCLUDE_RE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)
 _memo, _lock = {}, threading.Lock()

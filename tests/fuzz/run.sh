@@ -6,6 +6,9 @@
 # in build/fuzz/corpus/ for the next. A crash, a sanitizer report, a leak or a timeout fails the run
 # and leaves the reproducer in build/fuzz/crashes/ (replay: $FUZZ_BUILD/fuzz/fuzz_NAME FILE).
 # Prints one line per harness: seconds, executions, edges covered (cov) and crashes.
+# FUZZ_TIMEOUT=S (default 10) is the seconds one input may take: long runs beside other work use more,
+# so that a loaded machine is not reported as a hang. Slow units (-report_slow_units) are listed in
+# crashes/ by libFuzzer but are not failures: crash-, timeout-, oom- and leak- files are.
 # FUZZ_ONLY=name runs one harness (scene, ply, gltf, vox, image, declaration). FUZZ_SEEDED=1 keeps
 # the seeds of an earlier run, so that harnesses can run side by side (FUZZ_ONLY each) on one seeding.
 set -u
@@ -66,18 +69,18 @@ run_one() { # name, extra libFuzzer flags...
   local bin=$FB/fuzz/fuzz_$name log=$OUT/logs/$name.log
   mkdir -p "$OUT/corpus/$name"
   local before
-  before=$(ls "$OUT/crashes" | grep -c "^$name-")
+  before=$(ls "$OUT/crashes" | grep -cE "^$name-(crash|timeout|oom|leak)-")
   local start=$SECONDS
   # -rss_limit_mb/-malloc_limit_mb: an input that makes a loader allocate gigabytes is a finding
   # (the loaders must bound what a file can ask for), as is one that runs past -timeout seconds.
-  nice "$bin" "$OUT/corpus/$name" "$OUT/seeds/$name" -max_total_time="$N" -timeout=10 -rss_limit_mb=2560 \
+  nice "$bin" "$OUT/corpus/$name" "$OUT/seeds/$name" -max_total_time="$N" -timeout="${FUZZ_TIMEOUT:-10}" -rss_limit_mb=2560 \
     -malloc_limit_mb=2048 -artifact_prefix="$OUT/crashes/$name-" -print_final_stats=1 "$@" >"$log" 2>&1
   local rc=$?
   local execs cov ft crashes
   execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
   cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | cut -d' ' -f2)
   ft=$(grep -o 'ft: [0-9]*' "$log" | tail -1 | cut -d' ' -f2)
-  crashes=$(($(ls "$OUT/crashes" | grep -c "^$name-") - before))
+  crashes=$(($(ls "$OUT/crashes" | grep -cE "^$name-(crash|timeout|oom|leak)-") - before))
   printf 'fuzz %-12s %5ds  %10s execs  cov %6s  ft %6s  crashes %d\n' "$name" $((SECONDS - start)) "${execs:-?}" \
     "${cov:-?}" "${ft:-?}" "$crashes"
   if [ "$rc" -ne 0 ] || [ "$crashes" -ne 0 ]; then
