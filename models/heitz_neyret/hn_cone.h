@@ -1,4 +1,4 @@
-/* Heitz–Neyret's cone element (the model's cone_element): the stencil of records around a point
+/* Heitz–Neyret's cone element (the model's vx_cone_eval element): the stencil of records around a point
  * on two MIP levels, then the coverage mask and the radiance (hn_eval.h). Portable C: the C model
  * (heitz_neyret.c) and the OpenCL cone kernel (tracer/backends/opencl/cl/render_cone.cl) both call
  * hn_cone_element_eval, the grid's lookups being grid_core.h's and the mask table q->table (a
@@ -43,7 +43,7 @@ VX_HOT_INLINE void hn_column_pair(const grid_level *L, int x, int y, int z, int6
 /* Fills the stencil of the cone element at p (world) and fractional level `level` of grid g:
  * the 8 cells around p on floor(level) and on the next level, with their trilinear weights (the
  * empty ones too, index -1).
- * Record indices count every level's records, level 0 first (vx_model.uses_levels). The cells go
+ * Record indices count every level's records, level 0 first (vx_model.record.levels). The cells go
  * in the order x, y, z major to minor (the blends sum in that order); a column's two cells are
  * looked up together (hn_column_pair), and the weights' and centres' per-axis factors are computed
  * once per level (the same expressions, so the same values, as per cell). */

@@ -10,7 +10,7 @@
  * The cells are those around surfaces at any level, most of them empty in the sparse grid (an
  * element enters the surface from outside), so they have no dense index: an open-addressing hash
  * table keyed by (level, x, y, z), filled lock-free. A slot is claimed by a compare-and-swap on
- * its key and published by its state (0 empty, 1 being computed, 2 ready), as render.c's shading
+ * its key and published by its state (0 empty, 1 being computed, 2 ready), as render_voxel.c's shading
  * cache: a thread that finds a slot being computed computes the value itself (the same numbers).
  * A full table (or a long probe) just means no caching for that cell.
  *

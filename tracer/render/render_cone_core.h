@@ -1,4 +1,4 @@
-/* Cone marching for models that declare VX_MARCH_CONE (Heitz & Neyret 2012, §4-5), as portable C:
+/* Cone marching for models with cone evaluation (vx_cone_eval; Heitz & Neyret 2012, §4-5), as portable C:
  * the C tracer (render_cone.c) and the OpenCL cone kernel (cl/render_cone.cl) both run this code.
  *
  * One cone per pixel, split into cone elements whose length equals their diameter; each element's
@@ -11,7 +11,7 @@
  * cone with the thin lens instead of sampling the lens. Empty space is skipped with the grid's
  * occupancy (cone_skip.h's dilated bitmaps where a level has one).
  *
- * The includer defines CONE_ELEMENT(ctx, q, a): the model's cone_element (a function pointer call
+ * The includer defines CONE_ELEMENT(ctx, q, a): the model's cone element (a function pointer call
  * in C, the model's portable function by name in OpenCL C, which has no function pointers).
  * No recursion either: the shaded march calls the light cones' march, which shades nothing. */
 #ifndef VX_RENDER_CONE_CORE_H

@@ -66,7 +66,7 @@ __kernel void vx_render_cone(__global const vx_cl_cone_params *P, __global ulong
         int end = min(pixels, (tile + 1) * VX_CONE_TILE_PIXELS);
         for (int pix = tile * VX_CONE_TILE_PIXELS; pix < end; pix++) {
             int px = pix % width, py = pix / width;
-            /* The pixel's centre ray from the lens centre (render.c's render_row for cone models). */
+            /* The pixel's centre ray from the lens centre (render_cone.c's cone_row). */
             vec3 org, dir;
             camera_ray(&cam, width, height, (float)px + 0.5f, (float)py + 0.5f, 0.5f, 0.5f, 0, &org, &dir);
             vec3 c = cone_trace(&x, org, dir, spread, dof ? cam.aperture_radius : 0.0f, cam.focus_distance,

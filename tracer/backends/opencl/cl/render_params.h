@@ -1,4 +1,4 @@
-/* What the host hands the OpenCL tracer (tracer/backends/opencl/opencl_backend.c -> tracer/backends/opencl/cl/render.cl): one
+/* What the host hands the OpenCL tracer (opencl_voxel.c -> cl/render.cl): one
  * parameter block and the cache entry, compiled on both sides so that the layouts agree. Only types
  * whose size and alignment C on x86-64 and OpenCL C define alike (double, 64/32-bit integers, float,
  * vec3 = three floats, and camera.h's camera and light.h's light, made of those); the program checks
