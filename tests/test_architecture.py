@@ -22,6 +22,8 @@ from testlib import REPO, TMP, VOXLAB, finish, read_image, report, voxlab  # noq
 import numpy as np  # noqa: E402
 
 BUILD = os.path.join(REPO, os.environ.get("BUILD", "build"))
+# The scratch tree's build: the copied objects' flavour (make test-asan runs this file with build-asan).
+MAKE_ARGS = ["BUILD=build"] + (["SANITIZE=1"] if "asan" in os.path.basename(BUILD) else [])
 SPHERES = os.path.join(REPO, "scenes", "spheres.json")
 SMALL = ["--size", "24x16", "--spp", "2"]
 
@@ -50,7 +52,7 @@ def new_model():
             f.write(text)
     with open(os.path.join(root, "models", "registry.def"), "a") as f:
         f.write("VX_MODEL(toy)\n")
-    p = run(["make", "-s", "-j2", "build/voxlab", "BUILD=build"], cwd=root)
+    p = run(["make", "-s", "-j2", "build/voxlab", *MAKE_ARGS], cwd=root)
     report("a new model folder + one registry line builds with no other edit", p.returncode == 0, p.stderr[-2000:])
     if p.returncode:
         return
@@ -104,7 +106,7 @@ def embedded_kernels():
                  "--backend", "opencl", "-o", out])
         report("a .cl edit after the build changes nothing until make", p.returncode == 0 and
                np.array_equal(read_image(out), read_image(outs["in_tree"])), p.stderr[-800:])
-        p = run(["make", "-s", "build/voxlab", "BUILD=build"], cwd=root)
+        p = run(["make", "-s", "build/voxlab", *MAKE_ARGS], cwd=root)
         p = run([tree_exe, "render", SPHERES, "--model", "alpha", "--res", "16", "--rays", "16", *SMALL,
                  "--backend", "opencl", "-o", os.path.join(TMP, "edited_cl_made.exr")])
         report("... and after make the edited kernel is the one built (here: refused, with the build log)",
