@@ -172,6 +172,11 @@ typedef struct {
     vx_opacity_fn opacity;
     /* Radiance toward q->to_viewer; a->opacity holds the opacity the tracer already computed. */
     vx_shade_fn shade;
+    /* 1 when opacity reads only the record and q->ray_dir (not the segment [t0, t1], the footprint
+     * or the position): the tracer may then compute a voxel's opacity toward a directional light
+     * once and reuse it for every shadow ray (the same number, so the same image). 0 (the safe
+     * default): every shadow step asks the model. */
+    int opacity_by_direction;
 } vx_voxel_eval;
 
 /* Protocol 2, cone evaluation: the tracer steps cone elements (length = diameter) along each ray,

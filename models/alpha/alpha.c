@@ -35,6 +35,7 @@ static const vx_voxel_eval alpha_eval = {
     .source = "alpha_eval.h",
     .opacity = VX_PORTABLE(alpha_eval_opacity),
     .shade = VX_PORTABLE(alpha_eval_shade),
+    .opacity_by_direction = 1, /* alpha_eval_opacity reads the record and q->ray_dir only */
 };
 
 const vx_model model_alpha = {

@@ -28,6 +28,7 @@ static const vx_voxel_eval binary_eval = {
     .source = "binary_eval.h",
     .opacity = VX_PORTABLE(binary_eval_opacity),
     .shade = VX_PORTABLE(binary_eval_shade),
+    .opacity_by_direction = 1, /* binary_eval_opacity reads the record and q->ray_dir only */
 };
 
 const vx_model model_binary = {

@@ -69,6 +69,7 @@ static const vx_voxel_eval vmesh_eval = {
     .source = "vmesh_eval.h",
     .opacity = VX_PORTABLE(vmesh_eval_opacity),
     .shade = VX_PORTABLE(vmesh_eval_shade),
+    .opacity_by_direction = 1, /* vmesh_eval_opacity reads the record and q->ray_dir only */
 };
 
 const vx_model model_vmesh = {

@@ -34,10 +34,14 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
     if (!j.tc || marcher->prepare(&j, e)) {
         if (!j.tc)
             vx_fail(e, "out of memory for the render");
+        else
+            marcher->release(&j);
         free(j.tc);
         image_free(out);
         return -1;
     }
+    /* The image's pages touched here, not by the render threads (see render_voxel.c's prepare). */
+    memset(out->data, 0, (size_t)o->width * (size_t)o->height * 3 * sizeof *out->data);
     double t0 = now_seconds();
     parallel_for(o->height, threads, marcher->row, &j, o->progress ? "render" : NULL);
     memset(counts, 0, sizeof *counts);

@@ -16,6 +16,15 @@ typedef struct {
     atomic_int state;
 } cache_entry;
 
+/* The marcher's state: the shading cache and the directional lights' opacity memo (per voxel and
+ * light, MEMO_EMPTY until computed; written by whoever computes it first, always the same bits). */
+typedef struct {
+    cache_entry *entries;
+    atomic_uint *memo;
+    int lights;
+} voxel_state;
+#define MEMO_EMPTY 0xFFFFFFFFu /* a NaN: an opacity with these bits is simply computed again */
+
 struct voxel_ctx;
 static float call_opacity(struct voxel_ctx *x, const void *rec, const vx_query *q);
 static void call_shade(struct voxel_ctx *x, const void *rec, const vx_query *q, vx_answer *a);
@@ -26,11 +35,15 @@ static void cache_put(struct voxel_ctx *x, int64_t index, const vx_answer *a);
 #define VOXEL_COMPOSITING(x) ((x)->compositing)
 #define VOXEL_CACHE_GET(x, index, a) cache_get(x, index, a)
 #define VOXEL_CACHE_PUT(x, index, a) cache_put(x, index, a)
+#define VOXEL_SHADOW_MEMO(x, index, light, opacity_expr) memo_opacity(x, index, light, &sq)
 #define VOXEL_CTX_BACKEND_FIELDS \
     const vx_voxel_eval *eval;   \
     int compositing;             \
     cache_entry *entries;        \
+    atomic_uint *memo;           \
+    int memo_lights;             \
     uint64_t model_cycles;
+static float memo_opacity(struct voxel_ctx *x, int64_t index, int light, const vx_query *q);
 #include "render_voxel_core.h"
 
 static float call_opacity(voxel_ctx *x, const void *rec, const vx_query *q)
@@ -46,6 +59,21 @@ static void call_shade(voxel_ctx *x, const void *rec, const vx_query *q, vx_answ
     uint64_t c0 = cycles();
     x->eval->shade.fn(rec, q, a);
     x->model_cycles += cycles() - c0;
+}
+
+static float memo_opacity(voxel_ctx *x, int64_t index, int light, const vx_query *q)
+{
+    atomic_uint *slot = &x->memo[(size_t)index * (size_t)x->memo_lights + (size_t)light];
+    unsigned bits = atomic_load_explicit(slot, memory_order_relaxed);
+    float a;
+    if (bits != MEMO_EMPTY) {
+        memcpy(&a, &bits, sizeof a);
+        return a;
+    }
+    a = call_opacity(x, voxel_record(x, index), q);
+    memcpy(&bits, &a, sizeof bits);
+    atomic_store_explicit(slot, bits, memory_order_relaxed);
+    return a;
 }
 
 static int cache_get(voxel_ctx *x, int64_t index, vx_answer *a)
@@ -69,14 +97,35 @@ static void cache_put(voxel_ctx *x, int64_t index, const vx_answer *a)
     }
 }
 
+/* Allocated and touched here, before the threads start and outside the render's clock: pages first
+ * written by the render threads cost a zero-page fault and a TLB shootdown of the other core each
+ * (issue 15: binary gained almost nothing from a second thread). */
 static int voxel_prepare(render_job *j, vx_err *e)
 {
-    j->state = NULL;
-    if (!j->o->cache)
-        return 0;
+    const scene *s = j->s;
     size_t n = grid_count(j->g, 0);
-    j->state = calloc(n ? n : 1, sizeof(cache_entry));
-    return j->state ? 0 : vx_fail(e, "out of memory for the shading cache (%zu voxels)", n);
+    voxel_state *st = calloc(1, sizeof *st);
+    if (!st)
+        return vx_fail(e, "out of memory for the render");
+    j->state = st;
+    if (j->o->cache) {
+        st->entries = malloc((n ? n : 1) * sizeof(cache_entry));
+        if (!st->entries)
+            return vx_fail(e, "out of memory for the shading cache (%zu voxels)", n);
+        memset(st->entries, 0, (n ? n : 1) * sizeof(cache_entry)); /* state 0: empty */
+    }
+    int directional = 0;
+    for (int li = 0; li < s->light_count && li < VX_MAX_LIGHTS; li++)
+        directional |= s->lights[li].type == LIGHT_DIRECTIONAL;
+    if ((s->effects & EFFECT_SHADOWS) && directional && j->m->voxel->opacity_by_direction) {
+        st->lights = s->light_count < VX_MAX_LIGHTS ? s->light_count : VX_MAX_LIGHTS;
+        size_t slots = (n ? n : 1) * (size_t)st->lights;
+        st->memo = malloc(slots * sizeof *st->memo);
+        if (!st->memo)
+            return vx_fail(e, "out of memory for the shadow opacity memo (%zu voxels)", n);
+        memset(st->memo, 0xFF, slots * sizeof *st->memo); /* MEMO_EMPTY */
+    }
+    return 0;
 }
 
 static void voxel_row(void *p, int64_t row, int thread)
@@ -100,9 +149,13 @@ static void voxel_row(void *p, int64_t row, int thread)
     x.stop_opacity = o->stop_opacity;
     x.shadow_skip = o->shadow_skip;
     x.cache = o->cache;
+    const voxel_state *st = j->state;
     x.eval = j->m->voxel;
     x.compositing = j->m->voxel->compositing;
-    x.entries = j->state;
+    x.entries = st->entries;
+    x.memo = st->memo;
+    x.memo_lights = st->lights;
+    x.opacity_by_direction = st->memo != NULL;
     int sx, sy;
     truth_strata(o->spp, &sx, &sy);
     int py = (int)row;
@@ -121,7 +174,12 @@ static void voxel_row(void *p, int64_t row, int thread)
 
 static void voxel_release(render_job *j)
 {
-    free(j->state);
+    voxel_state *st = j->state;
+    if (st) {
+        free(st->entries);
+        free(st->memo);
+        free(st);
+    }
     j->state = NULL;
 }
 

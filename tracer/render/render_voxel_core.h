@@ -22,7 +22,11 @@
  *   VOXEL_CACHE_GET(x, index, a)  1 with voxel `index`'s cached answer in *a when it is ready, else 0
  *   VOXEL_CACHE_PUT(x, index, a)  publishes *a as that voxel's answer (the first writer wins)
  * and may add its own fields to voxel_ctx through VOXEL_CTX_BACKEND_FIELDS (the cache's memory, the
- * C backend's model timer). */
+ * C backend's model timer). It may also define
+ *   VOXEL_SHADOW_MEMO(x, index, light, opacity_expr)  the voxel's opacity toward directional light
+ *                                 `light`, computed by opacity_expr once and then remembered; used
+ *                                 only when the model declares opacity_by_direction (the number is
+ *                                 then the same whoever computes it, so the image is unchanged). */
 #ifndef VX_RENDER_VOXEL_CORE_H
 #define VX_RENDER_VOXEL_CORE_H
 
@@ -60,6 +64,7 @@ typedef struct voxel_ctx {
     float stop_opacity; /* stop marching at this accumulated opacity */
     int shadow_skip;
     int cache;
+    int opacity_by_direction; /* the model's vx_voxel_eval.opacity_by_direction */
     voxel_counts counts;
     VOXEL_CTX_BACKEND_FIELDS
 } voxel_ctx;
@@ -69,10 +74,11 @@ VX_INLINE VX_GLOBAL const void *voxel_record(const voxel_ctx *x, int64_t index)
     return (VX_GLOBAL const void *)(x->records + (size_t)index * x->record_bytes);
 }
 
-/* Transmittance from p toward a light through the voxels (the model's own opacity), skipping the
- * voxel `self` and, with shadow_skip, every voxel closer than 1.5 voxel sizes. */
+/* Transmittance from p toward light li through the voxels (the model's own opacity), skipping the
+ * voxel `self` and, with shadow_skip, every voxel closer than 1.5 voxel sizes. memo: the light is
+ * directional and the model's opacity depends on the direction only (VOXEL_SHADOW_MEMO). */
 VX_INLINE float voxel_shadow_transmittance(voxel_ctx *x, const vx_query *q, int64_t self, vec3 p, vec3 to_light,
-                                           float distance)
+                                           float distance, int li, int memo)
 {
     const voxel_grid *g = x->g;
     float t_min = x->shadow_skip ? 1.5f * g->voxel_size : 0.0f;
@@ -89,11 +95,20 @@ VX_INLINE float voxel_shadow_transmittance(voxel_ctx *x, const vx_query *q, int6
     while (gt_iter_next(&it, &h)) {
         if (h.index == self)
             continue;
-        sq.t0 = h.t0;
-        sq.t1 = h.t1;
-        vec3 hi;
-        grid_cell_corners(g, 0, h.x, h.y, h.z, &sq.voxel_lo, &hi);
-        float a = VOXEL_OPACITY(x, voxel_record(x, h.index), &sq);
+        float a;
+#ifdef VOXEL_SHADOW_MEMO
+        if (memo) {
+            a = VOXEL_SHADOW_MEMO(x, h.index, li, VOXEL_OPACITY(x, voxel_record(x, h.index), &sq));
+        } else
+#endif
+        {
+            (void)li, (void)memo;
+            sq.t0 = h.t0;
+            sq.t1 = h.t1;
+            vec3 hi;
+            grid_cell_corners(g, 0, h.x, h.y, h.z, &sq.voxel_lo, &hi);
+            a = VOXEL_OPACITY(x, voxel_record(x, h.index), &sq);
+        }
         T *= 1.0f - fminf(fmaxf(a, 0.0f), 1.0f);
         if (T < 1e-4f)
             return 0.0f;
@@ -110,7 +125,8 @@ VX_INLINE void voxel_gather_lights(voxel_ctx *x, vx_query *q, int64_t self, vec3
         float dist;
         light_at(&x->lights[li], c, &dir, &irr, &dist);
         if (x->effects & VX_EFFECT_SHADOWS)
-            irr = v3_scale(irr, voxel_shadow_transmittance(x, q, self, c, dir, dist));
+            irr = v3_scale(irr, voxel_shadow_transmittance(x, q, self, c, dir, dist, li,
+                                                           x->opacity_by_direction && !(dist < INFINITY)));
         q->to_light[li] = dir;
         q->irradiance[li] = irr;
     }
