@@ -50,6 +50,21 @@ for res in (32, 96):
     report(f"voxel estimate within a factor of 3 of the real grid ({res}^3)",
            est is not None and real / 3 <= est <= real * 3, f"estimate {est}, real {real}")
 
+# ---------- render --vox --dry-run estimates from the file's header (its resolution and model) ----------
+# (x.vox is the 96^3 alpha bake above)
+p = voxlab("render", SPHERES, "--vox", path("x.vox"), "--dry-run", "-o", path("y.exr"))
+est_vox = field(p.stdout, r"voxels \(estimate\)")
+report("render --vox --dry-run uses the file's resolution (the same voxel estimate as its bake)",
+       p.returncode == 0 and est_vox == est, f"render estimate {est_vox}, bake estimate {est}")
+with open(path("x.vox"), "rb") as f:
+    raw = bytearray(f.read())
+raw[8 + 48:8 + 52] = (100000).to_bytes(4, "little")  # the header's n
+with open(path("bad_n.vox"), "wb") as f:
+    f.write(raw)
+p = voxlab("render", SPHERES, "--vox", path("bad_n.vox"), "--dry-run", "-o", path("y.exr"), check=False)
+report("render --vox --dry-run with a bad resolution names the file and the field",
+       p.returncode == 1 and "bad_n.vox: header field n" in p.stderr, p.stderr)
+
 # ---------- refusal ----------
 env_budget = {"VOXLAB_MEMORY_BUDGET": str(64 * 2 ** 20)}  # 64 MiB
 import subprocess  # noqa: E402  (voxlab() has no env argument)

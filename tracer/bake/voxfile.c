@@ -63,6 +63,26 @@ static long long read_full(int fd, void *buf, size_t n)
     return (long long)got;
 }
 
+int voxfile_read_header(const char *path, voxfile_header *h, vx_err *e)
+{
+    off_t size;
+    int fd = readfile_open(path, ".vox file", UINT64_MAX, &size, e);
+    if (fd < 0)
+        return -1;
+    disk_header d;
+    long long got = read_full(fd, &d, sizeof d);
+    close(fd);
+    if (got != (long long)sizeof d || memcmp(d.magic, magic, sizeof magic) != 0)
+        return vx_fail(e, "%s: not a voxlab .vox file (bad magic or too short)", path);
+    *h = d.h;
+    h->model[sizeof h->model - 1] = 0;
+    h->params[sizeof h->params - 1] = 0;
+    if (h->version != VOXFILE_VERSION)
+        return vx_fail(e, "%s: .vox version %u, but this voxlab reads version %d: bake it again", path, h->version,
+                       VOXFILE_VERSION);
+    return 0;
+}
+
 int voxfile_read(const char *path, uint64_t scene_identity, voxfile_header *h, void **records, vx_err *e)
 {
     *records = NULL;

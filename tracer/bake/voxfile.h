@@ -35,5 +35,7 @@ int voxfile_write(const char *path, const voxfile_header *h, const void *records
  * scene_identity must match the header's. The records' contents are the model's to validate
  * (tracer/bake/record_check.h). */
 int voxfile_read(const char *path, uint64_t scene_identity, voxfile_header *h, void **records, vx_err *e);
+/* The header alone (magic and version checked, nothing else): what --dry-run estimates from. */
+int voxfile_read_header(const char *path, voxfile_header *h, vx_err *e);
 
 #endif

@@ -169,11 +169,26 @@ int cmd_render(int argc, char **argv)
     backend_counts bcnt = {0};
     if (size && scene_parse_size_string(size, &o.width, &o.height, &e))
         goto fail;
-    /* With --vox the resolution is the file's: the estimate covers the scene and the image, and the
-     * records are allocated at the file's size (which the file system already holds). */
+    /* With --vox the resolution and the model are the file's header's (read alone: the estimate
+     * comes before the records are read); nothing is baked. */
     vx_estimate est;
-    estimate_voxels(&s, m ? m : model_all()[0], vox ? 1 : res, vox ? 0 : bo.rays, o.width, o.height, o.spp, o.cache,
-                    o.threads, &est);
+    const vx_model *em = m;
+    int eres = res;
+    if (vox) {
+        voxfile_header vh;
+        if (voxfile_read_header(vox, &vh, &e))
+            goto fail;
+        if (!em && !(em = model_find(vh.model))) {
+            vx_fail(&e, "%s: baked with model \"%s\", which this voxlab does not have", vox, vh.model);
+            goto fail;
+        }
+        if (vh.n < 1 || vh.n > GRID_MAX_N) {
+            vx_fail(&e, "%s: header field n (grid resolution) is %d, outside 1..%d", vox, (int)vh.n, GRID_MAX_N);
+            goto fail;
+        }
+        eres = vh.n;
+    }
+    estimate_voxels(&s, em, eres, vox ? 0 : bo.rays, o.width, o.height, o.spp, o.cache, o.threads, &est);
     if (dry_run) {
         estimate_print(stdout, "render", &est);
         rc = estimate_check(&est, &e) ? (fprintf(stdout, "  refused: %s\n", e.msg), 1) : 0;
