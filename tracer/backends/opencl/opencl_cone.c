@@ -76,14 +76,14 @@ static int render(opencl_launch *L, dilated_grid *skip, const opencl_runtime *rt
         return vx_fail(e, "out of memory for the cone marcher's occupancy bitmaps");
     size_t table_bytes = 0;
     const void *table = m->cone->table ? m->cone->table(&table_bytes) : NULL;
-    double t0 = now_seconds();
+    opencl_clock c = {.start = now_seconds()};
     char defines[256];
     snprintf(defines, sizeof defines, "#define VX_CL_CONE_ELEMENT %s\n#define VX_CL_PARAMS_BYTES %zu\n",
              m->cone->element.name, sizeof(vx_cl_cone_params));
     if (opencl_launch_build(L, rt, m, defines, "render_cone.cl", "vx_render_cone", C_N, C_NEXT_TILE, VX_CONE_COUNTERS,
                             build_dir, e))
         return -1;
-    double t_compiled = now_seconds();
+    c.compiled = now_seconds();
     size_t lc_slots = cone_light_cache_slots(cone_light_cache_cells(grid_count(g, 0), pixels));
     vx_cl_cone_params params;
     fill_params(&params, s, g, skip, o, lc_slots);
@@ -111,27 +111,18 @@ static int render(opencl_launch *L, dilated_grid *skip, const opencl_runtime *rt
      * in the warm-up launch below, which counts as compile time. */
     if (opencl_check(clFinish(rt->queue), "uploading the grid and clearing the light cache", e))
         return -1;
-    double t_bound = now_seconds();
-    if (opencl_launch_run(L, 0, "preparing vx_render_cone", e))
+    c.bound = now_seconds();
+    if (opencl_launch_warm_up(L, &c, e))
         return -1;
-    double t_warm = now_seconds(), cpu_warm = opencl_cpu_seconds();
-    if (opencl_launch_run(L, (int)pixels, "running vx_render_cone", e))
-        return -1;
-    double t_traced = now_seconds();
-    bc->kernel_cpu_seconds = opencl_cpu_seconds() - cpu_warm;
     uint64_t sums[VX_CONE_COUNTERS];
-    if (opencl_launch_results(L, C_IMAGE, out->data, pixels * 3 * sizeof(float), C_COUNTS, sums, e))
+    if (opencl_launch_render(L, &c, (int)pixels, "running vx_render_cone", C_IMAGE, out->data, C_COUNTS, sums, counts,
+                             bc, e))
         return -1;
-    double t_done = now_seconds();
-    memset(counts, 0, sizeof *counts);
     counts->rays = pixels; /* one cone per pixel */
     counts->voxel_visits = sums[VX_CONE_ELEMENTS];
     counts->shadow_rays = sums[VX_CONE_SHADOW_RAYS];
     counts->model_evals = sums[VX_CONE_EVALS];
     counts->cache_hits = sums[VX_CONE_CACHE_HITS];
-    bc->compile_seconds = (t_compiled - t0) + (t_warm - t_bound);
-    bc->kernel_seconds = t_traced - t_warm;
-    counts->seconds = (t_bound - t_compiled) + (t_done - t_warm);
     return 0;
 }
 

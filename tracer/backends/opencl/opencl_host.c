@@ -7,9 +7,18 @@
 #include <time.h>
 
 #include "opencl_program.h"
+#include "parallel.h"
 
 /* Work-group size: a size every device accepts, or the kernel's maximum when that is smaller. */
 #define LOCAL_SIZE 64
+
+/* CPU time of the whole process (PoCL's worker threads run in it). */
+static double opencl_cpu_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
 
 int opencl_launch_build(opencl_launch *L, const opencl_runtime *rt, const vx_model *m, const char *defines,
                         const char *kernel_file, const char *kernel_name, int buffers, int next_tile, int counters,
@@ -162,9 +171,31 @@ void opencl_launch_release(opencl_launch *L)
     memset(L, 0, sizeof *L);
 }
 
-double opencl_cpu_seconds(void)
+int opencl_launch_warm_up(opencl_launch *L, opencl_clock *c, vx_err *e)
 {
-    struct timespec ts;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+    char what[96];
+    snprintf(what, sizeof what, "preparing %s", L->kernel_name);
+    if (opencl_launch_run(L, 0, what, e))
+        return -1;
+    c->warm = now_seconds();
+    c->cpu_warm = opencl_cpu_seconds();
+    return 0;
+}
+
+int opencl_launch_render(opencl_launch *L, const opencl_clock *c, int pixels, const char *what, int image_which,
+                         float *out, int counts_which, uint64_t *sums, render_counts *counts, backend_counts *bc,
+                         vx_err *e)
+{
+    if (opencl_launch_run(L, pixels, what, e))
+        return -1;
+    double traced = now_seconds();
+    bc->kernel_cpu_seconds = opencl_cpu_seconds() - c->cpu_warm;
+    if (opencl_launch_results(L, image_which, out, (size_t)pixels * 3 * sizeof(float), counts_which, sums, e))
+        return -1;
+    double done = now_seconds();
+    memset(counts, 0, sizeof *counts);
+    bc->compile_seconds = (c->compiled - c->start) + (c->warm - c->bound);
+    bc->kernel_seconds = traced - c->warm;
+    counts->seconds = (c->bound - c->compiled) + (done - c->warm);
+    return 0;
 }

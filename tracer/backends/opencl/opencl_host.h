@@ -8,6 +8,7 @@
 
 #include <stdint.h>
 
+#include "backend.h"
 #include "grid.h"
 #include "model.h"
 #include "opencl_runtime.h"
@@ -58,7 +59,22 @@ int opencl_launch_results(opencl_launch *L, int image_which, float *out, size_t 
                           uint64_t *sums, vx_err *e);
 void opencl_launch_release(opencl_launch *L);
 
-/* CPU time of the whole process (PoCL's worker threads run in it). */
-double opencl_cpu_seconds(void);
+/* The moments a render's time is split by (now_seconds), and the CPU time at the warm-up's end. */
+typedef struct {
+    double start, compiled, bound, warm, cpu_warm;
+} opencl_clock;
+
+/* The warm-up: a launch with nothing to do (opencl_launch_run with 0 pixels); sets c->warm and
+ * c->cpu_warm. */
+int opencl_launch_warm_up(opencl_launch *L, opencl_clock *c, vx_err *e);
+
+/* The timed part of a render, after the warm-up launch (c->warm set, and whatever the render needs
+ * enqueued): runs the kernel over `pixels`, reads the image and the counters back (sums), and splits
+ * the time as the C backend's: counts->seconds = setting up (bound - compiled) plus the run and
+ * the read-back; bc->compile_seconds = building (compiled - start) plus the warm-up (warm - bound).
+ * counts is zeroed but for seconds: the caller maps its counters. */
+int opencl_launch_render(opencl_launch *L, const opencl_clock *c, int pixels, const char *what, int image_which,
+                         float *out, int counts_which, uint64_t *sums, render_counts *counts, backend_counts *bc,
+                         vx_err *e);
 
 #endif

@@ -42,7 +42,7 @@ static int render(opencl_launch *L, const opencl_runtime *rt, const scene *s, co
                   backend_counts *bc, const char *build_dir, vx_err *e)
 {
     size_t voxels = grid_count(g, 0), pixels = (size_t)o->width * (size_t)o->height;
-    double t0 = now_seconds();
+    opencl_clock c = {.start = now_seconds()};
     char defines[512];
     snprintf(defines, sizeof defines,
              "#define VX_CL_OPACITY %s\n#define VX_CL_SHADE %s\n#define VX_CL_COMPOSITING %d\n"
@@ -51,7 +51,7 @@ static int render(opencl_launch *L, const opencl_runtime *rt, const scene *s, co
              sizeof(vx_cl_params));
     if (opencl_launch_build(L, rt, m, defines, "render.cl", "vx_render", B_N, B_NEXT_TILE, VX_CL_COUNTERS, build_dir, e))
         return -1;
-    double t_compiled = now_seconds();
+    c.compiled = now_seconds();
     vx_cl_params params;
     fill_params(&params, s, g, o);
     size_t cached = o->cache ? voxels : 0;
@@ -66,32 +66,23 @@ static int render(opencl_launch *L, const opencl_runtime *rt, const scene *s, co
         opencl_launch_counters(L, B_COUNTS, e) || opencl_launch_buffer(L, B_NEXT_TILE, RW, sizeof(cl_int), NULL, e) ||
         opencl_launch_grid(L, B_COLS, B_BITS, B_PREFIX, g, e))
         return -1;
-    double t_bound = now_seconds();
+    c.bound = now_seconds();
     /* The warm-up reads none of the grid, the cache or the image: it runs on the empty buffers. */
-    if (opencl_launch_run(L, 0, "preparing vx_render", e))
+    if (opencl_launch_warm_up(L, &c, e))
         return -1;
-    double t_warm = now_seconds(), cpu_warm = opencl_cpu_seconds();
     /* The uploads, the clearing of the cache and the render, enqueued together: one wait, inside the
      * render's time (each wait costs a wake-up of PoCL's threads). */
     if (opencl_launch_zero(L, B_STATE, cached * sizeof(cl_int), e) ||
-        opencl_launch_grid_upload(L, B_COLS, B_BITS, B_PREFIX, g, e) ||
-        opencl_launch_run(L, (int)pixels, "running vx_render", e))
+        opencl_launch_grid_upload(L, B_COLS, B_BITS, B_PREFIX, g, e))
         return -1;
-    double t_traced = now_seconds();
-    bc->kernel_cpu_seconds = opencl_cpu_seconds() - cpu_warm;
     uint64_t sums[VX_CL_COUNTERS];
-    if (opencl_launch_results(L, B_IMAGE, out->data, pixels * 3 * sizeof(float), B_COUNTS, sums, e))
+    if (opencl_launch_render(L, &c, (int)pixels, "running vx_render", B_IMAGE, out->data, B_COUNTS, sums, counts, bc, e))
         return -1;
-    double t_done = now_seconds();
-    memset(counts, 0, sizeof *counts);
     counts->rays = sums[VX_CL_RAYS];
     counts->voxel_visits = sums[VX_CL_VISITS];
     counts->shadow_rays = sums[VX_CL_SHADOW_RAYS];
     counts->model_evals = sums[VX_CL_EVALS];
     counts->cache_hits = sums[VX_CL_CACHE_HITS];
-    bc->compile_seconds = (t_compiled - t0) + (t_warm - t_bound);
-    bc->kernel_seconds = t_traced - t_warm;
-    counts->seconds = (t_bound - t_compiled) + (t_done - t_warm);
     return 0;
 }
 
