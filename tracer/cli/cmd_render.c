@@ -202,6 +202,9 @@ int cmd_render(int argc, char **argv)
         bc.seconds = -1; /* not baked by this run */
         bo.rays = h.rays;
         if (bake_params_parse(m, h.params, &bo.params, &e)) {
+            char why[sizeof e.msg];
+            snprintf(why, sizeof why, "%s", e.msg);
+            vx_fail(&e, "%s: header field params: %s", vox, why);
             have_grid = 1;
             goto fail;
         }
