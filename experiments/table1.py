@@ -4,7 +4,7 @@
     /usr/bin/python3 experiments/table1.py [--experiment experiments/table1.json] [--results results]
         [--jobs 2] [--voxlab build/voxlab] [--fresh]
 
-Runs the declared sweep (cached: see voxlab_runner.py) and writes into <results>/<name>/:
+Runs the declared sweep (cached: see voxlab_exp/scheduler.py) and writes into <results>/<name>/:
 
   table1.csv/.md/.tex  accuracy: a column pair (MSE, SSIM) per scene, one block per resolution, a row
                        per model; the best value of each column is marked (bold in Markdown and LaTeX,

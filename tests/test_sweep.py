@@ -1,4 +1,4 @@
-"""The experiment sweep end to end (experiments/voxlab_runner.py through experiments/table1.py) on a
+"""The experiment sweep end to end (experiments/voxlab_exp through experiments/table1.py) on a
 two-job sweep: spheres at 32^3 with the first two registered models. The table's MSE and SSIM must be
 exactly what `voxlab compare` gives on the same images; a second run must do no work (every job
 cached, no cache file touched); a declaration with a bad field must fail with a message naming the

@@ -1,4 +1,4 @@
-"""Timings a paper can quote (experiments/jobexec.py, voxlab_runner.py, pareto.py, table1.py).
+"""Timings a paper can quote (experiments/jobexec.py, voxlab_exp/rows.py, pareto.py, table1.py).
 
 - A timed job runs its voxlab command R times: the record holds every run's time as voxlab's own
   --stats reported it (read back here from each run's stats file, independently), with min, median

@@ -48,3 +48,18 @@ def make_strip(tiles, size, path):
         strip.paste(label, (i * size, 0))
         strip.paste(img.convert("RGB").resize((size, size)), (i * size, band))
     save_png(strip, path)
+
+
+def error_map(ref_exr, img_exr):
+    """An error heat map (PIL RGB image): mean absolute error over the colour channels, black at zero
+    and pale yellow at the image's own largest error (matplotlib's inferno, as `voxlab compare
+    --heatmap` draws it). Each map has its own scale: compare the MSE column, not the colours."""
+    import numpy as np
+    from matplotlib import colormaps
+    from PIL import Image
+
+    a, b = read_exr(ref_exr)[..., :3], read_exr(img_exr)[..., :3]
+    err = np.abs(a.astype(np.float64) - b).mean(axis=2)
+    top = err.max()
+    rgb = colormaps["inferno"](err / top if top > 0 else err)[..., :3]
+    return Image.fromarray((rgb * 255 + 0.5).astype(np.uint8), "RGB")

@@ -1,4 +1,4 @@
-"""Mutation fuzzer for the experiment-declaration validator (experiments/voxlab_runner.py's
+"""Mutation fuzzer for the experiment-declaration validator (experiments/voxlab_exp/schema.py's
 load_declaration, which every `make table1/pareto/figures/regress` starts with).
 
 Seeds are the shipped declarations (experiments/*.json). Each round mutates one seed, structurally
