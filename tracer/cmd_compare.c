@@ -11,20 +11,7 @@
 #include "image.h"
 #include "metrics.h"
 
-static const char usage[] = "usage: voxlab compare A B [--json] [--heatmap OUT.png] | voxlab compare --list-metrics";
-
-/* The metrics `--json` writes, in this order: the one list of them. The experiment scripts read it
- * with `--list-metrics` (experiments/voxlab_exp/rows.py), so a metric added to image_metrics
- * (metrics.c) and named here reaches their rows, history and baseline without another edit. */
-static const struct {
-    const char *key;
-    size_t offset;
-} metric_keys[] = {
-    {"mse", offsetof(image_metrics, mse)},
-    {"psnr", offsetof(image_metrics, psnr)},
-    {"ssim", offsetof(image_metrics, ssim)},
-};
-#define N_METRIC_KEYS (sizeof metric_keys / sizeof metric_keys[0])
+static const char usage[] = "usage: voxlab compare A B [--json] [--heatmap OUT.png]";
 
 static int fail(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 static int fail(const char *fmt, ...)
@@ -47,6 +34,19 @@ static void json_double(const char *key, double v, const char *sep)
         printf("\"%s\":null%s", key, sep);
 }
 
+/* The metrics `--json` writes, in this order: the one list of them. The experiment scripts read it
+ * with `--list-metrics` (experiments/voxlab_exp/rows.py), so a metric added to image_metrics
+ * (metrics.c) and named here reaches their rows, history and baseline without another edit. */
+static const struct {
+    const char *key;
+    size_t offset;
+} metric_keys[] = {
+    {"mse", offsetof(image_metrics, mse)},
+    {"psnr", offsetof(image_metrics, psnr)},
+    {"ssim", offsetof(image_metrics, ssim)},
+};
+#define N_METRIC_KEYS (sizeof metric_keys / sizeof metric_keys[0])
+
 int cmd_compare(int argc, char **argv)
 {
     const char *paths[2] = {NULL, NULL}, *heatmap = NULL;
@@ -55,14 +55,14 @@ int cmd_compare(int argc, char **argv)
         const char *arg = argv[i];
         if (strcmp(arg, "--json") == 0) {
             json = 1;
+        } else if (strcmp(arg, "--list-metrics") == 0) { /* the keys --json writes, one a line */
+            for (size_t k = 0; k < N_METRIC_KEYS; k++)
+                puts(metric_keys[k].key);
+            return fflush(stdout) == 0 ? 0 : fail("cannot write to standard output");
         } else if (strcmp(arg, "--heatmap") == 0) {
             if (i + 1 >= argc)
                 return fail("--heatmap needs an output file name (e.g. --heatmap err.png)\n%s", usage);
             heatmap = argv[++i];
-        } else if (strcmp(arg, "--list-metrics") == 0) {
-            for (size_t k = 0; k < N_METRIC_KEYS; k++)
-                puts(metric_keys[k].key);
-            return fflush(stdout) == 0 ? 0 : fail("cannot write to standard output");
         } else if (strcmp(arg, "-h") == 0 || strcmp(arg, "--help") == 0) {
             puts(usage);
             return 0;

@@ -61,7 +61,7 @@ def _referenced_fingerprint(path):
 
 
 # The fields of a scene that the voxel bake never reads: the grid covers the triangles' bounds and the
-# bake sampler's rays start outside them (tracer/bake.c), and voxlab's own scene identity, which a
+# bake sampler's rays start outside them (tracer/bake/bake.c), and voxlab's own scene identity, which a
 # .vox file must match, also leaves them out. Variants that differ only here (another camera, another
 # background) share one bake.
 BAKE_IRRELEVANT = ("camera", "size", "background", "description", "name")
