@@ -48,7 +48,7 @@ def list_models(voxlab):
 
 def metric_names(voxlab):
     """The keys `voxlab compare --json` writes for its metrics, in its order (`compare --list-metrics`:
-    one table in tracer/cmd_compare.c). The rows, the history and the baseline take their metric
+    one table in voxlab's cmd_compare.c). The rows, the history and the baseline take their metric
     columns from here, so adding a metric is one edit in C."""
     names = [line.strip() for line in run_voxlab(voxlab, ["compare", "--list-metrics"]).splitlines() if line.strip()]
     if not names:

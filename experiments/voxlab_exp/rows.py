@@ -4,7 +4,7 @@ configuration, written to <results>/<name>/rows.csv and rows.json.
 Exists to define what a row holds (ROW_FIELDS) and how it is computed from the jobs' stats, timings
 and `voxlab compare --json` metrics. The metric columns are not listed here: they are the keys
 `voxlab compare --json` writes, which voxlab lists with `voxlab compare --list-metrics` (one table in
-tracer/cmd_compare.c), so adding a metric there adds its column to the rows, the history and the
+voxlab's cmd_compare.c), so adding a metric there adds its column to the rows, the history and the
 baseline.
 """
 import os
