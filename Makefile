@@ -143,10 +143,10 @@ bench-build:
 
 # The main job on the built-in `spheres` scene: ground truth, every registered model baked and
 # rendered at 64^3, each compared with the truth; a table and a side-by-side strip in results/demo/.
+# A declaration (experiments/demo.json) run by the same engine as table1 and pareto (cached jobs).
 demo: deps
 	@$(MAKE) --no-print-directory $(BUILD)/voxlab
-	/usr/bin/python3 experiments/compare_models.py --scene spheres --res 64 --truth-spp 256 \
-	    --voxlab $(BUILD)/voxlab --out results/demo
+	/usr/bin/python3 experiments/demo.py --voxlab $(BUILD)/voxlab $(if $(filter 1,$(FRESH)),--force)
 	@cat results/demo/table.md
 	@echo "demo: images, table.md and strip_64.png are in results/demo/"
 

@@ -41,7 +41,16 @@ import sys
 import tempfile
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import voxlab_runner as vr  # noqa: E402
+from voxlab_exp.cli import main_wrapper  # noqa: E402
+from voxlab_exp.config import DEFAULT_RESULTS, REPO  # noqa: E402
+from voxlab_exp.errors import VoxlabError  # noqa: E402
+from voxlab_exp.files import load_json, rel, write_text  # noqa: E402
+from voxlab_exp.history import compare_to_baseline, read_history, record_history  # noqa: E402
+from voxlab_exp.jobs import models_info  # noqa: E402
+from voxlab_exp.provenance import git_info, now_iso  # noqa: E402
+from voxlab_exp.report import settings_text  # noqa: E402
+from voxlab_exp.rows import row_key  # noqa: E402
+from voxlab_exp.schema import load_declaration  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 METRICS = [("mse", "MSE"), ("ssim", "SSIM"), ("psnr", "PSNR"), ("render_ms", "render ms"), ("bake_s", "bake s"),
@@ -121,9 +130,9 @@ def registered_models(voxlab, metas):
     models = {}
     if voxlab and os.access(voxlab, os.X_OK):
         try:
-            for m in vr.models_info(voxlab):
+            for m in models_info(voxlab):
                 models[m["name"]] = m
-        except vr.VoxlabError:
+        except VoxlabError:
             pass
     for meta in metas:
         for m in meta.get("models", []):
@@ -133,8 +142,8 @@ def registered_models(voxlab, metas):
 
 def metrics_table(page, exp, meta, rows, section, tol):
     """Per scene: a row per configuration with each metric and its change against the baseline."""
-    results = vr.compare_to_baseline(rows, section, tol) if section else \
-        [{"key": vr.row_key(r), "scene": r["scene"], "model": r["model"], "res": r["res"], "row": r,
+    results = compare_to_baseline(rows, section, tol) if section else \
+        [{"key": row_key(r), "scene": r["scene"], "model": r["model"], "res": r["res"], "row": r,
           "status": "ok" if r["status"] == "ok" else "failed", "error": r.get("error"), "metrics": {}}
          for r in rows if r["kind"] == "model"]
     counts = {}
@@ -269,21 +278,21 @@ def history_table(page, history, limit=30):
 def build(a):
     results_root = os.path.abspath(a.results)
     out = os.path.abspath(a.out or os.path.join(results_root, "dashboard"))
-    tol = vr.load_declaration(a.tolerances)["tolerances"]
-    baseline = vr.load_json(a.baseline) if a.baseline and os.path.exists(a.baseline) else None
+    tol = load_declaration(a.tolerances)["tolerances"]
+    baseline = load_json(a.baseline) if a.baseline and os.path.exists(a.baseline) else None
     history_path = a.history or os.path.join(results_root, "history.csv")
     exps = [e.strip() for e in a.experiments.split(",") if e.strip()]
     loaded = {}
     for e in exps:
         p = os.path.join(results_root, e, "rows.json")
         if os.path.exists(p):
-            loaded[e] = vr.load_json(p)
+            loaded[e] = load_json(p)
     if a.record_history:
         runs = [(d["meta"], d["rows"]) for d in loaded.values() if (d["meta"].get("settings") or {}).get("history")]
-        n = vr.record_history(history_path, runs, os.path.join(results_root, "cache"))
+        n = record_history(history_path, runs, os.path.join(results_root, "cache"))
         print(f"dashboard: history: {', '.join(m['experiment'] for m, _ in runs) or 'nothing'} recorded; "
-              f"{vr._rel(history_path, vr.REPO)} has {n} line(s)", file=sys.stderr)
-    history = vr.read_history(history_path)
+              f"{rel(history_path, REPO)} has {n} line(s)", file=sys.stderr)
+    history = read_history(history_path)
     parent = os.path.dirname(out)
     os.makedirs(parent, exist_ok=True)
     tmp = tempfile.mkdtemp(prefix=os.path.basename(out) + ".tmp.", dir=parent)
@@ -292,11 +301,11 @@ def build(a):
         page = Page(tmp)
         metas = [d["meta"] for d in loaded.values()]
         models = registered_models(a.voxlab, metas)
-        g = vr.git_info()
+        g = git_info()
         page.add("<!DOCTYPE html><html lang=en><head><meta charset=utf-8><title>voxlab dashboard</title>"
                  f"<style>{CSS}</style></head><body>")
         page.add("<h1>voxlab dashboard</h1>")
-        page.add(f"<p class=meta>generated {esc(vr.now_iso())} from <code>{esc(results_root)}</code>; checkout "
+        page.add(f"<p class=meta>generated {esc(now_iso())} from <code>{esc(results_root)}</code>; checkout "
                  f"<code>{esc(g['text'])}</code>; baseline: "
                  + (f"<code>{esc(a.baseline)}</code>" if baseline else "none (run <code>make baseline</code>)") + "</p>")
         page.add("<h2>Registered models</h2><ul class=models id=models>")
@@ -315,7 +324,7 @@ def build(a):
             sub = page
             sub.add(f"<h2 id='exp-{esc(e)}'>{esc(e)}: current metrics"
                     f"{' against the baseline' if section else ' (no baseline section)'}</h2>")
-            sub.add("<p class=meta>" + "<br>".join(esc(x) for x in vr.settings_text(meta)) +
+            sub.add("<p class=meta>" + "<br>".join(esc(x) for x in settings_text(meta)) +
                     (f"<br>baseline: commit {esc(section['commit'][:10])}{' (dirty)' if section.get('dirty') else ''}"
                      f", {esc(section['date'])}" if section else "") + "</p>")
             res, counts = metrics_table(sub, e, meta, rows, section, tol)
@@ -374,7 +383,7 @@ def build(a):
         if history:
             history_table(page, history)
         page.add("</body></html>")
-        vr.write_text(os.path.join(tmp, "index.html"), "\n".join(page.parts) + "\n")
+        write_text(os.path.join(tmp, "index.html"), "\n".join(page.parts) + "\n")
         # Swap the finished folder in; the old one goes only after the new one is in place.
         old = None
         if os.path.exists(out):
@@ -401,7 +410,7 @@ def headless(url, extra, user_dir, timeout=60):
     """Runs headless Chromium on url with no network features and a throwaway profile."""
     exe = chromium_command()
     if not exe:
-        raise vr.VoxlabError("chromium is not installed (apt-get install chromium, or `make deps`)")
+        raise VoxlabError("chromium is not installed (apt-get install chromium, or `make deps`)")
     cmd = [exe, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
            "--disable-component-update", "--disable-sync", "--no-first-run", "--hide-scrollbars",
            f"--user-data-dir={user_dir}", "--enable-logging=stderr", "--v=0", *extra, url]
@@ -413,20 +422,20 @@ def screenshot(index, png, size=(1400, 3000)):
         tmp = f"{png}.tmp.{os.getpid()}.png"
         p = headless("file://" + index, [f"--screenshot={tmp}", f"--window-size={size[0]},{size[1]}"], ud)
         if p.returncode != 0 or not os.path.exists(tmp):
-            raise vr.VoxlabError(f"chromium --screenshot failed: {p.stderr[-500:]}")
+            raise VoxlabError(f"chromium --screenshot failed: {p.stderr[-500:]}")
         os.replace(tmp, png)
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--results", default=vr.DEFAULT_RESULTS)
-    ap.add_argument("--baseline", default=os.path.join(vr.REPO, "results", "baseline.json"))
+    ap.add_argument("--results", default=DEFAULT_RESULTS)
+    ap.add_argument("--baseline", default=os.path.join(REPO, "results", "baseline.json"))
     ap.add_argument("--history", help="default <results>/history.csv")
     ap.add_argument("--experiments", default="regress,table1", help="experiments whose rows the page shows")
     ap.add_argument("--tolerances", default=os.path.join(HERE, "regress.json"),
                     help="declaration whose tolerances mark the cells")
     ap.add_argument("--out", help="default <results>/dashboard")
-    ap.add_argument("--voxlab", default=os.path.join(vr.REPO, "build", "voxlab"))
+    ap.add_argument("--voxlab", default=os.path.join(REPO, "build", "voxlab"))
     ap.add_argument("--screenshot", action="store_true", help="also save <out>/screenshot.png (headless Chromium)")
     ap.add_argument("--record-history", action="store_true",
                     help="write the shown experiments' rows into the history first (make dashboard)")
@@ -434,16 +443,16 @@ def main(argv=None):
 
     def go():
         out = build(a)
-        print(f"dashboard: wrote {vr._rel(out, vr.REPO)}/index.html (open it from disk)", file=sys.stderr)
+        print(f"dashboard: wrote {rel(out, REPO)}/index.html (open it from disk)", file=sys.stderr)
         if a.screenshot:
             if chromium_command():
                 screenshot(os.path.join(out, "index.html"), os.path.join(out, "screenshot.png"))
-                print(f"dashboard: wrote {vr._rel(out, vr.REPO)}/screenshot.png", file=sys.stderr)
+                print(f"dashboard: wrote {rel(out, REPO)}/screenshot.png", file=sys.stderr)
             else:
                 print("dashboard: chromium is not installed: no screenshot", file=sys.stderr)
         return 0
 
-    return vr.main_wrapper(go, "dashboard")
+    return main_wrapper(go, "dashboard")
 
 
 if __name__ == "__main__":

@@ -2,7 +2,7 @@
 
     make_executor("local" | "dask" | "slurm", jobs=2, scheduler="tcp://host:8786", slurm_args="...")
 
-The sweep (voxlab_runner.Sweep.run) decides what is ready and where it may go; an executor only
+The sweep (voxlab_exp.scheduler.Sweep.run) decides what is ready and where it may go; an executor only
 starts job specs (see jobexec.py) and reports them finished. Every executor runs the same
 jobexec.execute on the same spec, and the worker writes its outputs into the shared cache directory,
 so rows are the same whatever the executor (the cache folder must be the same path on every

@@ -31,6 +31,9 @@ BASELINE_EXPERIMENTS ?= regress
 # the ground truth's peak memory (voxlab truth's stats do not report it); python3-distributed: the
 # Dask executor (--executor dask) and tests/test_cluster.py's scheduler and workers.
 DEPS += chromium time python3-distributed
+# python3-jsonschema: declarations are checked against experiments/declaration.schema.json;
+# python3-pandas: the row and demo tables (experiments/voxlab_exp/files.py, demo.py).
+DEPS += python3-jsonschema python3-pandas
 # Only for `make test-slurm` (and --executor slurm on a machine that is its own cluster): SLURM's
 # daemons and clients, and munge for their authentication.
 SLURM_DEPS = slurm-wlm munge

@@ -32,7 +32,15 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import voxlab_runner as vr  # noqa: E402
+from voxlab_exp.cli import add_common_args, main_wrapper  # noqa: E402
+from voxlab_exp.config import REPO  # noqa: E402
+from voxlab_exp.files import load_json, rel, save_figure, write_csv, write_text  # noqa: E402
+from voxlab_exp.images import read_exr, srgb8  # noqa: E402
+from voxlab_exp.report import settings_text  # noqa: E402
+from voxlab_exp.rows import run_experiment  # noqa: E402
+from voxlab_exp.scenes import write_variant  # noqa: E402
+from voxlab_exp.scheduler import Sweep  # noqa: E402
+from voxlab_exp.schema import load_declaration  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 FIGURES = ["grids", "view_angle", "coverage", "dof"]
@@ -54,7 +62,7 @@ def load_png(results, rel):
 
 
 def load_exr(results, rel):
-    return vr.read_exr(os.path.join(results, rel))[..., :3]
+    return read_exr(os.path.join(results, rel))[..., :3]
 
 
 def sq_error(results, row):
@@ -138,7 +146,7 @@ def grids(meta, rows, results, out):
             fig.colorbar(sm, ax=list(axes[1]), fraction=0.015, pad=0.01)
             fig.suptitle(f"{sc}, {n}³ voxels, {n}x{n} pixels — {stamp(meta)}", fontsize=9)
             path = os.path.join(out, f"grid_{sc}_{n}.png")
-            vr.save_figure(fig, path, dpi=100)
+            save_figure(fig, path, dpi=100)
             plt.close(fig)
             written.append(path)
         # The overview: every scene a row, images then error maps (each row on its own scale).
@@ -162,7 +170,7 @@ def grids(meta, rows, results, out):
                      f"{stamp(meta)}", fontsize=10)
         fig.tight_layout(rect=(0, 0, 1, 0.97))
         path = os.path.join(out, f"figure11_{n}.png")
-        vr.save_figure(fig, path, dpi=100)
+        save_figure(fig, path, dpi=100)
         plt.close(fig)
         written.append(path)
     return written
@@ -185,7 +193,7 @@ def view_angle(sw, decl, meta, rows, results, out):
         r0 = next((r for r in rows if r["scene"] == name), None)
         if r0 is None:
             continue
-        path = vr.write_variant(s["path"], name + "_bg", {"background": bg}, os.path.join(sw.cache_dir, "scenes"))
+        path = write_variant(s["path"], name + "_bg", {"background": bg}, os.path.join(sw.cache_dir, "scenes"))
         extra[name] = (sw.truth(path, name + "_bg", [r0["width"], r0["height"]], decl["truth_spp"], decl["seed"]),
                        sw.truth(s["path"], name, [r0["width"], r0["height"]], decl["truth_spp"], decl["seed"]))
     sw.name = decl["name"] + " (masks)"
@@ -199,8 +207,8 @@ def view_angle(sw, decl, meta, rows, results, out):
         if tw.status not in ("ok", "cached") or tb.status not in ("ok", "cached"):
             notes.append(f"{name}: truth failed: {tw.error or tb.error}")
             continue
-        iw, ib = vr.read_exr(tw.path("image.exr"))[..., :3], vr.read_exr(tb.path("image.exr"))[..., :3]
-        own_bg = vr.load_json(scenes[name]["path"]).get("background", [0, 0, 0])
+        iw, ib = read_exr(tw.path("image.exr"))[..., :3], read_exr(tb.path("image.exr"))[..., :3]
+        own_bg = load_json(scenes[name]["path"]).get("background", [0, 0, 0])
         span = np.abs(np.asarray(bg, float) - np.asarray(own_bg, float))
         full = (np.abs(iw - ib) <= 1e-4 * np.maximum(span, 1e-3) + 1e-6).all(axis=2)
         # One pixel in from the mask's edge: a voxel model's silhouette may differ by a pixel there.
@@ -246,7 +254,7 @@ def view_angle(sw, decl, meta, rows, results, out):
     for i, n in enumerate(names):
         for j, a in enumerate(angles):
             if a in series[n]:
-                sw_img[i, j] = vr.srgb8(np.asarray(series[n][a])[None, None, :])[0, 0] / 255.0
+                sw_img[i, j] = srgb8(np.asarray(series[n][a])[None, None, :])[0, 0] / 255.0
     ax.imshow(sw_img, aspect="auto", interpolation="nearest")
     ax.set_yticks(range(len(names)), names, fontsize=8)
     ax.set_xticks(range(len(angles)), [f"{a:g}°" for a in angles], fontsize=8)
@@ -257,11 +265,11 @@ def view_angle(sw, decl, meta, rows, results, out):
                  f"{decl['truth_spp']} spp){title_extra}\n{stamp(meta)}", fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.93))
     path = os.path.join(out, "view_angle.png")
-    vr.save_figure(fig, path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
     data = [{"series": n, "angle": a, "r": float(v[0]), "g": float(v[1]), "b": float(v[2])}
             for n, pts in series.items() for a, v in sorted(pts.items())]
-    vr.write_csv(os.path.join(out, "view_angle.csv"), data, ["series", "angle", "r", "g", "b"])
+    write_csv(os.path.join(out, "view_angle.csv"), data, ["series", "angle", "r", "g", "b"])
     return [path], notes
 
 
@@ -324,9 +332,9 @@ def coverage(decl, meta, rows, results, out):
                  f"image vs truth\n{stamp(meta)}", fontsize=8)
     fig.tight_layout(rect=(0, 0, 1, 0.92))
     path = os.path.join(out, "coverage.png")
-    vr.save_figure(fig, path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
-    vr.write_csv(os.path.join(out, "coverage.csv"), summary,
+    write_csv(os.path.join(out, "coverage.csv"), summary,
                  ["scene", "model", "res", "silhouette_abs_error", "total_coverage_change"])
     return [path]
 
@@ -375,7 +383,7 @@ def dof(decl, meta, rows, results, out):
         fig.suptitle(f"Depth of field with and without pre-filtering: {sc}{note}\n{stamp(meta)}", fontsize=9)
         fig.tight_layout(rect=(0, 0, 1, 0.95))
         path = os.path.join(out, f"dof_{sc}.png")
-        vr.save_figure(fig, path, dpi=100)
+        save_figure(fig, path, dpi=100)
         plt.close(fig)
         written.append(path)
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
@@ -396,7 +404,7 @@ def dof(decl, meta, rows, results, out):
         ax.set_title(f"{sc}: depth of field, error against time{note}", fontsize=9)
         fig.tight_layout()
         path = os.path.join(out, f"dof_{sc}_cost.png")
-        vr.save_figure(fig, path, dpi=100)
+        save_figure(fig, path, dpi=100)
         plt.close(fig)
         written.append(path)
     return written
@@ -407,7 +415,7 @@ def dof(decl, meta, rows, results, out):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    vr.add_common_args(ap, experiment=os.path.join(HERE, "table1.json"))
+    add_common_args(ap, experiment=os.path.join(HERE, "table1.json"))
     ap.add_argument("--only", default=",".join(FIGURES), help=f"comma-separated subset of {','.join(FIGURES)}")
     ap.add_argument("--view-angle", default=os.path.join(HERE, "fig_hn_angle.json"))
     ap.add_argument("--coverage", default=os.path.join(HERE, "fig_silhouette.json"))
@@ -423,15 +431,15 @@ def main(argv=None):
         out = os.path.join(results, "figures")
         os.makedirs(out, exist_ok=True)
         decls = {"grids": a.experiment, "view_angle": a.view_angle, "coverage": a.coverage, "dof": a.dof}
-        loaded = {k: vr.load_declaration(decls[k]) for k in only}  # every declaration checked before any work
+        loaded = {k: load_declaration(decls[k]) for k in only}  # every declaration checked before any work
         cache = a.cache or os.path.join(results, "cache")
-        sw = vr.Sweep(a.voxlab, cache, jobs=a.jobs, fresh=a.fresh, name="figures", executor=a.executor,
+        sw = Sweep(a.voxlab, cache, jobs=a.jobs, fresh=a.fresh, name="figures", executor=a.executor,
                       scheduler=a.scheduler, slurm_args=a.slurm_args, repeats=a.repeats)
         md = ["# Figures", ""]
         for k in only:
             decl = loaded[k]
             sw.timeout = decl["timeout_s"]
-            meta, rows = vr.run_experiment(decl, results=results, cache_dir=cache, sweep=sw)
+            meta, rows = run_experiment(decl, results=results, cache_dir=cache, sweep=sw)
             notes = []
             if k == "grids":
                 paths = grids(meta, rows, results, out)
@@ -442,14 +450,14 @@ def main(argv=None):
             else:
                 paths = dof(decl, meta, rows, results, out)
             md += [f"## {k}: {', '.join(os.path.basename(p) for p in paths)}", "", decl["description"], ""]
-            md += [f"- {x}" for x in vr.settings_text(meta)]
+            md += [f"- {x}" for x in settings_text(meta)]
             md += [f"- note: {n}" for n in notes]
             md += [""] + [f"![{os.path.basename(p)}]({os.path.basename(p)})" for p in paths] + [""]
-            print(f"figures: {k}: wrote {', '.join(vr._rel(p, vr.REPO) for p in paths)}", file=sys.stderr)
-        vr.write_text(os.path.join(out, "figures.md"), "\n".join(md) + "\n")
+            print(f"figures: {k}: wrote {', '.join(rel(p, REPO) for p in paths)}", file=sys.stderr)
+        write_text(os.path.join(out, "figures.md"), "\n".join(md) + "\n")
         return 0
 
-    return vr.main_wrapper(go, "figures")
+    return main_wrapper(go, "figures")
 
 
 if __name__ == "__main__":

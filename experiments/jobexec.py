@@ -3,7 +3,7 @@ array task) calls, so that the same job spec gives the same cache entry wherever
 
     execute(spec) -> record (also written as <spec["dir"]>/job.json)
 
-A spec is a plain dict (JSON- and pickle-friendly; voxlab_runner.Sweep.spec builds it): the job's key,
+A spec is a plain dict (JSON- and pickle-friendly; voxlab_exp.scheduler.Sweep.spec builds it): the job's key,
 identity, kind, label, cache directory, the voxlab command with "{tmp}" standing for the temporary
 output folder and "{threads}" for the thread count, the outputs to keep, the timeout and, for a timed
 job, the number of repeats. Only the standard library is imported here: Dask ships this module to its

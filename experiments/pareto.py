@@ -28,7 +28,12 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import voxlab_runner as vr  # noqa: E402
+from voxlab_exp.cli import add_common_args, main_wrapper, sweep_args  # noqa: E402
+from voxlab_exp.config import REPO  # noqa: E402
+from voxlab_exp.files import rel, save_figure, write_csv, write_text  # noqa: E402
+from voxlab_exp.report import settings_text  # noqa: E402
+from voxlab_exp.rows import run_experiment  # noqa: E402
+from voxlab_exp.schema import load_declaration  # noqa: E402
 
 AXES = [("render_ms", "mse"), ("render_ms", "one_minus_ssim"), ("mb", "mse"), ("mb", "one_minus_ssim")]
 LABEL = {"render_ms": "render time per frame (ms)", "mb": "memory (MB)", "mse": "MSE",
@@ -160,8 +165,8 @@ def plot_scene(scene, pts, models, out_stem, meta, decl):
                  f"{meta['threads']} thread(s); commit {g['commit'][:10]}{' (dirty)' if g['dirty'] else ''}, "
                  f"{meta['date'][:10]}", fontsize=10)
     fig.tight_layout(rect=(0, 0.06, 1, 0.95))
-    vr.save_figure(fig, out_stem + ".png", dpi=110)
-    vr.save_figure(fig, out_stem + ".svg")
+    save_figure(fig, out_stem + ".png", dpi=110)
+    save_figure(fig, out_stem + ".svg")
     plt.close(fig)
 
 
@@ -170,7 +175,7 @@ def build(meta, rows, decl, out):
     models += [m for m in dict.fromkeys(r["model"] for r in rows if r["kind"] == "model") if m not in models]
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
     csv_rows, md = [], [f"# Error against cost ({meta['experiment']})", ""]
-    md += [f"- {x}" for x in vr.settings_text(meta)]
+    md += [f"- {x}" for x in settings_text(meta)]
     md += ["", "Time = render ms per frame (bake excluded; the median of the timed repeats, bars from the fastest "
                "to the slowest); memory = records + sparse grid (truth: see pareto.py). "
                "A point is on a front when no other point is both cheaper and more accurate.", ""]
@@ -222,24 +227,24 @@ def build(meta, rows, decl, out):
         if ok:
             plot_scene(sc, ok, models, os.path.join(out, f"pareto_{sc}"), meta, decl)
         csv_rows += pts
-    vr.write_csv(os.path.join(out, "pareto.csv"), csv_rows, CSV_FIELDS)
-    vr.write_text(os.path.join(out, "pareto.md"), "\n".join(md) + "\n")
+    write_csv(os.path.join(out, "pareto.csv"), csv_rows, CSV_FIELDS)
+    write_text(os.path.join(out, "pareto.md"), "\n".join(md) + "\n")
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    vr.add_common_args(ap, experiment=os.path.join(vr.REPO, "experiments", "pareto.json"))
+    add_common_args(ap, experiment=os.path.join(REPO, "experiments", "pareto.json"))
     a = ap.parse_args(argv)
 
     def go():
-        decl = vr.load_declaration(a.experiment)
-        meta, rows = vr.run_experiment(decl, **vr.sweep_args(a))
+        decl = load_declaration(a.experiment)
+        meta, rows = run_experiment(decl, **sweep_args(a))
         out = os.path.join(os.path.abspath(a.results), decl["name"])
         build(meta, rows, decl, out)
-        print(f"pareto: wrote {vr._rel(out, vr.REPO)}/pareto.csv, pareto.md, pareto_<scene>.png/.svg", file=sys.stderr)
+        print(f"pareto: wrote {rel(out, REPO)}/pareto.csv, pareto.md, pareto_<scene>.png/.svg", file=sys.stderr)
         return 0
 
-    return vr.main_wrapper(go, "pareto")
+    return main_wrapper(go, "pareto")
 
 
 if __name__ == "__main__":

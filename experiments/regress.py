@@ -27,7 +27,15 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import voxlab_runner as vr  # noqa: E402
+from voxlab_exp.cli import add_common_args, main_wrapper, sweep_args  # noqa: E402
+from voxlab_exp.config import REPO  # noqa: E402
+from voxlab_exp.errors import DeclarationError, VoxlabError  # noqa: E402
+from voxlab_exp.files import load_json, write_json, write_text  # noqa: E402
+from voxlab_exp.history import baseline_section, compare_to_baseline, gating  # noqa: E402
+from voxlab_exp.provenance import git_info  # noqa: E402
+from voxlab_exp.report import settings_text  # noqa: E402
+from voxlab_exp.rows import run_experiment  # noqa: E402
+from voxlab_exp.schema import load_declaration  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 DEFAULT_TOLERANCES = os.path.join(HERE, "regress.json")
@@ -37,7 +45,7 @@ def tolerances_for(decl):
     """The declaration's tolerances, else those of experiments/regress.json."""
     if decl["tolerances"]:
         return decl["tolerances"]
-    return vr.load_declaration(DEFAULT_TOLERANCES)["tolerances"]
+    return load_declaration(DEFAULT_TOLERANCES)["tolerances"]
 
 
 def fmt(v):
@@ -55,7 +63,7 @@ def tol_text(m, t):
 
 def report(meta, results, section, tol):
     lines = [f"# Regression check: {meta['experiment']}", ""]
-    lines += [f"- {x}" for x in vr.settings_text(meta)]
+    lines += [f"- {x}" for x in settings_text(meta)]
     if section:
         lines.append(f"- baseline: commit {section['commit'][:10]}{' (dirty)' if section.get('dirty') else ''}, "
                      f"{section['date']}, host {section['machine'].get('host', '?')}")
@@ -79,8 +87,8 @@ def report(meta, results, section, tol):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    vr.add_common_args(ap, experiment=DEFAULT_TOLERANCES)
-    ap.add_argument("--baseline", default=os.path.join(vr.REPO, "results", "baseline.json"))
+    add_common_args(ap, experiment=DEFAULT_TOLERANCES)
+    ap.add_argument("--baseline", default=os.path.join(REPO, "results", "baseline.json"))
     ap.add_argument("--write-baseline", action="store_true", help="store this run as the baseline; do not compare")
     ap.add_argument("--allow-dirty", action="store_true",
                     help="let --write-baseline store a run of a checkout with uncommitted changes (its numbers "
@@ -89,24 +97,24 @@ def main(argv=None):
 
     def go():
         if a.write_baseline and not a.allow_dirty:
-            g = vr.git_info()
+            g = git_info()
             if g["dirty"]:
                 # A baseline from uncommitted sources shows a false regression on every fresh clone.
-                raise vr.VoxlabError("--write-baseline: the checkout has uncommitted changes outside results/ "
+                raise VoxlabError("--write-baseline: the checkout has uncommitted changes outside results/ "
                                      f"({g['text']}); commit them first, so that the baseline belongs to a commit "
                                      "a fresh clone can rebuild (or pass --allow-dirty)")
-        decl = vr.load_declaration(a.experiment)
+        decl = load_declaration(a.experiment)
         tol = tolerances_for(decl)
         baseline = None
         if os.path.exists(a.baseline):
             try:
-                baseline = vr.load_json(a.baseline)
+                baseline = load_json(a.baseline)
             except ValueError as e:
-                raise vr.DeclarationError(f"{a.baseline}: not valid JSON: {e}")
+                raise DeclarationError(f"{a.baseline}: not valid JSON: {e}")
         elif not a.write_baseline:
-            raise vr.VoxlabError(f"no baseline {a.baseline}: run `make baseline` (or this script with "
+            raise VoxlabError(f"no baseline {a.baseline}: run `make baseline` (or this script with "
                                  f"--write-baseline) on a known-good commit and commit the file")
-        meta, rows = vr.run_experiment(decl, **vr.sweep_args(a))
+        meta, rows = run_experiment(decl, **sweep_args(a))
         out = os.path.join(os.path.abspath(a.results), decl["name"])
         if a.write_baseline:
             bad = [r for r in rows if r["status"] != "ok"]
@@ -117,23 +125,23 @@ def main(argv=None):
             doc.setdefault("comment", "Reference numbers for `make regress` and the dashboard: one section per "
                                       "experiment, written by experiments/regress.py --write-baseline from a real "
                                       "run. Tolerances: experiments/regress.json.")
-            doc.setdefault("experiments", {})[decl["name"]] = vr.baseline_section(meta, rows)
+            doc.setdefault("experiments", {})[decl["name"]] = baseline_section(meta, rows)
             os.makedirs(os.path.dirname(os.path.abspath(a.baseline)), exist_ok=True)
-            vr.write_json(a.baseline, doc)
+            write_json(a.baseline, doc)
             print(f"regress: wrote the {decl['name']} section of {a.baseline} ({len(rows)} configurations)",
                   file=sys.stderr)
             return 0
         section = (baseline.get("experiments") or {}).get(decl["name"])
         if section is None:
-            raise vr.VoxlabError(f"{a.baseline} has no section \"{decl['name']}\": run this script with "
+            raise VoxlabError(f"{a.baseline} has no section \"{decl['name']}\": run this script with "
                                  f"--write-baseline once")
-        results = vr.compare_to_baseline(rows, section, tol)
+        results = compare_to_baseline(rows, section, tol)
         text = report(meta, results, section, tol)
-        vr.write_text(os.path.join(out, "report.md"), text)
-        vr.write_json(os.path.join(out, "report.json"),
+        write_text(os.path.join(out, "report.md"), text)
+        write_json(os.path.join(out, "report.json"),
                       {"meta": meta, "results": [{k: v for k, v in x.items() if k != "row"} for x in results]})
         sys.stdout.write(text)
-        bad = vr.gating(results)
+        bad = gating(results)
         counts = {}
         for x in results:
             counts[x["status"]] = counts.get(x["status"], 0) + 1
@@ -149,7 +157,7 @@ def main(argv=None):
         print(f"regress: ok ({summary})", file=sys.stderr)
         return 0
 
-    return vr.main_wrapper(go, "regress")
+    return main_wrapper(go, "regress")
 
 
 if __name__ == "__main__":

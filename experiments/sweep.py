@@ -17,26 +17,28 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import voxlab_runner as vr  # noqa: E402
+from voxlab_exp.cli import add_common_args, main_wrapper, sweep_args  # noqa: E402
+from voxlab_exp.rows import run_experiment  # noqa: E402
+from voxlab_exp.schema import load_declaration  # noqa: E402
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("declaration", help="experiment declaration (JSON)")
-    vr.add_common_args(ap)
+    add_common_args(ap)
     ap.add_argument("--out", help="output directory (default <results>/<name>)")
     ap.add_argument("--check", action="store_true", help="only validate the declaration")
     a = ap.parse_args(argv)
 
     def go():
-        decl = vr.load_declaration(a.declaration)
+        decl = load_declaration(a.declaration)
         if a.check:
             print(f"{decl['shown']}: ok ({len(decl['scenes'])} scene(s), {len(decl['runs'])} run(s))")
             return 0
-        vr.run_experiment(decl, **vr.sweep_args(a), out_dir=a.out)
+        run_experiment(decl, **sweep_args(a), out_dir=a.out)
         return 0
 
-    return vr.main_wrapper(go, "sweep")
+    return main_wrapper(go, "sweep")
 
 
 if __name__ == "__main__":

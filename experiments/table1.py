@@ -4,7 +4,7 @@
     /usr/bin/python3 experiments/table1.py [--experiment experiments/table1.json] [--results results]
         [--jobs 2] [--voxlab build/voxlab] [--fresh]
 
-Runs the declared sweep (cached: see voxlab_runner.py) and writes into <results>/<name>/:
+Runs the declared sweep (cached: see voxlab_exp/scheduler.py) and writes into <results>/<name>/:
 
   table1.csv/.md/.tex  accuracy: a column pair (MSE, SSIM) per scene, one block per resolution, a row
                        per model; the best value of each column is marked (bold in Markdown and LaTeX,
@@ -23,7 +23,12 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import voxlab_runner as vr  # noqa: E402
+from voxlab_exp.cli import add_common_args, main_wrapper, sweep_args  # noqa: E402
+from voxlab_exp.config import REPO  # noqa: E402
+from voxlab_exp.files import rel, write_csv, write_text  # noqa: E402
+from voxlab_exp.report import settings_text  # noqa: E402
+from voxlab_exp.rows import run_experiment  # noqa: E402
+from voxlab_exp.schema import load_declaration  # noqa: E402
 
 T1_FIELDS = ["scene", "res", "model", "mse", "ssim", "psnr", "best_mse", "best_ssim", "status", "error"]
 T2_FIELDS = ["scene", "res", "triangles", "voxels", "truth_s", "truth_s_spread", "model", "bytes_per_voxel", "mb",
@@ -84,9 +89,9 @@ def build(meta, rows, decl, out):
     t1 = [{"scene": r["scene"], "res": r["res"], "model": r["model"], "mse": r.get("mse"), "ssim": r.get("ssim"),
            "psnr": r.get("psnr"), "best_mse": int(is_best(r, "mse")), "best_ssim": int(is_best(r, "ssim")),
            "status": r["status"], "error": r.get("error", "")} for r in rows]
-    vr.write_csv(os.path.join(out, "table1.csv"), t1, T1_FIELDS)
+    write_csv(os.path.join(out, "table1.csv"), t1, T1_FIELDS)
 
-    head = vr.settings_text(meta)
+    head = settings_text(meta)
     run = decl["runs"][0]
     setting_line = (f"settings: truth {decl['truth_spp']} spp (seed {decl['seed']}); models rendered at "
                     f"{', '.join(map(str, run['spp']))} spp with {', '.join(map(str, run['rays']))} bake rays per "
@@ -149,7 +154,7 @@ def build(meta, rows, decl, out):
                    "repeats": r.get("repeats"), "load": r.get("load"), "loaded": r.get("loaded"),
                    "peak_rss_mb": r["peak_rss_bytes"] / 1e6 if r.get("peak_rss_bytes") else None,
                    "status": r["status"], "error": r.get("error", "")})
-    vr.write_csv(os.path.join(out, "table2.csv"), t2, T2_FIELDS)
+    write_csv(os.path.join(out, "table2.csv"), t2, T2_FIELDS)
     bpv = {}
     for m in meta["models"]:
         bpv[m["name"]] = m["bytes_per_voxel"]
@@ -217,28 +222,28 @@ def build(meta, rows, decl, out):
         md2 += foot
         tex += ["% Failures:"] + [f"%  [{i + 1}] {t}" for i, t in enumerate(notes)]
         tex2 += ["% Failures:"] + [f"%  [{i + 1}] {t}" for i, t in enumerate(notes)]
-    vr.write_text(os.path.join(out, "table1.md"), "\n".join(md) + "\n")
-    vr.write_text(os.path.join(out, "table1.tex"), "\n".join(tex) + "\n")
-    vr.write_text(os.path.join(out, "table2.md"), "\n".join(md2) + "\n")
-    vr.write_text(os.path.join(out, "table2.tex"), "\n".join(tex2) + "\n")
+    write_text(os.path.join(out, "table1.md"), "\n".join(md) + "\n")
+    write_text(os.path.join(out, "table1.tex"), "\n".join(tex) + "\n")
+    write_text(os.path.join(out, "table2.md"), "\n".join(md2) + "\n")
+    write_text(os.path.join(out, "table2.tex"), "\n".join(tex2) + "\n")
     return len(notes)
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    vr.add_common_args(ap, experiment=os.path.join(vr.REPO, "experiments", "table1.json"))
+    add_common_args(ap, experiment=os.path.join(REPO, "experiments", "table1.json"))
     a = ap.parse_args(argv)
 
     def go():
-        decl = vr.load_declaration(a.experiment)
-        meta, rows = vr.run_experiment(decl, **vr.sweep_args(a))
+        decl = load_declaration(a.experiment)
+        meta, rows = run_experiment(decl, **sweep_args(a))
         out = os.path.join(os.path.abspath(a.results), decl["name"])
         build(meta, rows, decl, out)
-        print(f"table1: wrote {vr._rel(out, vr.REPO)}/table1.{{csv,md,tex}} and table2.{{csv,md,tex}}",
+        print(f"table1: wrote {rel(out, REPO)}/table1.{{csv,md,tex}} and table2.{{csv,md,tex}}",
               file=sys.stderr)
         return 0
 
-    return vr.main_wrapper(go, "table1")
+    return main_wrapper(go, "table1")
 
 
 if __name__ == "__main__":

@@ -13,7 +13,7 @@ from testlib import REPO, TMP, VOXLAB, finish, read_csv, report  # noqa: E402
 
 EXP = os.path.join(REPO, "experiments")
 sys.path.insert(0, EXP)
-import voxlab_runner as vr  # noqa: E402
+from voxlab_exp.history import record_history  # noqa: E402
 
 PY = "/usr/bin/python3"
 
@@ -28,19 +28,19 @@ def fake_run(commit, mse, date="2026-01-01T00:00:00+00:00"):
 
 def unit():
     path = os.path.join(TMP, "h.csv")
-    vr.record_history(path, [fake_run("1" * 40, 0.1)], TMP)
-    vr.record_history(path, [fake_run("1" * 40, 0.2, "2026-01-02T00:00:00+00:00")], TMP)
+    record_history(path, [fake_run("1" * 40, 0.1)], TMP)
+    record_history(path, [fake_run("1" * 40, 0.2, "2026-01-02T00:00:00+00:00")], TMP)
     h = read_csv(path)
     report("same commit twice: one line per job, the newest numbers",
            len(h) == 3 and all(x["mse"] == "0.2" for x in h), str(h)[:400])
-    vr.record_history(path, [fake_run("2" * 40, 0.3)], TMP)
+    record_history(path, [fake_run("2" * 40, 0.3)], TMP)
     h = read_csv(path)
     report("another commit adds its own lines", len(h) == 6 and {x["commit"] for x in h} == {"1" * 40, "2" * 40}, "")
     with open(path) as f:
         lines = f.read().splitlines()
     with open(path, "w") as f:  # an old file: every run appended, three copies of each line
         f.write("\n".join(lines + lines[1:] + lines[1:]) + "\n")
-    vr.record_history(path, [], TMP)
+    record_history(path, [], TMP)
     report("duplicate lines of an old history are compacted", len(read_csv(path)) == 6, "")
 
 

@@ -1,4 +1,4 @@
-"""The experiment sweep end to end (experiments/voxlab_runner.py through experiments/table1.py) on a
+"""The experiment sweep end to end (experiments/voxlab_exp through experiments/table1.py) on a
 two-job sweep: spheres at 32^3 with the first two registered models. The table's MSE and SSIM must be
 exactly what `voxlab compare` gives on the same images; a second run must do no work (every job
 cached, no cache file touched); a declaration with a bad field must fail with a message naming the
@@ -15,7 +15,9 @@ from testlib import REPO, TMP, VOXLAB, finish, read_csv, report, voxlab, voxlab_
 
 EXP = os.path.join(REPO, "experiments")
 sys.path.insert(0, EXP)
-import voxlab_runner as vr  # noqa: E402
+from voxlab_exp.history import verdict  # noqa: E402
+from voxlab_exp.scenes import scene_fingerprint, write_variant  # noqa: E402
+from voxlab_exp.schema import load_declaration  # noqa: E402
 
 PY = sys.executable
 
@@ -159,32 +161,32 @@ def main():
 
     # Cache keys: the scene's content and the files it references; the bake ignores camera and background.
     spheres = os.path.join(REPO, "scenes", "spheres.json")
-    moved = vr.write_variant(spheres, "moved", {"camera.orbit.elevation_deg": 50, "background": [1, 1, 1]},
+    moved = write_variant(spheres, "moved", {"camera.orbit.elevation_deg": 50, "background": [1, 1, 1]},
                              os.path.join(TMP, "variants"))
-    shiny = vr.write_variant(spheres, "shiny", {"materials.red.roughness": 0.05}, os.path.join(TMP, "variants"))
+    shiny = write_variant(spheres, "shiny", {"materials.red.roughness": 0.05}, os.path.join(TMP, "variants"))
     report("scene key changes with the camera, the bake key does not",
-           vr.scene_fingerprint(moved) != vr.scene_fingerprint(spheres) and
-           vr.scene_fingerprint(moved, True) == vr.scene_fingerprint(spheres, True), moved)
-    report("bake key changes with a material", vr.scene_fingerprint(shiny, True) != vr.scene_fingerprint(spheres, True),
+           scene_fingerprint(moved) != scene_fingerprint(spheres) and
+           scene_fingerprint(moved, True) == scene_fingerprint(spheres, True), moved)
+    report("bake key changes with a material", scene_fingerprint(shiny, True) != scene_fingerprint(spheres, True),
            shiny)
     mesh_dir = os.path.join(TMP, "meshscene")
     os.makedirs(mesh_dir, exist_ok=True)
     shutil.copy(os.path.join(REPO, "scenes", "bunny.json"), mesh_dir)
     os.makedirs(os.path.join(mesh_dir, "meshes"), exist_ok=True)
     shutil.copy(os.path.join(REPO, "scenes", "meshes", "plate.ply"), os.path.join(mesh_dir, "meshes"))
-    k1 = vr.scene_fingerprint(os.path.join(mesh_dir, "bunny.json"))
+    k1 = scene_fingerprint(os.path.join(mesh_dir, "bunny.json"))
     with open(os.path.join(mesh_dir, "meshes", "plate.ply"), "a") as f:
         f.write("\n")
-    k2 = vr.scene_fingerprint(os.path.join(mesh_dir, "bunny.json"))
+    k2 = scene_fingerprint(os.path.join(mesh_dir, "bunny.json"))
     report("scene key changes when a referenced mesh changes", k1 != k2, "")
 
     # The committed tolerances: a real accuracy regression fails, timing noise does not.
-    tol = vr.load_declaration(os.path.join(EXP, "regress.json"))["tolerances"]
+    tol = load_declaration(os.path.join(EXP, "regress.json"))["tolerances"]
     cases = [("mse", 1.10e-3, 1.0e-3, "regression"), ("mse", 1.02e-3, 1.0e-3, "ok"),
              ("mse", 0.80e-3, 1.0e-3, "improved"), ("ssim", 0.89, 0.90, "regression"),
              ("ssim", 0.897, 0.90, "ok"), ("render_ms", 150.0, 100.0, "ok"), ("render_ms", 260.0, 100.0, "warning"),
              ("bake_s", 1.9, 1.0, "ok")]
-    got = [(m, vr.verdict(m, cur, base, tol[m])[0]) for m, cur, base, _ in cases]
+    got = [(m, verdict(m, cur, base, tol[m])[0]) for m, cur, base, _ in cases]
     report("tolerances: MSE +10 % and SSIM -0.01 fail, 1.5x slower passes, 2.6x slower warns",
            got == [(m, v) for m, _, _, v in cases], str(got))
 

@@ -1,4 +1,4 @@
-"""Timings a paper can quote (experiments/jobexec.py, voxlab_runner.py, pareto.py, table1.py).
+"""Timings a paper can quote (experiments/jobexec.py, voxlab_exp/rows.py, pareto.py, table1.py).
 
 - A timed job runs its voxlab command R times: the record holds every run's time as voxlab's own
   --stats reported it (read back here from each run's stats file, independently), with min, median
@@ -23,7 +23,9 @@ EXP = os.path.join(REPO, "experiments")
 sys.path.insert(0, EXP)
 import jobexec  # noqa: E402
 import pareto  # noqa: E402
-import voxlab_runner as vr  # noqa: E402
+from voxlab_exp.cli import sweep_args  # noqa: E402
+from voxlab_exp.rows import run_experiment  # noqa: E402
+from voxlab_exp.schema import load_declaration  # noqa: E402
 
 PY = "/usr/bin/python3"
 
@@ -139,8 +141,8 @@ def flagged_in_tables():
 
         a = type("A", (), {"results": os.path.join(TMP, "busy-results"), "cache": None, "voxlab": VOXLAB, "jobs": 2,
                            "fresh": False, "executor": "local", "scheduler": None, "slurm_args": "", "repeats": None})
-        meta, rows = vr.run_experiment(vr.load_declaration(decl), **vr.sweep_args(a))
-        table1.build(meta, rows, vr.load_declaration(decl), os.path.join(a.results, "busy"))
+        meta, rows = run_experiment(load_declaration(decl), **sweep_args(a))
+        table1.build(meta, rows, load_declaration(decl), os.path.join(a.results, "busy"))
     finally:
         os.getloadavg = real
     with open(os.path.join(a.results, "busy", "table2.md")) as f:

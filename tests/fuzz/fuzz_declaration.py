@@ -1,4 +1,4 @@
-"""Mutation fuzzer for the experiment-declaration validator (experiments/voxlab_runner.py's
+"""Mutation fuzzer for the experiment-declaration validator (experiments/voxlab_exp/schema.py's
 load_declaration, which every `make table1/pareto/figures/regress` starts with).
 
 Seeds are the shipped declarations (experiments/*.json). Each round mutates one seed, structurally
@@ -29,7 +29,8 @@ import traceback
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.join(REPO, "experiments"))
-import voxlab_runner as vr  # noqa: E402
+from voxlab_exp.errors import VoxlabError  # noqa: E402
+from voxlab_exp.schema import load_declaration  # noqa: E402
 
 KEYS = ["name", "description", "seed", "truth_spp", "scenes", "runs", "truth_curve", "history", "timeout_s",
         "tolerances", "figure", "comment", "models", "res", "size", "spp", "rays", "cache", "shadow_skip",
@@ -115,11 +116,11 @@ def run_one(path, timeout):
     signal.signal(signal.SIGALRM, on_alarm)
     signal.setitimer(signal.ITIMER_REAL, timeout)
     try:
-        vr.load_declaration(path)
+        load_declaration(path)
         return None, "ok"
     except Timeout:
         return f"load_declaration ran past {timeout} s", "timeout"
-    except vr.VoxlabError as e:
+    except VoxlabError as e:
         msg = str(e)
         shown = os.path.basename(path)
         if shown not in msg:

@@ -4,6 +4,7 @@
 
 #include <math.h>
 #include <stdarg.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -42,6 +43,19 @@ static void json_double(const char *key, double v, const char *sep)
         printf("\"%s\":null%s", key, sep);
 }
 
+/* The metrics `--json` writes, in this order: the one list of them. The experiment scripts read it
+ * with `--list-metrics` (experiments/voxlab_exp/rows.py), so a metric added to image_metrics
+ * (metrics.c) and named here reaches their rows, history and baseline without another edit. */
+static const struct {
+    const char *key;
+    size_t offset;
+} metric_keys[] = {
+    {"mse", offsetof(image_metrics, mse)},
+    {"psnr", offsetof(image_metrics, psnr)},
+    {"ssim", offsetof(image_metrics, ssim)},
+};
+#define N_METRIC_KEYS (sizeof metric_keys / sizeof metric_keys[0])
+
 int cmd_compare(int argc, char **argv)
 {
     const char *paths[2] = {NULL, NULL}, *heatmap = NULL;
@@ -50,6 +64,10 @@ int cmd_compare(int argc, char **argv)
         const char *arg = argv[i];
         if (strcmp(arg, "--json") == 0) {
             json = 1;
+        } else if (strcmp(arg, "--list-metrics") == 0) { /* the keys --json writes, one a line */
+            for (size_t k = 0; k < N_METRIC_KEYS; k++)
+                puts(metric_keys[k].key);
+            return fflush(stdout) == 0 ? 0 : fail("cannot write to standard output");
         } else if (strcmp(arg, "--heatmap") == 0) {
             if (i + 1 >= argc)
                 return fail("--heatmap needs an output file name (e.g. --heatmap err.png)\n%s", usage);
@@ -100,9 +118,8 @@ int cmd_compare(int argc, char **argv)
     }
     if (json) {
         putchar('{');
-        json_double("mse", m.mse, ",");
-        json_double("psnr", m.psnr, ",");
-        json_double("ssim", m.ssim, ",");
+        for (size_t k = 0; k < N_METRIC_KEYS; k++)
+            json_double(metric_keys[k].key, *(const double *)((const char *)&m + metric_keys[k].offset), ",");
         printf("\"width\":%d,\"height\":%d}\n", a.width, a.height);
     } else {
         printf("%s vs %s: %dx%d, %d channel%s%s\n", paths[0], paths[1], a.width, a.height, a.channels,

@@ -1,0 +1,270 @@
+"""Rows: a loaded declaration becomes jobs on the scheduler, and their outputs become one row per
+configuration, written to <results>/<name>/rows.csv and rows.json.
+
+Exists to define what a row holds (ROW_FIELDS) and how it is computed from the jobs' stats, timings
+and `voxlab compare --json` metrics. The metric columns are not listed here: they are the keys
+`voxlab compare --json` writes, which voxlab lists with `voxlab compare --list-metrics` (one table in
+voxlab's cmd_compare.c), so adding a metric there adds its column to the rows, the history and the
+baseline.
+"""
+import os
+import sys
+import time
+
+from .config import DEFAULT_RESULTS, REPO
+from .files import load_json, rel, write_csv, write_json
+from .hashing import canonical
+from .provenance import git_info, machine_info, now_iso
+from .report import fmt_duration
+from .scheduler import TIMING_FIELD, Sweep
+from .schema import expand_configs
+from .scenes import write_variant
+
+# The columns before and after the metric columns (mse, psnr, ssim, ...: see row_fields).
+ROW_FIELDS_HEAD = ["experiment", "scene", "base_scene", "variant", "kind", "model", "res", "width", "height", "spp",
+                   "rays", "cache", "shadow_skip", "seed", "truth_spp", "status", "error"]
+ROW_FIELDS_TAIL = ["render_s", "render_ms", "render_ms_min", "render_ms_spread", "repeats", "bake_s", "bake_s_min",
+                   "bake_s_spread", "truth_s_min", "truth_s_spread", "load", "loaded", "bytes_per_voxel", "voxels",
+                   "model_bytes", "grid_bytes", "mb", "peak_rss_bytes", "cache_hits", "model_evals", "triangles",
+                   "truth_s", "image", "preview", "truth_image", "truth_preview", "computed", "jobs_cached"]
+
+
+def row_fields(metrics):
+    """rows.csv's columns for a run whose `voxlab compare --json` writes `metrics` (in its order)."""
+    return ROW_FIELDS_HEAD + list(metrics) + ROW_FIELDS_TAIL
+
+
+def row_key(r):
+    """What identifies a configuration across runs (baseline, history)."""
+    return "/".join(str(x) for x in (r["scene"], r["model"], f"r{r['res']}", f"{r['width']}x{r['height']}",
+                                     f"spp{r['spp']}", f"k{r['rays']}", "cache" if r["cache"] else "nocache",
+                                     f"truth{r['truth_spp']}", f"seed{r['seed']}"))
+
+
+def wanted_all(wanted):
+    """The jobs `wanted` and everything they depend on, once each."""
+    out, seen, todo = [], set(), list(wanted)
+    while todo:
+        j = todo.pop()
+        if j.key not in seen:
+            seen.add(j.key)
+            out.append(j)
+            todo += j.deps
+    return out
+
+
+def _load_summary(jobs):
+    loads = [j.record["load_average"] for j in jobs if j.record and "load_average" in j.record]
+    return {"mean": sum(loads) / len(loads) if loads else None, "max": max(loads) if loads else None,
+            "jobs": len(loads), "unrecorded": len(jobs) - len(loads)}
+
+
+def timing_columns(job, name, scale):
+    """`name` (the median of the job's timed runs, scaled: 1000 for ms), `name`_min and `name`_spread
+    (max - min), and render_s beside render_ms; None where the job has no timing."""
+    t = job.timing() if job is not None else None
+    if t is None:  # an entry from before repeats were recorded: its one time, no spread
+        st = {}
+        try:
+            st = load_json(job.path("stats.json"))
+        except (OSError, ValueError, TypeError, AttributeError):
+            pass
+        v = st.get(TIMING_FIELD.get(getattr(job, "kind", ""), ""))
+        t = {"median": v, "min": v, "spread": None, "runs": [v]} if v is not None else None
+    med = t["median"] * scale if t else None
+    out = {name: med, f"{name}_min": t["min"] * scale if t else None,
+           f"{name}_spread": t["spread"] * scale if t and t["spread"] is not None else None}
+    if name == "render_ms":
+        out["render_s"] = t["median"] if t else None
+        out["repeats"] = len(t["runs"]) if t else None
+    return out
+
+
+def load_columns(*jobs):
+    """The highest 1-minute load average seen while the row's timed jobs ran, and whether any of them
+    ran under a load above its machine's cores (its times are then inflated)."""
+    recs = [j.record for j in jobs if j is not None and j.record and j.timed]
+    loads = [max(r.get("load_average") or 0, r.get("load_after") or 0) for r in recs if "load_average" in r]
+    return {"load": max(loads) if loads else None,
+            "loaded": int(any(r.get("loaded") for r in recs)) if recs else None}
+
+
+def run_experiment(decl, results=DEFAULT_RESULTS, cache_dir=None, voxlab=None, jobs=2, fresh=False, out_dir=None,
+                   sweep=None, executor="local", scheduler=None, slurm_args="", repeats=None):
+    """Runs a loaded declaration; writes <results>/<name>/rows.csv and rows.json; returns (meta, rows).
+
+    Row paths are relative to `results`. Nothing is appended to results/history.csv here: `make
+    dashboard` records the history (dashboard.py --record-history), one row per commit and job."""
+    results = os.path.abspath(results)
+    cache_dir = os.path.abspath(cache_dir or os.path.join(results, "cache"))
+    out_dir = os.path.abspath(out_dir or os.path.join(results, decl["name"]))
+    started, date = time.monotonic(), now_iso()
+    own = sweep is None
+    sw = sweep or Sweep(voxlab or os.path.join(REPO, "build", "voxlab"), cache_dir, jobs=jobs, fresh=fresh,
+                        name=decl["name"], timeout=decl["timeout_s"], executor=executor, scheduler=scheduler,
+                        slurm_args=slurm_args, repeats=repeats)
+    try:
+        return _run_experiment(decl, sw, results, cache_dir, out_dir, started, date)
+    finally:
+        if own:
+            sw.close()
+
+
+def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
+    sw.name = decl["name"]
+    model_names = [m["name"] for m in sw.models]
+    seed, truth_spp = decl["seed"], decl["truth_spp"]
+
+    # Scene variants are written into the cache (named by content) before anything hashes them.
+    for s in decl["scenes"]:
+        if s["path"] is None:
+            s["path"] = write_variant(s["base"], s["name"], s["set"], os.path.join(cache_dir, "scenes"))
+    scenes = {s["name"]: s for s in decl["scenes"]}
+
+    def scene_size(s):
+        try:
+            v = load_json(s["path"]).get("size")
+            return [int(v[0]), int(v[1])]
+        except Exception:
+            return [256, 256]  # voxlab's problem; the truth job will report it
+
+    def size_of(size, res, s):
+        return [res, res] if size == "res" else scene_size(s) if size == "scene" else size
+
+    plan = []  # (config, truth, bake, render, compare) or (config, None...) for unknown models
+    for cfg in expand_configs(decl, model_names):
+        s = scenes[cfg["scene"]]
+        size = size_of(cfg["size"], cfg["res"], s)
+        cfg["width"], cfg["height"] = size
+        if cfg["model"] not in model_names:
+            plan.append((cfg, None, None, None, None))
+            continue
+        t = sw.truth(s["path"], s["name"], size, truth_spp, seed)
+        b = sw.bake(s["path"], s["name"], cfg["model"], cfg["res"], cfg["rays"], seed)
+        r = sw.render(b, s["path"], s["name"], size, cfg["spp"], seed, cfg["cache"], cfg["shadow_skip"])
+        plan.append((cfg, t, b, r, sw.compare(t, r)))
+    curve = []
+    tc = decl["truth_curve"]
+    if tc:
+        for sc in tc["scenes"]:
+            s = scenes[sc]
+            size = scene_size(s) if tc["size"] == "scene" else tc["size"]
+            ref = sw.truth(s["path"], s["name"], size, truth_spp, seed)
+            for spp in tc["spp"]:
+                t = sw.truth(s["path"], s["name"], size, spp, tc["seed"])
+                curve.append((s, size, spp, ref, t, sw.compare(ref, t)))
+    wanted = [j for p in plan for j in p[1:] if j] + [j for c in curve for j in c[3:]]
+    # Timed jobs repeat their voxlab run R times (declared; --repeats overrides); bakes are a one-off
+    # precomputation and repeat bake_repeats times.
+    for j in wanted + [d for j in wanted for d in j.deps]:
+        if j.timed:
+            r = sw.repeats_override or (decl["bake_repeats"] if j.kind == "bake" else decl["repeats"])
+            j.repeats = max(j.repeats, r) if j.status == "pending" else j.repeats
+    counts = sw.run(wanted)
+
+    def stats(job, name="stats.json"):
+        try:
+            return load_json(job.path(name))
+        except (OSError, ValueError):
+            return {}
+
+    def first_failure(*jobs):
+        for j in jobs:
+            if j.status in ("failed", "skipped"):
+                return j.error or f"{j.kind} failed"
+        return None
+
+    def base_row(s, cfg_like):
+        return {"experiment": decl["name"], "scene": s["name"], "base_scene": s.get("base_name") or s["name"],
+                "variant": canonical(s["vary"]) if s["vary"] else "", "seed": seed, "truth_spp": truth_spp,
+                **cfg_like}
+
+    def metric_columns(ms):
+        # Every metric voxlab lists, None where the compare did not write it.
+        return {m: ms.get(m) for m in sw.metrics}
+
+    rows = []
+    for cfg, t, b, r, c in plan:
+        s = scenes[cfg["scene"]]
+        row = base_row(s, {"kind": "model", "model": cfg["model"], "res": cfg["res"], "width": cfg["width"],
+                           "height": cfg["height"], "spp": cfg["spp"], "rays": cfg["rays"], "cache": cfg["cache"],
+                           "shadow_skip": cfg["shadow_skip"]})
+        if t is None:
+            row.update(status="failed", error=f"model {cfg['model']} is not registered in this voxlab "
+                                              f"(voxlab models: {', '.join(model_names)})")
+            rows.append(row)
+            continue
+        err = first_failure(t, b, r, c)
+        ts = stats(t) if t.status in ("ok", "cached") else {}
+        row.update(triangles=ts.get("triangles"), **timing_columns(t, "truth_s", 1.0),
+                   truth_image=rel(t.path("image.exr"), results), truth_preview=rel(t.path("image.png"), results))
+        if err:
+            row.update(status="failed", error=err)
+            rows.append(row)
+            continue
+        rs, ms = stats(r), stats(c, "metrics.json")
+        row.update(
+            status="ok", error="", **metric_columns(ms),
+            **timing_columns(r, "render_ms", 1000.0), **timing_columns(b, "bake_s", 1.0),
+            **load_columns(t, b, r), bytes_per_voxel=rs.get("bytes_per_voxel"), voxels=rs.get("voxels"),
+            model_bytes=rs.get("model_bytes"), grid_bytes=rs.get("grid_bytes"),
+            mb=(rs["model_bytes"] + rs["grid_bytes"]) / 1e6 if "model_bytes" in rs and "grid_bytes" in rs else None,
+            peak_rss_bytes=rs.get("peak_rss_bytes"), cache_hits=rs.get("cache_hits"),
+            model_evals=rs.get("model_evals"), triangles=rs.get("triangles", row["triangles"]),
+            image=rel(r.path("image.exr"), results), preview=rel(r.path("image.png"), results),
+            computed=(r.record or {}).get("date"),
+            jobs_cached=sum(j.status == "cached" for j in (b, r, c)))
+        rows.append(row)
+    base_rss = sw.baseline_memory() if curve else 0
+    for s, size, spp, ref, t, c in curve:
+        row = base_row(s, {"kind": "truth", "model": "truth", "res": 0, "width": size[0], "height": size[1],
+                           "spp": spp, "rays": 0, "cache": True, "shadow_skip": True})
+        err = first_failure(ref, t, c)
+        if err:
+            row.update(status="failed", error=err)
+            rows.append(row)
+            continue
+        ts, ms = stats(t), stats(c, "metrics.json")
+        rss = (t.record or {}).get("peak_rss_bytes")
+        row.update(status="ok", error="", seed=decl["truth_curve"]["seed"], **metric_columns(ms),
+                   **timing_columns(t, "render_ms", 1000.0), **load_columns(t), bake_s=0.0,
+                   triangles=ts.get("triangles"), peak_rss_bytes=rss,
+                   # Triangles' memory: voxlab reports mesh_bytes when it can, else peak RSS minus a
+                   # process that loads no scene (mesh + BVH + framebuffer: an overestimate).
+                   mb=(ts["mesh_bytes"] / 1e6 if "mesh_bytes" in ts else
+                       max(0, rss - base_rss) / 1e6 if rss else None),
+                   image=rel(t.path("image.exr"), results), preview=rel(t.path("image.png"), results),
+                   truth_image=rel(ref.path("image.exr"), results),
+                   truth_preview=rel(ref.path("image.png"), results), computed=(t.record or {}).get("date"),
+                   jobs_cached=sum(j.status == "cached" for j in (t, c)))
+        rows.append(row)
+
+    cached_dates = sorted(j.record["date"] for j in sw.all.values() if j.status == "cached" and j.record)
+    meta = {
+        "experiment": decl["name"], "declaration": decl["shown"], "description": decl["description"],
+        "settings": decl["raw"], "date": date, "finished": now_iso(),
+        "elapsed_s": time.monotonic() - started, "machine": machine_info(), "git": git_info(),
+        "voxlab_sha256": sw.voxlab_sha256, "voxlab_source": sw.source, "models": sw.models, "jobs": sw.jobs, "threads": sw.threads,
+        "metrics": list(sw.metrics), "counts": counts, "oldest_cached": cached_dates[0] if cached_dates else None,
+        "failed_rows": sum(r["status"] != "ok" for r in rows), "results_root": results,
+        # Other processes on the machine slow the timed jobs down: say how busy it was when the
+        # jobs behind these rows ran (recorded per job, so cached jobs keep their own).
+        "load_average": _load_summary([j for j in sw.all.values() if j.kind in ("bake", "render", "truth")]),
+        "executor": sw.executor_name, "repeats": sw.repeats_override or decl["repeats"],
+        "bake_repeats": sw.repeats_override or decl["bake_repeats"],
+        "invalidated": [x for x in sw.invalidated if x["kind"]],
+        # Timed jobs measured while the machine's load exceeded its cores: their times are inflated.
+        "loaded_jobs": sorted(f"{j.kind} {j.label} (load {max(j.record.get('load_average') or 0, j.record.get('load_after') or 0):.1f}"
+                              f" on {j.record.get('cores')} cores)" for j in wanted_all(wanted)
+                              if j.timed and j.record and j.record.get("loaded")),
+    }
+    os.makedirs(out_dir, exist_ok=True)
+    write_csv(os.path.join(out_dir, "rows.csv"), rows, row_fields(sw.metrics))
+    write_json(os.path.join(out_dir, "rows.json"), {"meta": meta, "rows": rows})
+    bad = [r for r in rows if r["status"] != "ok"]
+    print(f"{decl['name']}: {len(rows)} row(s), {len(bad)} failed; {counts['ran']} job(s) ran, {counts['cached']} "
+          f"cached, in {fmt_duration(meta['elapsed_s'])}; wrote {rel(out_dir, REPO)}/rows.csv", file=sys.stderr,
+          flush=True)
+    for r in bad:
+        print(f"{decl['name']}:   failed: {r['scene']} {r['model']} {r['res']}^3: {r['error']}", file=sys.stderr)
+    return meta, rows

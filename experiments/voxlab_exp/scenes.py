@@ -1,0 +1,120 @@
+"""Scenes: finding a scene file, fingerprinting what its images depend on, writing variants.
+
+Exists because cache keys must follow a scene's content (and the files it references), not its
+path, and declarations make scene variants (fields replaced) that are written into the cache.
+"""
+import hashlib
+import json
+import os
+
+from .config import REPO
+from .errors import VoxlabError
+from .files import write_text
+from .hashing import file_sha256, sha256_of
+
+
+
+def resolve_scene(arg, base_dir=None):
+    """A scene name (scenes/<name>.json) or a path to a scene file (relative to base_dir, then cwd)."""
+    for cand in ([os.path.join(base_dir, arg)] if base_dir and not os.path.isabs(arg) else []) + [arg]:
+        if os.path.exists(cand) and os.path.isfile(cand):
+            return os.path.abspath(cand)
+    path = os.path.join(REPO, "scenes", arg + ".json")
+    if os.path.exists(path):
+        return path
+    raise VoxlabError(f"--scene {arg}: no such file, and no scenes/{arg}.json")
+
+
+def _scene_file_refs(scene):
+    """Yields (container, key) for every file path a scene references (PLY/glTF meshes, textures)."""
+    objs = scene.get("objects") if isinstance(scene, dict) else None
+    for o in objs if isinstance(objs, list) else []:
+        if isinstance(o, dict):
+            for k in ("ply", "gltf"):
+                if isinstance(o.get(k), str):
+                    yield o, k
+    mats = scene.get("materials") if isinstance(scene, dict) else None
+    for m in mats.values() if isinstance(mats, dict) else []:
+        if isinstance(m, dict) and isinstance(m.get("texture"), str):
+            yield m, "texture"
+
+
+def _referenced_fingerprint(path):
+    """Content hash of a referenced file; for a .gltf also of the buffers and images it names."""
+    if not os.path.isfile(path):
+        return "missing"
+    h = file_sha256(path)
+    if path.lower().endswith(".gltf"):
+        try:
+            with open(path) as f:
+                g = json.load(f)
+            extra = []
+            for item in (g.get("buffers") or []) + (g.get("images") or []):
+                uri = item.get("uri") if isinstance(item, dict) else None
+                if isinstance(uri, str) and not uri.startswith("data:"):
+                    p = os.path.join(os.path.dirname(path), uri)
+                    extra.append(file_sha256(p) if os.path.isfile(p) else "missing:" + uri)
+            h = sha256_of([h, extra])
+        except (OSError, ValueError, AttributeError):
+            pass
+    return h
+
+
+# The fields of a scene that the voxel bake never reads: the grid covers the triangles' bounds and the
+# bake sampler's rays start outside them (tracer/bake/bake.c), and voxlab's own scene identity, which a
+# .vox file must match, also leaves them out. Variants that differ only here (another camera, another
+# background) share one bake.
+BAKE_IRRELEVANT = ("camera", "size", "background", "description", "name")
+
+
+def scene_fingerprint(path, for_bake=False):
+    """sha256 of what a scene's images depend on: its JSON with each referenced file replaced by that
+    file's content hash (so a variant with absolute paths hashes like its base, and an edited mesh
+    changes the hash); for_bake drops the fields the bake ignores. An unparseable file hashes as its
+    bytes (voxlab will report the problem when a job reads it)."""
+    try:
+        with open(path) as f:
+            scene = json.load(f)
+    except (OSError, ValueError):
+        return file_sha256(path) if os.path.isfile(path) else "missing"
+    if not isinstance(scene, dict):
+        return file_sha256(path)
+    base = os.path.dirname(os.path.abspath(path))
+    for container, key in _scene_file_refs(scene):
+        container[key] = "sha256:" + _referenced_fingerprint(os.path.join(base, container[key]))
+    if for_bake:
+        for k in BAKE_IRRELEVANT:
+            scene.pop(k, None)
+    return sha256_of(scene)
+
+
+def _set_dotted(obj, dotted, value, where):
+    keys = dotted.split(".")
+    for k in keys[:-1]:
+        if not isinstance(obj.get(k), dict):
+            obj[k] = {}
+        obj = obj[k]
+    if value is None:
+        obj.pop(keys[-1], None)
+    else:
+        obj[keys[-1]] = value
+
+
+def write_variant(base_path, name, settings, out_dir):
+    """Writes base_path with settings ({"camera.orbit.elevation_deg": 30, ...}; None deletes) applied
+    into out_dir (named by its content, so concurrent runs write the same file) and returns its path.
+    Relative file references are made absolute: paths in a scene are relative to the scene file."""
+    with open(base_path) as f:
+        scene = json.load(f)
+    base = os.path.dirname(os.path.abspath(base_path))
+    for container, key in _scene_file_refs(scene):
+        container[key] = os.path.normpath(os.path.join(base, container[key]))
+    for dotted, value in settings.items():
+        _set_dotted(scene, dotted, value, name)
+    scene["name"] = name
+    text = json.dumps(scene, indent=1) + "\n"
+    os.makedirs(out_dir, exist_ok=True)
+    path = os.path.join(out_dir, f"{name}-{hashlib.sha256(text.encode()).hexdigest()[:12]}.json")
+    if not os.path.exists(path):
+        write_text(path, text)
+    return path
