@@ -22,8 +22,10 @@ from testlib import REPO, TMP, VOXLAB, finish, read_image, report, voxlab  # noq
 import numpy as np  # noqa: E402
 
 BUILD = os.path.join(REPO, os.environ.get("BUILD", "build"))
-# The scratch tree's build: the copied objects' flavour (make test-asan runs this file with build-asan).
-MAKE_ARGS = ["BUILD=build"] + (["SANITIZE=1"] if "asan" in os.path.basename(BUILD) else [])
+# The scratch tree's build folder has the same name as ours (the copied dependency files name their
+# targets by it) and the same flavour (make test-asan runs this file with build-asan).
+BDIR = os.path.basename(BUILD)
+MAKE_ARGS = ["BUILD=" + BDIR] + (["SANITIZE=1"] if "asan" in BDIR else [])
 SPHERES = os.path.join(REPO, "scenes", "spheres.json")
 SMALL = ["--size", "24x16", "--spp", "2"]
 
@@ -42,7 +44,7 @@ def new_model():
                         ignore=shutil.ignore_patterns("__pycache__"))
     shutil.copy2(os.path.join(REPO, "Makefile"), root)
     # The built tree, times kept: only the new model, the registry and the embedded sources rebuild.
-    shutil.copytree(BUILD, os.path.join(root, "build"), symlinks=True,
+    shutil.copytree(BUILD, os.path.join(root, BDIR), symlinks=True,
                     ignore=shutil.ignore_patterns("tests", "fuzz", "pocl-cache", "*.log"))
     os.makedirs(os.path.join(root, "models", "toy"))
     for src, dst in (("binary.c", "toy.c"), ("binary_eval.h", "toy_eval.h")):
@@ -52,11 +54,11 @@ def new_model():
             f.write(text)
     with open(os.path.join(root, "models", "registry.def"), "a") as f:
         f.write("VX_MODEL(toy)\n")
-    p = run(["make", "-s", "-j2", "build/voxlab", *MAKE_ARGS], cwd=root)
+    p = run(["make", "-s", "-j2", BDIR + "/voxlab", *MAKE_ARGS], cwd=root)
     report("a new model folder + one registry line builds with no other edit", p.returncode == 0, p.stderr[-2000:])
     if p.returncode:
         return
-    exe = os.path.join(root, "build", "voxlab")
+    exe = os.path.join(root, BDIR, "voxlab")
     listed = [line.split()[0] for line in run([exe, "models"]).stdout.splitlines() if line.strip()]
     report("the new model is listed", "toy" in listed, str(listed))
     images = {}
@@ -96,7 +98,7 @@ def embedded_kernels():
     # An edit of a .cl file after the build changes nothing until make: the scratch tree's binary
     # (built above) renders the same after its render.cl is broken.
     root = os.path.join(TMP, "tree")
-    tree_exe = os.path.join(root, "build", "voxlab")
+    tree_exe = os.path.join(root, BDIR, "voxlab")
     cl = os.path.join(root, "tracer", "backends", "opencl", "cl", "render.cl")
     if os.path.exists(tree_exe) and os.path.exists(cl):
         with open(cl, "a") as f:
@@ -106,7 +108,7 @@ def embedded_kernels():
                  "--backend", "opencl", "-o", out])
         report("a .cl edit after the build changes nothing until make", p.returncode == 0 and
                np.array_equal(read_image(out), read_image(outs["in_tree"])), p.stderr[-800:])
-        p = run(["make", "-s", "build/voxlab", *MAKE_ARGS], cwd=root)
+        p = run(["make", "-s", BDIR + "/voxlab", *MAKE_ARGS], cwd=root)
         p = run([tree_exe, "render", SPHERES, "--model", "alpha", "--res", "16", "--rays", "16", *SMALL,
                  "--backend", "opencl", "-o", os.path.join(TMP, "edited_cl_made.exr")])
         report("... and after make the edited kernel is the one built (here: refused, with the build log)",
