@@ -12,13 +12,14 @@
 #include "image.h"
 #include "metrics.h"
 
-#define COMPARE_SYNOPSIS "voxlab compare A B [--json] [--heatmap OUT.png]"
+#define COMPARE_SYNOPSIS "voxlab compare A B [--json] [--heatmap OUT.png] | voxlab compare --list-metrics"
 static const char usage[] = "usage: " COMPARE_SYNOPSIS;
 
 const cli_command cmd_compare_help = {
     "compare", COMPARE_SYNOPSIS,
-    "Compares image B with reference A (EXR, PNG, PFM): MSE, RMSE, PSNR and SSIM (scikit-image's definition).",
+    "Compares image B with reference A (EXR, PNG, PFM): MSE, PSNR and SSIM (scikit-image's definition).",
     (const cli_option[]){{"--json", NULL, NULL, "print one JSON object (doubles round-trip exactly)"},
+                         {"--list-metrics", NULL, NULL, "print the metric keys --json writes, one a line, and stop"},
                          {"--heatmap", "OUT.png", "none", "write the per-pixel error as a heat map"},
                          {0}}};
 
