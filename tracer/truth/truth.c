@@ -23,12 +23,13 @@ typedef struct {
     int lens_a; /* multiplier of the lens strata permutation, coprime to the strata count */
 } truth_job;
 
-/* One pixel's running sums, kept per packet lane so the shading loops add lane by lane without a
- * float reduction (which the compiler may not vectorise without reordering); summed once at the
- * end in a fixed order. Misses are counted and the background added once. */
+/* Running sums kept per packet lane, so the shading loops add lane by lane without a float
+ * reduction (which the compiler may not vectorise without reordering); a pixel's are summed once at
+ * the end over its own lanes in lane order. Misses are counted per lane and the background added
+ * once per pixel. */
 typedef struct {
     float r[PACKET], g[PACKET], b[PACKET];
-    int misses;
+    int misses[PACKET];
 } pixel_sums;
 
 /* The surfaces a packet hit, as a structure of arrays so the per-light loops run over all lanes
@@ -69,7 +70,7 @@ static void describe_surfaces(const truth_job *j, const struct RTCRayHit16 *rh, 
     memset(h, 0, sizeof *h);
     for (int k = 0; k < count; k++) {
         if (rh->hit.geomID[k] == RTC_INVALID_GEOMETRY_ID) {
-            sums->misses++;
+            sums->misses[k]++;
             continue;
         }
         vec3 org = v3(rh->ray.org_x[k], rh->ray.org_y[k], rh->ray.org_z[k]);
@@ -181,21 +182,17 @@ static void shade_light(const truth_job *j, const light *L, const struct RTCRayH
     }
 }
 
-/* Traces up to 16 samples of pixel (px, py) and adds their radiance to sums. lens_b: the pixel's
- * offset of the lens strata permutation. */
-static void trace_packet(const truth_job *j, int px, int py, int lens_b, int first, int count, rng *r,
-                         pixel_sums *sums, truth_counts *counts)
+/* Fills lanes [lane, lane + count) of rh with samples first.. of pixel (px, py), drawing them from
+ * the pixel's random stream r in sample order. lens_b: the pixel's offset of the lens strata
+ * permutation. */
+static void fill_lanes(const truth_job *j, struct RTCRayHit16 *rh, int lane, int count, int px, int py, int lens_b,
+                       int first, rng *r)
 {
     const scene *s = j->rt->scene;
     const truth_options *o = j->o;
     int strata_x = j->strata_x, strata_y = j->strata_y, m = strata_x * strata_y;
-    struct RTCRayHit16 rh;
-    int valid[PACKET] __attribute__((aligned(64)));
-    /* Every lane gets a ray, as in the raw Embree benchmark: lanes beyond count exist only in a
-     * pixel's last packet, so the random numbers they draw are never seen. The pinhole loop has
-     * no lens branch to take. */
     if (j->dof) {
-        for (int k = 0; k < PACKET; k++) {
+        for (int k = 0; k < count; k++) {
             float sx, sy, lu, lv;
             float r1 = rng_float(r), r2 = rng_float(r), r3 = rng_float(r), r4 = rng_float(r);
             int i = first + k;
@@ -204,32 +201,74 @@ static void trace_packet(const truth_job *j, int px, int py, int lens_b, int fir
                                 r4, &lu, &lv);
             vec3 org, dir;
             camera_ray(&s->camera, o->width, o->height, (float)px + sx, (float)py + sy, lu, lv, 1, &org, &dir);
-            rt_packet_rayhit(&rh, k, org, dir, 0.0f, INFINITY);
+            rt_packet_rayhit(rh, lane + k, org, dir, 0.0f, INFINITY);
         }
     } else {
-        for (int k = 0; k < PACKET; k++) {
+        for (int k = 0; k < count; k++) {
             float sx, sy;
             float r1 = rng_float(r), r2 = rng_float(r);
             truth_strata_sample(first + k, strata_x, strata_y, r1, r2, &sx, &sy);
             vec3 org, dir;
             camera_ray(&s->camera, o->width, o->height, (float)px + sx, (float)py + sy, 0, 0, 0, &org, &dir);
-            rt_packet_rayhit(&rh, k, org, dir, 0.0f, INFINITY);
+            rt_packet_rayhit(rh, lane + k, org, dir, 0.0f, INFINITY);
         }
     }
+}
+
+/* Traces the first `count` lanes of rh (filled by fill_lanes; the rest are given a copy of lane 0
+ * and left invalid) and adds their radiance to sums, lane by lane. */
+static void trace_lanes(const truth_job *j, struct RTCRayHit16 *rh, int count, pixel_sums *sums,
+                        truth_counts *counts)
+{
+    const scene *s = j->rt->scene;
+    int valid[PACKET] __attribute__((aligned(64)));
+    for (int k = count; k < PACKET; k++)
+        rt_packet_rayhit(rh, k, v3(rh->ray.org_x[0], rh->ray.org_y[0], rh->ray.org_z[0]),
+                         v3(rh->ray.dir_x[0], rh->ray.dir_y[0], rh->ray.dir_z[0]), 0.0f, INFINITY);
     for (int k = 0; k < PACKET; k++)
         valid[k] = k < count ? -1 : 0;
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-    rtcIntersect16(valid, j->rt->bvh, &ctx, &rh);
+    rtcIntersect16(valid, j->rt->bvh, &ctx, rh);
     counts->primary_rays += (uint64_t)count;
 
     packet_surfaces h;
-    describe_surfaces(j, &rh, count, &h, sums);
+    describe_surfaces(j, rh, count, &h, sums);
     for (int li = 0; li < s->light_count; li++)
-        shade_light(j, &s->lights[li], &rh, &h, sums, counts);
+        shade_light(j, &s->lights[li], rh, &h, sums, counts);
 }
 
+/* A pixel's colour from its lanes [lane, lane + n) of sums: the background for its misses, then
+ * its lanes in order, over spp. */
+static void finish_pixel(const truth_job *j, const pixel_sums *sums, int lane, int n, int px, int py)
+{
+    const truth_options *o = j->o;
+    int misses = 0;
+    for (int k = lane; k < lane + n; k++)
+        misses += sums->misses[k];
+    vec3 sum = v3_scale(j->rt->scene->background, (float)misses);
+    for (int k = lane; k < lane + n; k++)
+        sum = v3_add(sum, v3(sums->r[k], sums->g[k], sums->b[k]));
+    float *dst = &j->out->data[3 * ((size_t)py * (size_t)o->width + (size_t)px)];
+    dst[0] = sum.x / (float)o->spp;
+    dst[1] = sum.y / (float)o->spp;
+    dst[2] = sum.z / (float)o->spp;
+}
+
+/* The lens strata's offset for pixel (px, py): the lens is stratified too, with its strata visited
+ * in a different order than the pixel's (an affine permutation i -> (a i + b) mod m with a coprime
+ * to m and b per pixel), so pixel and lens positions stay decorrelated. */
+static int lens_offset(const truth_job *j, int px, int py)
+{
+    int m = j->strata_x * j->strata_y;
+    return j->dof ? (int)(rng_mix64((uint64_t)py * 0x9e3779b97f4a7c15ULL + (uint64_t)px) % (uint64_t)m) : 0;
+}
+
+/* One row. From 16 samples per pixel up, a pixel's samples fill whole packets; below, a packet
+ * holds the samples of several neighbouring pixels (16 / spp of them), so that no lane idles (at 4
+ * spp one pixel per packet left 12 of 16 lanes empty). Each pixel's rays, random numbers and sums
+ * are its own whichever packet carries them: the image is the same either way. */
 static void render_row(void *p, int64_t row, int thread)
 {
     truth_job *j = p;
@@ -237,27 +276,34 @@ static void render_row(void *p, int64_t row, int thread)
     /* Counted here and added to the thread's total once per row: the threads' totals share a
      * cache line, and updating them per packet made the cores pass it back and forth. */
     truth_counts counts = {0};
-    vec3 background = j->rt->scene->background;
-    int py = (int)row, m = j->strata_x * j->strata_y;
-    for (int px = 0; px < o->width; px++) {
-        rng r = rng_seed(o->seed, (uint64_t)py * (uint64_t)o->width + (uint64_t)px);
-        /* The lens is stratified too, with its strata visited in a different order than the
-         * pixel's (an affine permutation i -> (a i + b) mod m with a coprime to m and b per pixel),
-         * so pixel and lens positions stay decorrelated. */
-        int lens_b = j->dof ? (int)(rng_mix64((uint64_t)py * 0x9e3779b97f4a7c15ULL + (uint64_t)px) % (uint64_t)m) : 0;
-        pixel_sums sums;
-        memset(&sums, 0, sizeof sums);
-        for (int first = 0; first < o->spp; first += PACKET) {
-            int n = o->spp - first < PACKET ? o->spp - first : PACKET;
-            trace_packet(j, px, py, lens_b, first, n, &r, &sums, &counts);
+    int py = (int)row;
+    struct RTCRayHit16 rh;
+    pixel_sums sums;
+    if (o->spp >= PACKET) {
+        for (int px = 0; px < o->width; px++) {
+            rng r = rng_seed(o->seed, (uint64_t)py * (uint64_t)o->width + (uint64_t)px);
+            int lens_b = lens_offset(j, px, py);
+            memset(&sums, 0, sizeof sums);
+            for (int first = 0; first < o->spp; first += PACKET) {
+                int n = o->spp - first < PACKET ? o->spp - first : PACKET;
+                fill_lanes(j, &rh, 0, n, px, py, lens_b, first, &r);
+                trace_lanes(j, &rh, n, &sums, &counts);
+            }
+            finish_pixel(j, &sums, 0, PACKET, px, py);
         }
-        vec3 sum = v3_scale(background, (float)sums.misses);
-        for (int k = 0; k < PACKET; k++)
-            sum = v3_add(sum, v3(sums.r[k], sums.g[k], sums.b[k]));
-        float *dst = &j->out->data[3 * ((size_t)py * (size_t)o->width + (size_t)px)];
-        dst[0] = sum.x / (float)o->spp;
-        dst[1] = sum.y / (float)o->spp;
-        dst[2] = sum.z / (float)o->spp;
+    } else {
+        int per_packet = PACKET / o->spp;
+        for (int px0 = 0; px0 < o->width; px0 += per_packet) {
+            int pixels = o->width - px0 < per_packet ? o->width - px0 : per_packet;
+            memset(&sums, 0, sizeof sums);
+            for (int i = 0; i < pixels; i++) {
+                rng r = rng_seed(o->seed, (uint64_t)py * (uint64_t)o->width + (uint64_t)(px0 + i));
+                fill_lanes(j, &rh, i * o->spp, o->spp, px0 + i, py, lens_offset(j, px0 + i, py), 0, &r);
+            }
+            trace_lanes(j, &rh, pixels * o->spp, &sums, &counts);
+            for (int i = 0; i < pixels; i++)
+                finish_pixel(j, &sums, i * o->spp, o->spp, px0 + i, py);
+        }
     }
     j->per_thread[thread].primary_rays += counts.primary_rays;
     j->per_thread[thread].shadow_rays += counts.shadow_rays;
