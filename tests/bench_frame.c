@@ -1,0 +1,189 @@
+/* Frame-time benchmark (issue 15's figures), each a ratio against a reference measured in the same
+ * run, medians of RUNS interleaved renders, the machine's load average printed beside them:
+ *  (a) every model's frame time, bunny 256^3, 256x256, 4 spp (heitz-neyret: one cone per pixel),
+ *      against the 50 ms goal, and vmesh over alpha (goal <= 2);
+ *  (b) binary's frame time over the Embree truth's at 4 spp on the same image (goal <= 1);
+ *  (c) frame time growth per doubling of the grid (128^3 -> ... -> MAX^3) for each model, the image
+ *      fixed (goal <= 2 per doubling); the growth grids are baked with GROWTH_RAYS rays per voxel,
+ *      which changes the records a little, not the marching;
+ *  (d) binary's speed-up from 1 to 2 threads on city 256^3 (goal >= 1.8).
+ * usage: bench_frame [BUNNY_SCENE [CITY_SCENE [MAX_RES]]] */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bake.h"
+#include "bench.h"
+#include "parallel.h"
+#include "render.h"
+#include "truth.h"
+
+#define RUNS 5
+#define RAYS 150
+#define GROWTH_RAYS 16
+
+static int die(const char *what, const vx_err *e)
+{
+    fprintf(stderr, "bench_frame: %s: %s\n", what, e->msg);
+    return 1;
+}
+
+static double load_average(void)
+{
+    double l = -1;
+    FILE *f = fopen("/proc/loadavg", "r");
+    if (f) {
+        if (fscanf(f, "%lf", &l) != 1)
+            l = -1;
+        fclose(f);
+    }
+    return l;
+}
+
+typedef struct {
+    const vx_model *m;
+    voxel_grid g;
+    void *records;
+} baked;
+
+static int bake(const scene *s, const vx_model *m, int res, int rays, baked *b)
+{
+    vx_err e;
+    bake_options o = {.rays = rays, .seed = 1, .threads = 0, .progress = 0};
+    bake_counts c;
+    double gs;
+    b->m = m;
+    return bake_scene(s, m, res, &o, &b->g, &b->records, &c, &gs, &e) ? die("bake", &e) : 0;
+}
+
+static void unbake(baked *b)
+{
+    free(b->records);
+    grid_free(&b->g);
+}
+
+/* One frame of b at size x size, 4 spp; its seconds (render_counts.seconds: the render alone). */
+static double frame(const scene *s, const baked *b, int size, int threads)
+{
+    render_options o;
+    render_default_options(&o);
+    o.width = o.height = size;
+    o.threads = threads;
+    o.progress = 0;
+    image img;
+    render_counts c;
+    vx_err e;
+    if (render_image(s, &b->g, b->m, b->records, &o, &img, &c, &e)) {
+        die("render", &e);
+        exit(1);
+    }
+    image_free(&img);
+    return c.seconds;
+}
+
+static double truth_frame(const rt_scene *rt, int size)
+{
+    truth_options o = {.spp = 4, .seed = 1, .threads = 0, .progress = 0, .width = size, .height = size};
+    image img;
+    truth_counts c;
+    vx_err e;
+    if (truth_render(rt, &o, &img, &c, &e)) {
+        die("truth", &e);
+        exit(1);
+    }
+    image_free(&img);
+    return c.seconds;
+}
+
+int main(int argc, char **argv)
+{
+    const char *bunny_path = argc > 1 ? argv[1] : "scenes/bunny.json";
+    const char *city_path = argc > 2 ? argv[2] : "scenes/city.json";
+    int max_res = argc > 3 ? atoi(argv[3]) : 1024;
+    vx_err e;
+    scene bunny, city;
+    if (scene_load(bunny_path, &bunny, &e) || scene_load(city_path, &city, &e))
+        return die("scene", &e);
+    rt_scene rt;
+    if (rt_build(&rt, &bunny, &e))
+        return die("embree", &e);
+    const vx_model *const *all = model_all();
+    int n = 0;
+    while (all[n])
+        n++;
+    printf("bench_frame: %d threads, load average %.2f at the start\n", parallel_threads(0), load_average());
+
+    /* (a), (b) */
+    baked *b = calloc((size_t)n, sizeof *b);
+    for (int k = 0; k < n; k++)
+        if (bake(&bunny, all[k], 256, RAYS, &b[k]))
+            return 1;
+    double *t = calloc((size_t)(n + 1) * RUNS, sizeof *t), med[16];
+    for (int run = 0; run < RUNS; run++) {
+        for (int k = 0; k < n; k++)
+            t[k * RUNS + run] = frame(&bunny, &b[k], 256, 0);
+        t[n * RUNS + run] = truth_frame(&rt, 256);
+    }
+    for (int k = 0; k <= n && k < 16; k++)
+        med[k] = bench_median(&t[k * RUNS], RUNS);
+    printf("(a) frame time, bunny 256^3, 256x256, 4 spp (medians of %d), goal <= 50 ms:\n", RUNS);
+    int alpha = -1, vmesh = -1, binary = -1;
+    for (int k = 0; k < n; k++) {
+        printf("    %-14s %8.1f ms  %s\n", all[k]->name, 1e3 * med[k], med[k] <= 0.050 ? "ok" : "over");
+        alpha = strcmp(all[k]->name, "alpha") ? alpha : k;
+        vmesh = strcmp(all[k]->name, "vmesh") ? vmesh : k;
+        binary = strcmp(all[k]->name, "binary") ? binary : k;
+    }
+    if (alpha >= 0 && vmesh >= 0)
+        printf("    vmesh / alpha: %.2f (goal <= 2)\n", med[vmesh] / med[alpha]);
+    if (binary >= 0)
+        printf("(b) binary / truth at 4 spp, same image: %.2f (goal <= 1; truth %.1f ms)\n", med[binary] / med[n],
+               1e3 * med[n]);
+    for (int k = 0; k < n; k++)
+        unbake(&b[k]);
+
+    /* (c) */
+    printf("(c) frame time growth per doubling, bunny 256x256 (grids baked with %d rays):\n", GROWTH_RAYS);
+    for (int k = 0; k < n; k++) {
+        double prev = 0;
+        printf("    %-14s", all[k]->name);
+        for (int res = 128; res <= max_res; res *= 2) {
+            baked g;
+            if (bake(&bunny, all[k], res, GROWTH_RAYS, &g))
+                return 1;
+            double v[3];
+            for (int run = 0; run < 3; run++)
+                v[run] = frame(&bunny, &g, 256, 0);
+            double m = bench_median(v, 3);
+            if (prev > 0)
+                printf("  %d^3 x%.2f%s", res, m / prev, m / prev <= 2.0 ? "" : "!");
+            else
+                printf("  %d^3 %.1f ms", res, 1e3 * m);
+            prev = m;
+            unbake(&g);
+        }
+        printf("\n");
+    }
+
+    /* (d) */
+    const vx_model *bin = model_find("binary");
+    baked c;
+    if (bin && bake(&city, bin, 256, RAYS, &c) == 0) {
+        double one[RUNS], two[RUNS], ratio[RUNS];
+        for (int run = 0; run < RUNS; run++) {
+            one[run] = frame(&city, &c, 256, 1);
+            two[run] = frame(&city, &c, 256, 2);
+            ratio[run] = one[run] / two[run];
+        }
+        printf("(d) binary, city 256^3, 256x256: 1 thread %.1f ms, 2 threads %.1f ms, speed-up %.2f (goal >= 1.8)\n",
+               1e3 * bench_median(one, RUNS), 1e3 * bench_median(two, RUNS), bench_median(ratio, RUNS));
+        unbake(&c);
+    }
+    printf("bench_frame: load average %.2f at the end\n", load_average());
+    free(t);
+    free(b);
+    rt_free(&rt);
+    scene_free(&bunny);
+    scene_free(&city);
+    return 0;
+}
