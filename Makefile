@@ -82,8 +82,8 @@ $(VERSION_H): FORCE
 	@printf '#define VOXLAB_VERSION "%s"\n' "$(VERSION_TEXT)" >$@.tmp
 	@cmp -s $@.tmp $@ && rm -f $@.tmp || mv $@.tmp $@
 FORCE:
-$(BUILD)/tracer/cli/main.c.o: $(VERSION_H)
-$(BUILD)/tracer/cli/main.c.o: CFLAGS += -I$(BUILD)/gen
+$(BUILD)/tracer/cli/version.c.o: $(VERSION_H)
+$(BUILD)/tracer/cli/version.c.o: CFLAGS += -I$(BUILD)/gen
 
 $(EMBEDDED).o: $(EMBEDDED)
 	$(CC) $(CFLAGS) -c -o $@ $<

@@ -22,7 +22,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from testlib import REPO, TMP, VOXLAB, finish, report  # noqa: E402
+from testlib import REPO, TMP, VOXLAB, finish, read_image, report  # noqa: E402
 
 EXP = os.path.join(REPO, "experiments")
 PY = "/usr/bin/python3"
@@ -54,12 +54,12 @@ def rows(results):
 
 
 def images(results):
-    """sha256 of every image the rows name, by the row's column."""
+    """sha256 of every image's pixels the rows name, by the row's column (the pixels: an EXR's header
+    also holds its provenance, the command line with the job's own staging folder)."""
     out = {}
     for r in rows(results):
         for col in ("image", "truth_image"):
-            with open(os.path.join(results, r[col]), "rb") as f:
-                out[(r["model"], col)] = hashlib.sha256(f.read()).hexdigest()
+            out[(r["model"], col)] = hashlib.sha256(read_image(os.path.join(results, r[col])).tobytes()).hexdigest()
     return out
 
 
@@ -91,7 +91,7 @@ def check_same(name, local, other, executor):
     p_rows, o_rows = rows(local), rows(other)
     report(f"{name}: rows identical to the local executor's", p_rows == o_rows and len(p_rows) == 2,
            f"local {p_rows}\n{name} {o_rows}")
-    report(f"{name}: images identical (sha256)", images(local) == images(other), "")
+    report(f"{name}: images identical (sha256 of the pixels)", images(local) == images(other), "")
     recs = records(other)
     report(f"{name}: every job ran on the {executor} executor", len(recs) == 7 and
            all(r.get("executor") == executor for r in recs), str([(r["label"], r.get("executor")) for r in recs]))

@@ -2,10 +2,12 @@
  * for scripts and tests: one object, doubles printed with %.17g so they round-trip exactly. */
 #include "cmd_compare.h"
 
+#include <cjson/cJSON.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "cli.h"
@@ -56,6 +58,30 @@ static const struct {
     {"ssim", offsetof(image_metrics, ssim)},
 };
 #define N_METRIC_KEYS (sizeof metric_keys / sizeof metric_keys[0])
+
+/* "provenance": {"a": {...}, "b": {...}}, the voxlab attributes of each EXR's header (without the
+ * prefix), when either file has some; nothing otherwise. */
+static int print_provenance(const char *const paths[2], vx_err *e)
+{
+    image_meta meta[2];
+    if (image_read_meta(paths[0], &meta[0], e) || image_read_meta(paths[1], &meta[1], e))
+        return -1;
+    if (!meta[0].count && !meta[1].count)
+        return 0;
+    cJSON *p = cJSON_CreateObject();
+    for (int i = 0; i < 2; i++) {
+        cJSON *o = cJSON_AddObjectToObject(p, i ? "b" : "a");
+        for (int k = 0; k < meta[i].count; k++)
+            cJSON_AddStringToObject(o, meta[i].entry[k].key + strlen(IMAGE_META_PREFIX), meta[i].entry[k].value);
+    }
+    char *text = cJSON_PrintUnformatted(p);
+    cJSON_Delete(p);
+    if (!text)
+        return vx_fail(e, "out of memory for the provenance");
+    printf("\"provenance\":%s,", text);
+    free(text);
+    return 0;
+}
 
 int cmd_compare(int argc, char **argv)
 {
@@ -121,6 +147,10 @@ int cmd_compare(int argc, char **argv)
         putchar('{');
         for (size_t k = 0; k < N_METRIC_KEYS; k++)
             json_double(metric_keys[k].key, *(const double *)((const char *)&m + metric_keys[k].offset), ",");
+        if (print_provenance(paths, &e)) {
+            fail("%s", e.msg);
+            goto done;
+        }
         printf("\"width\":%d,\"height\":%d}\n", a.width, a.height);
     } else {
         printf("%s vs %s: %dx%d, %d channel%s%s\n", paths[0], paths[1], a.width, a.height, a.channels,

@@ -212,8 +212,21 @@ int cmd_render(int argc, char **argv)
         goto fail;
     }
     have_grid = 1;
-    if ((vox && backend->check(m, &o, &e)) || backend->render(&s, &g, m, records, &o, &img, &rcnt, &bcnt, &e) ||
-        image_write(&img, out_path, &e))
+    image_meta meta;
+    provenance_common(&meta, argc, argv, &s, o.width, o.height, o.spp, o.seed);
+    image_meta_add(&meta, "renderer", "%s backend", backend->name);
+    image_meta_add(&meta, "model", "%s", m->name);
+    image_meta_add(&meta, "res", "%d", g.n);
+    image_meta_add(&meta, "rays", "%d", bo.rays);
+    char params[256];
+    if (bake_params_format(m, &bo.params, params, sizeof params) == 0)
+        image_meta_add(&meta, "model_params", "%s", params);
+    if (vox)
+        image_meta_add(&meta, "vox", "%s", vox);
+    if ((vox && backend->check(m, &o, &e)) || backend->render(&s, &g, m, records, &o, &img, &rcnt, &bcnt, &e))
+        goto fail;
+    img.meta = &meta;
+    if (image_write(&img, out_path, &e))
         goto fail;
     if (stats_path) {
         cJSON *j = stats_scene_fields(&s);

@@ -100,7 +100,13 @@ int cmd_truth(int argc, char **argv)
     if (estimate_check(&est, &e) || rt_build(&rt, &s, &e))
         goto fail;
     truth_counts counts;
-    if (truth_render(&rt, &o, &img, &counts, &e) || image_write(&img, out_path, &e))
+    image_meta meta;
+    provenance_common(&meta, argc, argv, &s, o.width, o.height, o.spp, o.seed);
+    image_meta_add(&meta, "renderer", "truth (Embree)");
+    if (truth_render(&rt, &o, &img, &counts, &e))
+        goto fail;
+    img.meta = &meta;
+    if (image_write(&img, out_path, &e))
         goto fail;
     if (stats_path) {
         cJSON *j = stats_scene_fields(&s);

@@ -5,7 +5,6 @@
 
 #include "commands.h"
 #include "fileio.h"
-#include "version.h"
 
 static const struct {
     int (*run)(int, char **);
@@ -18,7 +17,7 @@ static const struct {
 
 static void usage(FILE *f)
 {
-    fprintf(f, "voxlab %s — voxel appearance models against an Embree ground truth\n\nusage:\n", VOXLAB_VERSION);
+    fprintf(f, "voxlab %s — voxel appearance models against an Embree ground truth\n\nusage:\n", voxlab_version());
     for (size_t i = 0; i < COMMANDS; i++)
         fprintf(f, "  %s\n", commands[i].help->synopsis);
     fprintf(f, "\ncommands:\n");
@@ -35,7 +34,7 @@ int main(int argc, char **argv)
         return argc < 2 ? 1 : 0;
     }
     if (strcmp(argv[1], "--version") == 0 || strcmp(argv[1], "version") == 0) {
-        printf("voxlab %s\n", VOXLAB_VERSION);
+        printf("voxlab %s\n", voxlab_version());
         return 0;
     }
     fileio_install_signal_cleanup(); /* no temporary file outlives Ctrl-C, SIGTERM or the file-size limit */

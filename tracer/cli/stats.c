@@ -7,6 +7,7 @@
 #include <string.h>
 #include <sys/resource.h>
 
+#include "commands.h"
 #include "fileio.h"
 #include "parallel.h"
 
@@ -76,4 +77,17 @@ void stats_add_backend(cJSON *j, const char *name, const backend_counts *bc)
     cJSON_AddStringToObject(j, key, bc->device);
     snprintf(key, sizeof key, "%s_compute_units", name);
     cJSON_AddNumberToObject(j, key, bc->compute_units);
+}
+
+void provenance_common(image_meta *m, int argc, char **argv, const scene *s, int width, int height, int spp,
+                       uint64_t seed)
+{
+    memset(m, 0, sizeof *m);
+    image_meta_add(m, "commit", "%s", voxlab_version());
+    image_meta_add_command(m, argc, argv);
+    image_meta_add(m, "scene", "%s", s->name);
+    image_meta_add(m, "scene_hash", "%016llx", (unsigned long long)s->identity);
+    image_meta_add(m, "size", "%dx%d", width, height);
+    image_meta_add(m, "spp", "%d", spp);
+    image_meta_add(m, "seed", "%llu", (unsigned long long)seed);
 }

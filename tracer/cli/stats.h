@@ -6,6 +6,7 @@
 #include <stdint.h>
 
 #include "backend.h"
+#include "image_meta.h"
 #include "bake.h"
 #include "scene.h"
 
@@ -24,5 +25,10 @@ void stats_add_bake(cJSON *j, const vx_model *m, const struct vx_bake_params *pa
  * NAME_device, NAME_compute_units. */
 void stats_add_backend(cJSON *j, const char *name, const backend_counts *bc);
 double peak_rss_bytes(void);
+
+/* The provenance every image a command writes carries (EXR header attributes): the build, the
+ * command line, the scene (name, identity hash), size, spp, seed. */
+void provenance_common(image_meta *m, int argc, char **argv, const scene *s, int width, int height, int spp,
+                       uint64_t seed);
 
 #endif

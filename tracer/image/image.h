@@ -3,10 +3,12 @@
 #define VX_IMAGE_H
 
 #include "error.h"
+#include "image_meta.h"
 
 typedef struct {
     int width, height, channels;
-    float *data; /* width * height * channels floats */
+    float *data;             /* width * height * channels floats */
+    const image_meta *meta;  /* provenance written with an EXR (NULL: none; not owned) */
 } image;
 
 #ifdef __cplusplus
@@ -33,6 +35,10 @@ int image_write_png(const image *img, const char *path, vx_err *e);
 /* Reads any format OpenImageIO knows, as float values as stored (no colour conversion); a regular
  * file only, of at most IMAGE_MAX_PIXELS pixels. */
 int image_read(const char *path, image *out, vx_err *e);
+
+/* The voxlab provenance attributes (IMAGE_META_PREFIX) of an EXR file's header; none (count 0)
+ * for another format or a file without them. -1 only when an EXR cannot be read. */
+int image_read_meta(const char *path, image_meta *out, vx_err *e);
 
 /* --- Pieces the writers share (image.c, image_exr.c, image_oiio.cpp); usable by tests. --- */
 

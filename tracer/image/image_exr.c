@@ -4,6 +4,7 @@
 #include <openexr.h>
 #include <stdio.h>
 #include <string.h>
+#include <strings.h>
 #include <unistd.h>
 
 #include "fileio.h"
@@ -57,6 +58,8 @@ static exr_result_t write_file(const image *img, const char *tmp, exr_capture *c
         rv = exr_add_channel(f, part, channel_name(nc, c), EXR_PIXEL_FLOAT,
                              alpha ? EXR_PERCEPTUALLY_LINEAR : EXR_PERCEPTUALLY_LOGARITHMIC, 1, 1);
     }
+    for (int k = 0; img->meta && k < img->meta->count && rv == EXR_ERR_SUCCESS; k++)
+        rv = exr_attr_set_string(f, part, img->meta->entry[k].key, img->meta->entry[k].value);
     if (rv == EXR_ERR_SUCCESS)
         rv = exr_write_header(f);
     if (rv == EXR_ERR_SUCCESS)
@@ -117,4 +120,38 @@ int image_write_exr(const image *img, const char *path, vx_err *e)
                        cap.msg[0] ? cap.msg : exr_get_default_error_message(rv));
     }
     return fileio_temp_commit(tmp, path, e);
+}
+
+int image_read_meta(const char *path, image_meta *out, vx_err *e)
+{
+    memset(out, 0, sizeof *out);
+    const char *dot = strrchr(path, '.');
+    if (!dot || strcasecmp(dot, ".exr") != 0)
+        return 0;
+    exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
+    init.error_handler_fn = capture_error;
+    exr_capture cap = {{0}};
+    current_capture = &cap;
+    exr_context_t f = NULL;
+    exr_result_t rv = exr_start_read(&f, path, &init);
+    int32_t count = 0;
+    if (rv == EXR_ERR_SUCCESS)
+        rv = exr_get_attribute_count(f, 0, &count);
+    for (int32_t i = 0; i < count && rv == EXR_ERR_SUCCESS && out->count < IMAGE_META_MAX; i++) {
+        const exr_attribute_t *a = NULL;
+        rv = exr_get_attribute_by_index(f, 0, EXR_ATTR_LIST_FILE_ORDER, i, &a);
+        if (rv != EXR_ERR_SUCCESS || !a || a->type != EXR_ATTR_STRING || !a->name ||
+            strncmp(a->name, IMAGE_META_PREFIX, strlen(IMAGE_META_PREFIX)) != 0 || !a->string)
+            continue;
+        image_meta_entry *x = &out->entry[out->count++];
+        snprintf(x->key, sizeof x->key, "%s", a->name);
+        snprintf(x->value, sizeof x->value, "%.*s", a->string->length, a->string->str ? a->string->str : "");
+    }
+    if (f)
+        exr_finish(&f);
+    current_capture = NULL;
+    if (rv != EXR_ERR_SUCCESS)
+        return vx_fail(e, "%s: cannot read its EXR header: %s", path,
+                       cap.msg[0] ? cap.msg : exr_get_default_error_message(rv));
+    return 0;
 }
