@@ -315,6 +315,53 @@ static void test_gltf_errors(void)
                                         "\"extensionsRequired\":[\"KHR_draco_mesh_compression\"]}"),
                 "KHR_draco_mesh_compression");
     expect_fail("glb not binary glTF", mesh_load_gltf, write_tmp("bad.glb", "not a glb file at all"), "tinygltf");
+    expect_fail("gltf 1.0 refused by its version", mesh_load_gltf,
+                write_tmp("v1.gltf", "{\"asset\":{\"version\":\"1.0\"},\"meshes\":{}}"), "glTF 1.0 is not supported");
+    /* A GLB header of version 1 (magic, version, length: zeros included, so written with fwrite). */
+    static const unsigned char glb1[20] = {'g', 'l', 'T', 'F', 1, 0, 0, 0, 20, 0, 0, 0};
+    const char *glb1_path = write_tmp("v1.glb", "");
+    FILE *f = fopen(glb1_path, "wb");
+    if (f) {
+        fwrite(glb1, 1, sizeof glb1, f);
+        fclose(f);
+    }
+    expect_fail("glb 1.0 refused by its version", mesh_load_gltf, glb1_path, "glTF 1.0 is not supported");
+}
+
+/* OBJ: the fixture quad (one polygon with vt and vn) and a file without normals, against the values
+ * written into them; then the refusals. */
+static void test_obj(void)
+{
+    mesh m = {0};
+    vx_err e;
+    CHECK("obj quad loads", mesh_load_obj("tests/data/quad.obj", &m, 4, &e) == 0);
+    CHECK("obj quad: one polygon fan-triangulated into 2 triangles of material 4, 4 shared corners",
+          m.triangle_count == 2 && m.vertex_count == 4 && m.materials[0] == 4 && m.materials[1] == 4);
+    int ok = 1;
+    for (size_t v = 0; v < m.vertex_count; v++) {
+        ok &= near3(&m.normals[3 * v], 0, 0, 1, 1e-6f);
+        ok &= m.uvs[2 * v] == m.positions[3 * v] && m.uvs[2 * v + 1] == m.positions[3 * v + 1]; /* vt = xy here */
+    }
+    CHECK("obj quad: normals from vn, uvs from vt", ok);
+    mesh_free(&m);
+    memset(&m, 0, sizeof m);
+    const char *tent = "v 0 0 0\nv 1 0 0\nv 1 1 1\nv 0 1 1\nv 0.5 0 -1\nf 1 2 3\nf -5 -3 -2\nf 1 5 2\n";
+    CHECK("obj without normals loads (relative indices)", mesh_load_obj(write_tmp("tent.obj", tent), &m, 0, &e) == 0);
+    float len = 0;
+    for (int k = 0; k < 3; k++)
+        len += m.normals[k] * m.normals[k];
+    CHECK("obj without normals: 3 triangles on 5 shared vertices, smooth unit normals",
+          m.triangle_count == 3 && m.vertex_count == 5 && fabsf(len - 1.0f) < 1e-5f);
+    mesh_free(&m);
+    expect_fail("obj index out of range", mesh_load_obj, write_tmp("range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n"),
+                "out of range");
+    expect_fail("obj normal index out of range", mesh_load_obj,
+                write_tmp("nrange.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//2 3//1\n"), "normal 2");
+    expect_fail("obj no faces", mesh_load_obj, write_tmp("nofaces.obj", "v 0 0 0\nv 1 0 0\n"), "no faces");
+    expect_fail("obj non-finite vertex", mesh_load_obj,
+                write_tmp("inf.obj", "v 0 0 0\nv 1e999 0 0\nv 0 1 0\nf 1 2 3\n"), "non-finite");
+    expect_fail("obj missing file", mesh_load_obj, "tests/data/no_such_file.obj", "cannot open");
+    expect_fail("obj directory", mesh_load_obj, "tests/data", "not a regular file");
 }
 
 int main(void)
@@ -329,6 +376,7 @@ int main(void)
     test_gltf_quad("tests/data/quad.glb", true);
     test_gltf_mirrored();
     test_gltf_errors();
+    test_obj();
     remove_tmp_files();
     return unit_exit();
 }

@@ -9,7 +9,7 @@
 # FUZZ_TIMEOUT=S (default 10) is the seconds one input may take: long runs beside other work use more,
 # so that a loaded machine is not reported as a hang. Slow units (-report_slow_units) are listed in
 # crashes/ by libFuzzer but are not failures: crash-, timeout-, oom- and leak- files are.
-# FUZZ_ONLY=name runs one harness (scene, ply, gltf, vox, image, declaration). FUZZ_SEEDED=1 keeps
+# FUZZ_ONLY=name runs one harness (scene, ply, obj, gltf, vox, image, declaration). FUZZ_SEEDED=1 keeps
 # the seeds of an earlier run, so that harnesses can run side by side (FUZZ_ONLY each) on one seeding.
 set -u
 cd "$(dirname "$0")/../.."
@@ -39,6 +39,7 @@ seed scene scenes/*.json tests/fuzz/vox_scene.json experiments/*.json
 sed 's/"generator": "heightfield",/"generator": "heightfield", "params": {"resolution": 32},/' scenes/heightfield.json \
   >"$OUT/seeds/scene/heightfield_32.json"
 seed ply tests/data/*.ply
+seed obj tests/data/*.obj
 seed gltf tests/data/*.gltf tests/data/*.glb
 seed declaration experiments/*.json
 mkdir -p "$OUT/seeds/vox" "$OUT/seeds/image"
@@ -91,6 +92,7 @@ run_one() { # name, extra libFuzzer flags...
 }
 run_one scene -dict=tests/fuzz/json.dict -max_len=65536
 run_one ply -dict=tests/fuzz/ply.dict -max_len=65536
+run_one obj -dict=tests/fuzz/obj.dict -max_len=65536
 run_one gltf -dict=tests/fuzz/json.dict -max_len=65536
 run_one vox -max_len=262144
 ASAN_OPTIONS=$ASAN_OPTIONS:fast_unwind_on_malloc=0 run_one image -max_len=65536

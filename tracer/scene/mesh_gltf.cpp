@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <unistd.h>
 
+#include <cjson/cJSON.h>
 #include <tiny_gltf.h>
 
 #include <array>
@@ -501,6 +502,29 @@ bool fs_read(std::vector<unsigned char> *out, std::string *err, const std::strin
 
 bool fs_write(std::string *, const std::string &, const std::vector<unsigned char> &, void *) { return false; }
 
+// glTF 1.0 (a different format: techniques, shaders, named objects) is refused by its version
+// rather than left to fail somewhere inside the 2.0 parser: the GLB header's version word, or the
+// JSON's asset.version.
+void check_version(const char *text, size_t size, bool binary)
+{
+    std::string version;
+    if (binary) {
+        if (size >= 8 && std::memcmp(text, "glTF", 4) == 0) {
+            uint32_t v;
+            std::memcpy(&v, text + 4, 4);
+            version = std::to_string(v);
+        }
+    } else if (cJSON *root = cJSON_ParseWithLength(text, size)) {
+        const cJSON *asset = cJSON_GetObjectItemCaseSensitive(root, "asset");
+        const cJSON *v = asset ? cJSON_GetObjectItemCaseSensitive(asset, "version") : nullptr;
+        if (cJSON_IsString(v) && v->valuestring)
+            version = v->valuestring;
+        cJSON_Delete(root);
+    }
+    if (!version.empty() && version[0] == '1')
+        throw load_error{"asset version " + version + ": glTF 1.0 is not supported (expected glTF 2.0)"};
+}
+
 void load(const char *path, mesh *out, uint32_t material, bool uris_anywhere)
 {
     std::string file(path);
@@ -522,6 +546,12 @@ void load(const char *path, mesh *out, uint32_t material, bool uris_anywhere)
     char *text = readfile_all(path, binary ? "glTF binary" : "glTF file", READFILE_MAX_BYTES, &size, &re);
     if (!text)
         throw load_error{std::string(re.msg).substr(file.size() + 2)}; // mesh_load_gltf prefixes the path
+    try {
+        check_version(text, size, binary);
+    } catch (...) {
+        std::free(text);
+        throw;
+    }
     std::string dir = file.find('/') == std::string::npos ? "." : file.substr(0, file.rfind('/') + 1);
     if (dir.empty())
         dir = "/";

@@ -19,6 +19,13 @@ extern "C" {
  * out-of-range indices, truncated data are errors. */
 int mesh_load_ply(const char *path, mesh *out, uint32_t material, vx_err *e);
 
+/* Wavefront OBJ through tinyobjloader: `v` positions, `vn` normals, `vt` texture coordinates, `f`
+ * faces (polygons fan-triangulated; negative, relative indices allowed); `mtllib`, materials,
+ * groups and other statements ignored (the scene's material applies). Corners sharing position,
+ * normal and uv share a vertex; without any `vn`, smooth area-weighted normals are computed. Indices
+ * out of range, non-finite values and a file without faces are errors. */
+int mesh_load_obj(const char *path, mesh *out, uint32_t material, vx_err *e);
+
 /* glTF 2.0, .gltf (with external or data-URI buffers) or .glb, through tinygltf. Every mesh
  * primitive of mode TRIANGLES in the default scene (or under every root node when there is none) is
  * added with its node transforms applied (winding swapped under mirroring transforms); POSITION is

@@ -390,6 +390,26 @@ static int parse_generator_object(scene *s, const cJSON *o, const char *where, v
     return g->generate(params, w3, seed, slots, &s->mesh, e);
 }
 
+/* A texture the render will not use is said, not silently dropped: the scene does not declare the
+ * "textures" effect, or the object's mesh has no texture coordinates (every uv 0). */
+static void warn_unused_texture(const scene *s, uint32_t mat, size_t v0, const char *where)
+{
+    if (mat >= (uint32_t)s->material_count || s->materials[mat].texture < 0 || s->mesh.vertex_count == v0)
+        return;
+    if (!(s->effects & EFFECT_TEXTURES)) {
+        fprintf(stderr, "voxlab: warning: %s: its material has a texture, but the scene does not declare the "
+                        "\"textures\" effect: the texture is not used\n",
+                where);
+        return;
+    }
+    for (size_t v = v0; v < s->mesh.vertex_count; v++)
+        if (s->mesh.uvs[2 * v] != 0.0f || s->mesh.uvs[2 * v + 1] != 0.0f)
+            return;
+    fprintf(stderr, "voxlab: warning: %s: its material has a texture, but the mesh has no texture coordinates: the "
+                    "texture's corner colour is used everywhere\n",
+            where);
+}
+
 static int parse_objects(scene *s, const cJSON *root, vx_err *e)
 {
     const cJSON *objs = cJSON_GetObjectItemCaseSensitive(root, "objects");
@@ -402,7 +422,7 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
         char where[512];
         snprintf(where, sizeof where, "%s: objects[%d]", s->path, i++);
         static const char *const known[] = {"generator", "seed", "params", "materials", "material",
-                                            "ply", "gltf", "transform", "uris_outside_folder", NULL};
+                                            "ply", "gltf", "obj", "transform", "uris_outside_folder", NULL};
         if (!cJSON_IsObject(o))
             return vx_fail(e, "%s: expected an object", where);
         if (json_only_fields(o, where, known, e))
@@ -414,10 +434,12 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
                 return -1;
         } else {
             int is_ply = cJSON_GetObjectItemCaseSensitive(o, "ply") != NULL;
-            if (json_string(o, is_ply ? "ply" : "gltf", where, &file, e) || json_string(o, "material", where, &matname, e))
+            int is_obj = !is_ply && cJSON_GetObjectItemCaseSensitive(o, "obj") != NULL;
+            const char *kind = is_ply ? "ply" : is_obj ? "obj" : "gltf";
+            if (json_string(o, kind, where, &file, e) || json_string(o, "material", where, &matname, e))
                 return -1;
             if (!file)
-                return vx_fail(e, "%s: expected one of \"generator\", \"ply\" or \"gltf\"", where);
+                return vx_fail(e, "%s: expected one of \"generator\", \"ply\", \"obj\" or \"gltf\"", where);
             if (!matname)
                 return vx_fail(e, "%s: missing field \"material\"", where);
             int mat = find_material(s, matname, where, e);
@@ -429,10 +451,12 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
                 return -1;
             char path[4096];
             resolve_path(s->path, file, path, sizeof path);
-            int rc = is_ply ? mesh_load_ply(path, &s->mesh, (uint32_t)mat, e)
-                            : mesh_load_gltf_uris(path, &s->mesh, (uint32_t)mat, anywhere, e);
+            int rc = is_ply   ? mesh_load_ply(path, &s->mesh, (uint32_t)mat, e)
+                     : is_obj ? mesh_load_obj(path, &s->mesh, (uint32_t)mat, e)
+                              : mesh_load_gltf_uris(path, &s->mesh, (uint32_t)mat, anywhere, e);
             if (rc)
-                return vx_wrap(e, "%s.%s", where, is_ply ? "ply" : "gltf");
+                return vx_wrap(e, "%s.%s", where, kind);
+            warn_unused_texture(s, (uint32_t)mat, v0, where);
         }
         if (apply_transform(&s->mesh, v0, t0, cJSON_GetObjectItemCaseSensitive(o, "transform"), where, e))
             return -1;

@@ -1,0 +1,67 @@
+"""Inputs a researcher brings: an OBJ mesh renders like the same geometry given as PLY (same
+triangles, normals and uvs: the same image to float rounding), and a texture that would be silently ignored is a warning
+naming the object: the scene does not declare "textures", or the mesh has no texture coordinates."""
+import json
+import os
+import subprocess
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from testlib import REPO, TMP, VOXLAB, finish, read_image, report  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+DATA = os.path.join(REPO, "tests", "data")
+
+
+def scene(name, obj, effects, texture=True):
+    s = {"name": name, "size": [24, 24], "background": [0.2, 0.3, 0.4], "effects": effects,
+         "camera": {"position": [0.5, 0.5, 2.0], "look_at": [0.5, 0.5, 0.0], "up": [0, 1, 0], "fov_deg": 40},
+         "lights": [{"type": "directional", "direction": [0.2, 0.3, 1.0], "irradiance": [2, 2, 2]}],
+         "materials": {"m": {"color": [0.8, 0.7, 0.6]}},
+         "objects": [dict(obj, material="m")]}
+    if texture:
+        s["materials"]["m"]["texture"] = {"checker": {"scale": 4, "color2": [0.1, 0.1, 0.1]}}
+    path = os.path.join(TMP, name + ".json")
+    with open(path, "w") as f:
+        json.dump(s, f)
+    return path
+
+
+def truth(path, out):
+    return subprocess.run([VOXLAB, "truth", path, "--spp", "4", "-o", out], capture_output=True, text=True)
+
+
+# An OBJ quad with uvs and the textured checker: no warning, textured (two colours on screen).
+p = truth(scene("obj_tex", {"obj": os.path.join(DATA, "quad.obj")}, ["textures"]), os.path.join(TMP, "a.exr"))
+img = read_image(os.path.join(TMP, "a.exr")) if p.returncode == 0 else None
+report("OBJ with vt and a declared texture: renders, no warning, the checker shows",
+       p.returncode == 0 and "warning" not in p.stderr and img is not None and len(np.unique(img[8:16, 8:16, 0])) > 2,
+       p.stderr)
+# The same quad as PLY (same four corners, normals, uvs): the same image.
+ply = os.path.join(TMP, "quad.ply")
+with open(ply, "w") as f:
+    f.write("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+            "property float nx\nproperty float ny\nproperty float nz\nproperty float u\nproperty float v\n"
+            "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+            "0 0 0 0 0 1 0 0\n1 0 0 0 0 1 1 0\n1 1 0 0 0 1 1 1\n0 1 0 0 0 1 0 1\n4 0 1 2 3\n")
+p2 = truth(scene("ply_tex", {"ply": ply}, ["textures"]), os.path.join(TMP, "b.exr"))
+diff = float(np.abs(img - read_image(os.path.join(TMP, "b.exr"))).max()) if p2.returncode == 0 and img is not None else 1
+report("the OBJ quad renders as the same quad given as PLY (to float rounding: 1e-6)", diff <= 1e-6,
+       f"max difference {diff}; {p2.stderr}")
+# A texture without the effect: a warning naming the object, and the render goes on.
+p = truth(scene("no_effect", {"obj": os.path.join(DATA, "quad.obj")}, []), os.path.join(TMP, "c.exr"))
+report("a texture without the \"textures\" effect is a warning naming the object",
+       p.returncode == 0 and "warning:" in p.stderr and "objects[0]" in p.stderr and '"textures" effect' in p.stderr,
+       p.stderr)
+# A texture on a mesh without uvs.
+nouv = os.path.join(TMP, "nouv.obj")
+with open(nouv, "w") as f:
+    f.write("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n")
+p = truth(scene("no_uv", {"obj": nouv}, ["textures"]), os.path.join(TMP, "d.exr"))
+report("a texture on a mesh without texture coordinates is a warning naming the object",
+       p.returncode == 0 and "objects[0]" in p.stderr and "no texture coordinates" in p.stderr, p.stderr)
+# No texture at all: silence.
+p = truth(scene("plain", {"obj": nouv}, [], texture=False), os.path.join(TMP, "e.exr"))
+report("no texture, no warning", p.returncode == 0 and "warning" not in p.stderr, p.stderr)
+finish()
