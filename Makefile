@@ -33,7 +33,7 @@ CFLAGS = -std=c11 $(OPT) -g -march=x86-64-v2 -Wall -Wextra -Werror $(NOWARN) -D_
 CXXFLAGS = -std=c++17 $(OPT) -g -Wall -Wextra -Werror -pthread -MMD -MP $(INCLUDES) $(SANFLAGS)
 # -rdynamic: the OpenImageIO plugin calls back into the executable (see tracer/image/image_oiio.cpp).
 LDFLAGS = -pthread -rdynamic $(SANFLAGS)
-LDLIBS = -lembree3 -lOpenEXRCore -ltinygltf -ltinyobjloader -lcjson -lOpenCL -lm -ldl
+LDLIBS = -lembree3 -lOpenEXRCore -ltinygltf -lstb -ltinyobjloader -lcjson -lOpenCL -lm -ldl
 PLUGIN = $(BUILD)/libvoxlab_oiio.so
 
 # Every source file of the library; main.c is the CLI only.
@@ -55,7 +55,7 @@ FUZZ_SECONDS ?= 60
 FUZZ_DEPS = clang libclang-rt-14-dev
 
 # Debian packages voxlab needs to build and test (see README).
-DEPS = build-essential libembree-dev libopenexr-dev libopenimageio-dev libtinygltf-dev libtinyobjloader-dev libcjson-dev \
+DEPS = build-essential libembree-dev libopenexr-dev libopenimageio-dev libtinygltf-dev libstb-dev libtinyobjloader-dev libcjson-dev \
        ocl-icd-opencl-dev opencl-headers pocl-opencl-icd \
        python3-numpy python3-skimage python3-matplotlib python3-openimageio python3-mpmath
 

@@ -5,6 +5,7 @@
 // loader are thrown as load_error and turned into a vx_err at the C boundary, which also catches
 // anything else C++ may throw (std::bad_alloc from tinygltf's vectors, for instance).
 #include "mesh_load.h"
+#include "image.h"
 #include "readfile.h"
 
 #include <climits>
@@ -12,6 +13,7 @@
 #include <unistd.h>
 
 #include <cjson/cJSON.h>
+#include <stb/stb_image.h>
 #include <tiny_gltf.h>
 
 #include <array>
@@ -230,7 +232,54 @@ struct loader {
     const tinygltf::Model &model;
     mesh *out;
     uint32_t material;
+    gltf_material_fn make_material; // NULL: base colours become vertex colours
+    void *material_ctx;
+    std::vector<int64_t> made;      // voxlab material per glTF material, -1 until made
     size_t triangle_primitives = 0, other_primitives = 0;
+
+    // The voxlab material of glTF material m (made once): its base colour factor and texture.
+    uint32_t own_material(int m)
+    {
+        if (made.empty())
+            made.assign(model.materials.size(), -1);
+        if (made[size_t(m)] >= 0)
+            return uint32_t(made[size_t(m)]);
+        const tinygltf::Material &mat = model.materials[size_t(m)];
+        gltf_material_desc d{};
+        d.name = mat.name.c_str();
+        const std::vector<double> &f = mat.pbrMetallicRoughness.baseColorFactor;
+        for (int k = 0; k < 4; k++) {
+            d.base_color[k] = f.size() > size_t(k) ? f[size_t(k)] : 1.0;
+            if (!(d.base_color[k] >= 0.0 && d.base_color[k] <= 1.0))
+                fail("material " + std::to_string(m) + ": baseColorFactor[" + std::to_string(k) + "] is " +
+                     std::to_string(d.base_color[k]) + " (expected 0..1)");
+        }
+        const tinygltf::TextureInfo &ti = mat.pbrMetallicRoughness.baseColorTexture;
+        if (ti.index >= 0) {
+            if (size_t(ti.index) >= model.textures.size())
+                fail("material " + std::to_string(m) + ": baseColorTexture refers to texture " +
+                     std::to_string(ti.index) + ", which does not exist");
+            int src = model.textures[size_t(ti.index)].source;
+            if (src < 0 || size_t(src) >= model.images.size())
+                fail("texture " + std::to_string(ti.index) + " has no image (source " + std::to_string(src) + ")");
+            if (ti.texCoord != 0)
+                fail("material " + std::to_string(m) + ": baseColorTexture reads TEXCOORD_" +
+                     std::to_string(ti.texCoord) + " (only TEXCOORD_0 is read)");
+            const tinygltf::Image &img = model.images[size_t(src)];
+            if (img.bits != 8 || img.component < 1 || img.component > 4 || img.width < 1 || img.height < 1 ||
+                img.image.size() != size_t(img.width) * size_t(img.height) * size_t(img.component))
+                fail("image " + std::to_string(src) + " of material " + std::to_string(m) +
+                     " did not decode to 8-bit texels (expected a PNG or JPEG)");
+            d.texels = img.image.data();
+            d.width = img.width, d.height = img.height, d.components = img.component;
+        }
+        uint32_t out_index;
+        vx_err e;
+        if (make_material(material_ctx, m, &d, &out_index, &e))
+            fail(std::string("material ") + std::to_string(m) + ": " + e.msg);
+        made[size_t(m)] = out_index;
+        return out_index;
+    }
 
     // Requires the accessor to hold `components`-vectors of float (or, when allow_normalized, of
     // normalised unsigned bytes/shorts, which glTF permits for texture coordinates and colours).
@@ -278,7 +327,12 @@ struct loader {
         bool has_colors = prim.attributes.count("COLOR_0") != 0;
 
         double base_color[3] = {1.0, 1.0, 1.0};
-        if (prim.material >= 0) {
+        uint32_t material = this->material;
+        if (prim.material >= 0 && make_material) {
+            if (size_t(prim.material) >= model.materials.size())
+                fail(prim_name + " refers to material " + std::to_string(prim.material) + ", which does not exist");
+            material = own_material(prim.material);
+        } else if (prim.material >= 0) {
             if (size_t(prim.material) >= model.materials.size())
                 fail(prim_name + " refers to material " + std::to_string(prim.material) +
                      ", which does not exist");
@@ -421,6 +475,28 @@ bool skip_image(tinygltf::Image *, const int, std::string *, std::string *, int,
     return true;
 }
 
+// Decodes an image for a material's baseColorTexture through tinygltf's own decoder (stb_image),
+// after reading its size from the header alone: a small file declaring a huge image is refused
+// before anything is allocated, as image_read does (IMAGE_MAX_PIXELS).
+
+bool bounded_image(tinygltf::Image *image, const int index, std::string *err, std::string *warn, int req_width,
+                   int req_height, const unsigned char *bytes, int size, void *user)
+{
+    int w = 0, h = 0, comp = 0;
+    if (!stbi_info_from_memory(bytes, size, &w, &h, &comp)) {
+        if (err)
+            *err += "image " + std::to_string(index) + " is not a PNG or JPEG this loader decodes\n";
+        return false;
+    }
+    if (w < 1 || h < 1 || (long long)w * (long long)h > IMAGE_MAX_PIXELS) {
+        if (err)
+            *err += "image " + std::to_string(index) + " is " + std::to_string(w) + "x" + std::to_string(h) +
+                    " pixels (at most " + std::to_string(IMAGE_MAX_PIXELS) + ")\n";
+        return false;
+    }
+    return tinygltf::LoadImageData(image, index, err, warn, req_width, req_height, bytes, size, user);
+}
+
 std::string trimmed(std::string s)
 {
     while (!s.empty() && (s.back() == '\n' || s.back() == '\r' || s.back() == ' '))
@@ -525,7 +601,8 @@ void check_version(const char *text, size_t size, bool binary)
         throw load_error{"asset version " + version + ": glTF 1.0 is not supported (expected glTF 2.0)"};
 }
 
-void load(const char *path, mesh *out, uint32_t material, bool uris_anywhere)
+void load(const char *path, mesh *out, uint32_t material, bool uris_anywhere, gltf_material_fn make_material,
+          void *material_ctx)
 {
     std::string file(path);
     bool binary;
@@ -538,7 +615,10 @@ void load(const char *path, mesh *out, uint32_t material, bool uris_anywhere)
 
     tinygltf::Model model;
     tinygltf::TinyGLTF ctx;
-    ctx.SetImageLoader(skip_image, nullptr);
+    if (make_material)
+        ctx.SetImageLoader(bounded_image, nullptr);
+    else
+        ctx.SetImageLoader(skip_image, nullptr);
     std::string err, warn;
     // The file itself through readfile_all (a regular file only: not a directory, FIFO or device).
     vx_err re;
@@ -591,7 +671,7 @@ void load(const char *path, mesh *out, uint32_t material, bool uris_anywhere)
             fail("requires extension " + ext + " (compressed geometry is not supported; expected plain "
                  "accessors)");
 
-    loader l{model, out, material};
+    loader l{model, out, material, make_material, material_ctx, {}};
     std::vector<char> on_path(model.nodes.size(), 0);
     if (!model.scenes.empty()) {
         size_t s = model.defaultScene >= 0 && size_t(model.defaultScene) < model.scenes.size()
@@ -619,15 +699,21 @@ void load(const char *path, mesh *out, uint32_t material, bool uris_anywhere)
 
 extern "C" int mesh_load_gltf(const char *path, mesh *out, uint32_t material, vx_err *e)
 {
-    return mesh_load_gltf_uris(path, out, material, 0, e);
+    return mesh_load_gltf_materials(path, out, material, 0, nullptr, nullptr, e);
 }
 
 extern "C" int mesh_load_gltf_uris(const char *path, mesh *out, uint32_t material, int uris_anywhere, vx_err *e)
 {
+    return mesh_load_gltf_materials(path, out, material, uris_anywhere, nullptr, nullptr, e);
+}
+
+extern "C" int mesh_load_gltf_materials(const char *path, mesh *out, uint32_t material, int uris_anywhere,
+                                        gltf_material_fn make_material, void *ctx, vx_err *e)
+{
     size_t v0 = out->vertex_count, t0 = out->triangle_count;
     int rc = 0;
     try {
-        load(path, out, material, uris_anywhere != 0);
+        load(path, out, material, uris_anywhere != 0, make_material, ctx);
     } catch (const load_error &err) {
         rc = vx_fail(e, "%s: %s", path, err.msg.c_str());
     } catch (const std::exception &ex) {

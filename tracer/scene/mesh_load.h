@@ -29,13 +29,32 @@ int mesh_load_obj(const char *path, mesh *out, uint32_t material, vx_err *e);
 /* glTF 2.0, .gltf (with external or data-URI buffers) or .glb, through tinygltf. Every mesh
  * primitive of mode TRIANGLES in the default scene (or under every root node when there is none) is
  * added with its node transforms applied (winding swapped under mirroring transforms); POSITION is
- * required, NORMAL and TEXCOORD_0 are used when present, a material's baseColorFactor (times
- * COLOR_0, if any) becomes the vertex colour. A file with no triangle primitive, an accessor outside
+ * required, NORMAL and TEXCOORD_0 are used when present; here (without the material callback of
+ * mesh_load_gltf_materials) a material's baseColorFactor (times COLOR_0, if any) becomes the vertex
+ * colour and images are not decoded. A file with no triangle primitive, an accessor outside
  * its buffer, a non-finite position or compressed geometry (Draco, meshopt) is an error. */
 int mesh_load_gltf(const char *path, mesh *out, uint32_t material, vx_err *e);
 /* The same; external files (buffer URIs) are read only from inside the glTF's own folder unless
  * uris_anywhere is set (the scene's "uris_outside_folder": true). */
 int mesh_load_gltf_uris(const char *path, mesh *out, uint32_t material, int uris_anywhere, vx_err *e);
+
+/* A glTF material as the file gives it: its base colour factor and, when it has a
+ * baseColorTexture read through TEXCOORD_0, the texture decoded (8-bit sRGB texels, `components`
+ * per texel, row 0 the image's top: glTF's v = 0). */
+typedef struct {
+    const char *name;
+    double base_color[4];
+    const unsigned char *texels; /* NULL: no texture */
+    int width, height, components;
+} gltf_material_desc;
+/* Makes the voxlab material for glTF material `index`: writes its index into *material, or returns
+ * -1 with a message. Called once per glTF material a loaded primitive uses. */
+typedef int (*gltf_material_fn)(void *ctx, int index, const gltf_material_desc *d, uint32_t *material, vx_err *e);
+/* glTF with its own materials: primitives with a material get the one make_material returns (the
+ * base colour then is the material's, not a vertex colour; COLOR_0 still multiplies it), those
+ * without get `material`. Images are decoded (at most IMAGE_MAX_PIXELS each). */
+int mesh_load_gltf_materials(const char *path, mesh *out, uint32_t material, int uris_anywhere,
+                             gltf_material_fn make_material, void *ctx, vx_err *e);
 
 #ifdef __cplusplus
 }

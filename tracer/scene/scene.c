@@ -127,6 +127,67 @@ static int parse_materials(scene *s, const cJSON *root, vx_err *e)
     return 0;
 }
 
+/* Appends a material named `name` (copied) and returns its index, or -1 when out of memory. */
+static int add_material(scene *s, material mat, const char *name, vx_err *e)
+{
+    material *m = realloc(s->materials, sizeof *m * (size_t)(s->material_count + 1));
+    if (m)
+        s->materials = m;
+    char **n = realloc(s->material_names, sizeof *n * (size_t)(s->material_count + 1));
+    if (n)
+        s->material_names = n;
+    char *copy = strdup(name);
+    if (!m || !n || !copy) {
+        free(copy);
+        return vx_fail(e, "out of memory for material %s", name);
+    }
+    s->materials[s->material_count] = mat;
+    s->material_names[s->material_count] = copy;
+    return s->material_count++;
+}
+
+/* A glTF file's own materials (mesh_load_gltf_materials): each is the object's scene material
+ * (specular, roughness, sidedness) with the glTF's base colour factor as its colour and its
+ * baseColorTexture, named "objects[i]#<glTF material>". */
+typedef struct {
+    scene *s;
+    int base;          /* the object's scene material */
+    const char *where; /* "file: objects[i]" */
+} gltf_materials;
+
+static int make_gltf_material(void *p, int index, const gltf_material_desc *d, uint32_t *out, vx_err *e)
+{
+    gltf_materials *g = p;
+    scene *s = g->s;
+    material mat = s->materials[g->base];
+    mat.color = v3((float)d->base_color[0], (float)d->base_color[1], (float)d->base_color[2]);
+    mat.texture = -1;
+    if (d->texels) {
+        texture t;
+        if (texture_from_srgb8(&t, d->width, d->height, d->components, d->texels, e))
+            return -1;
+        texture *tx = realloc(s->textures, sizeof(texture) * (size_t)(s->texture_count + 1));
+        if (!tx) {
+            texture_free(&t);
+            return vx_fail(e, "out of memory for a texture");
+        }
+        s->textures = tx;
+        s->textures[s->texture_count] = t;
+        mat.texture = s->texture_count++;
+    }
+    const char *at = strrchr(g->where, ':');
+    char name[512];
+    if (d->name && *d->name)
+        snprintf(name, sizeof name, "%s#%s", at ? at + 2 : g->where, d->name);
+    else
+        snprintf(name, sizeof name, "%s#material %d", at ? at + 2 : g->where, index);
+    int i = add_material(s, mat, name, e);
+    if (i < 0)
+        return -1;
+    *out = (uint32_t)i;
+    return 0;
+}
+
 static int find_material(const scene *s, const char *name, const char *where, vx_err *e)
 {
     for (int i = 0; i < s->material_count; i++)
@@ -391,10 +452,14 @@ static int parse_generator_object(scene *s, const cJSON *o, const char *where, v
 }
 
 /* A texture the render will not use is said, not silently dropped: the scene does not declare the
- * "textures" effect, or the object's mesh has no texture coordinates (every uv 0). */
-static void warn_unused_texture(const scene *s, uint32_t mat, size_t v0, const char *where)
+ * "textures" effect, or the object's mesh has no texture coordinates (every uv 0). The object's
+ * triangles are those from t0 on, its vertices those from v0 on. */
+static void warn_unused_texture(const scene *s, size_t v0, size_t t0, const char *where)
 {
-    if (mat >= (uint32_t)s->material_count || s->materials[mat].texture < 0 || s->mesh.vertex_count == v0)
+    int textured = 0;
+    for (size_t t = t0; t < s->mesh.triangle_count && !textured; t++)
+        textured = s->materials[s->mesh.materials[t]].texture >= 0;
+    if (!textured)
         return;
     if (!(s->effects & EFFECT_TEXTURES)) {
         fprintf(stderr, "voxlab: warning: %s: its material has a texture, but the scene does not declare the "
@@ -440,9 +505,19 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
                 return -1;
             if (!file)
                 return vx_fail(e, "%s: expected one of \"generator\", \"ply\", \"obj\" or \"gltf\"", where);
-            if (!matname)
+            /* A glTF brings its own materials: the scene's is optional there (white, default lobe). */
+            int mat;
+            if (!matname && !is_ply && !is_obj) {
+                material white = {v3(1.0f, 1.0f, 1.0f), 0.04f, 0.3f, 0, -1};
+                const char *at = strrchr(where, ':');
+                char name[512];
+                snprintf(name, sizeof name, "%s#default", at ? at + 2 : where);
+                mat = add_material(s, white, name, e);
+            } else if (!matname) {
                 return vx_fail(e, "%s: missing field \"material\"", where);
-            int mat = find_material(s, matname, where, e);
+            } else {
+                mat = find_material(s, matname, where, e);
+            }
             if (mat < 0)
                 return -1;
             int anywhere = 0; /* a glTF's external buffers only from its own folder unless allowed */
@@ -451,12 +526,14 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
                 return -1;
             char path[4096];
             resolve_path(s->path, file, path, sizeof path);
+            gltf_materials own = {s, mat, where};
             int rc = is_ply   ? mesh_load_ply(path, &s->mesh, (uint32_t)mat, e)
                      : is_obj ? mesh_load_obj(path, &s->mesh, (uint32_t)mat, e)
-                              : mesh_load_gltf_uris(path, &s->mesh, (uint32_t)mat, anywhere, e);
+                              : mesh_load_gltf_materials(path, &s->mesh, (uint32_t)mat, anywhere, make_gltf_material,
+                                                         &own, e);
             if (rc)
                 return vx_wrap(e, "%s.%s", where, kind);
-            warn_unused_texture(s, (uint32_t)mat, v0, where);
+            warn_unused_texture(s, v0, t0, where);
         }
         if (apply_transform(&s->mesh, v0, t0, cJSON_GetObjectItemCaseSensitive(o, "transform"), where, e))
             return -1;

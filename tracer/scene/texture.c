@@ -69,6 +69,28 @@ int texture_load_image(texture *t, const char *path, vx_err *e)
     return 0;
 }
 
+int texture_from_srgb8(texture *t, int width, int height, int components, const unsigned char *texels, vx_err *e)
+{
+    memset(t, 0, sizeof *t);
+    if (width < 1 || height < 1 || components < 1 || components > 4 || (long long)width * height > IMAGE_MAX_PIXELS)
+        return vx_fail(e, "texture of %dx%d texels with %d components: expected 1..4 components, at most %lld texels",
+                       width, height, components, (long long)IMAGE_MAX_PIXELS);
+    t->kind = TEXTURE_IMAGE;
+    t->width = width;
+    t->height = height;
+    t->rgb = malloc(sizeof(float) * 3 * (size_t)width * (size_t)height);
+    if (!t->rgb)
+        return vx_fail(e, "out of memory for a %dx%d texture", width, height);
+    for (int y = 0; y < height; y++)
+        for (int x = 0; x < width; x++) {
+            const unsigned char *p = &texels[((size_t)(height - 1 - y) * (size_t)width + (size_t)x) * (size_t)components];
+            float *dst = &t->rgb[3 * ((size_t)y * (size_t)width + (size_t)x)];
+            for (int c = 0; c < 3; c++)
+                dst[c] = srgb_to_linear((float)p[components >= 3 ? c : 0] * (1.0f / 255.0f));
+        }
+    return 0;
+}
+
 void texture_free(texture *t)
 {
     free(t->rgb);

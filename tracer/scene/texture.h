@@ -23,6 +23,9 @@ extern "C" {
 /* Multiplier of the material colour at (u, v). */
 vec3 texture_lookup(const texture *t, float u, float v);
 int texture_load_image(texture *t, const char *path, vx_err *e);
+/* An image texture from 8-bit sRGB texels (components 1-4 per texel, alpha ignored), row 0 the
+ * image's top at v = 0 (glTF's convention; stored flipped for texture_lookup's v = 1 at the top). */
+int texture_from_srgb8(texture *t, int width, int height, int components, const unsigned char *texels, vx_err *e);
 void texture_free(texture *t);
 
 #ifdef __cplusplus
