@@ -204,3 +204,42 @@ write("out_of_bounds.gltf", one_primitive([(0, 0, 0), (1, 0, 0), (0, 1, 0)], cou
 # face, and the normal (0, 0, 1) becomes (0, 0, -1).
 write("mirrored.gltf", one_primitive([(0, 0, 0), (1, 0, 0), (0, 1, 0)], node={"scale": [1, 1, -1]},
                                      normals=[(0, 0, 1)] * 3))
+
+# textured_quad.glb: a quad whose material has a baseColorFactor and a 2x2 PNG baseColorTexture in
+# the binary chunk (the fuzz seed of the glTF loader's image path; PNG written by hand: zlib, CRCs).
+import zlib  # noqa: E402
+
+
+def png_rgb(width, height, rows):
+    raw = b"".join(b"\0" + bytes(r) for r in rows)
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)) +
+            chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
+
+
+png = png_rgb(2, 2, [[255, 0, 0, 0, 255, 0], [0, 0, 255, 255, 255, 255]])
+corners = [(0, 0), (1, 0), (1, 1), (0, 1)]
+blob = f32([(x, y, 0) for x, y in corners]) + f32([(0, 0, 1)] * 4)
+blob += f32([(x, 1 - y) for x, y in corners]) + struct.pack("<6H", 0, 1, 2, 0, 2, 3)
+offset = len(blob)
+blob = pad4(blob + png)
+textured = {"asset": {"version": "2.0", "generator": "voxlab tests/data/make_fixtures.py"}, "scene": 0,
+            "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}, "indices": 3,
+                                        "material": 0}]}],
+            "materials": [{"name": "tinted", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.9, 0.7, 1.0],
+                                                                      "baseColorTexture": {"index": 0}}}],
+            "textures": [{"source": 0}], "images": [{"bufferView": 4, "mimeType": "image/png"}],
+            "buffers": [{"byteLength": len(blob)}],
+            "bufferViews": [{"buffer": 0, "byteOffset": o, "byteLength": n}
+                            for o, n in ((0, 48), (48, 48), (96, 32), (128, 12), (offset, len(png)))],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0],
+                           "max": [1, 1, 0]},
+                          {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
+                          {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC2"},
+                          {"bufferView": 3, "componentType": 5123, "count": 6, "type": "SCALAR"}]}
+json_chunk = pad4(dump(textured), b" ")
+glb = struct.pack("<I4s", len(json_chunk), b"JSON") + json_chunk + struct.pack("<I4s", len(blob), b"BIN\0") + blob
+write("textured_quad.glb", struct.pack("<4sII", b"glTF", 2, 12 + len(glb)) + glb)
