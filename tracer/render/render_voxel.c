@@ -35,7 +35,7 @@ static void cache_put(struct voxel_ctx *x, int64_t index, const vx_answer *a);
 #define VOXEL_COMPOSITING(x) ((x)->compositing)
 #define VOXEL_CACHE_GET(x, index, a) cache_get(x, index, a)
 #define VOXEL_CACHE_PUT(x, index, a) cache_put(x, index, a)
-#define VOXEL_SHADOW_MEMO(x, index, light, opacity_expr) memo_opacity(x, index, light, &sq)
+#define VOXEL_SHADOW_MEMO(x, index, light, q) memo_opacity(x, index, light, q)
 #define VOXEL_CTX_BACKEND_FIELDS \
     const vx_voxel_eval *eval;   \
     int compositing;             \

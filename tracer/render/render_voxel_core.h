@@ -23,10 +23,10 @@
  *   VOXEL_CACHE_PUT(x, index, a)  publishes *a as that voxel's answer (the first writer wins)
  * and may add its own fields to voxel_ctx through VOXEL_CTX_BACKEND_FIELDS (the cache's memory, the
  * C backend's model timer). It may also define
- *   VOXEL_SHADOW_MEMO(x, index, light, opacity_expr)  the voxel's opacity toward directional light
- *                                 `light`, computed by opacity_expr once and then remembered; used
- *                                 only when the model declares opacity_by_direction (the number is
- *                                 then the same whoever computes it, so the image is unchanged). */
+ *   VOXEL_SHADOW_MEMO(x, index, light, q)  voxel `index`'s opacity toward directional light
+ *                                 `light`, asked of the model with query q once and then remembered;
+ *                                 used only when the model declares opacity_by_direction (the number
+ *                                 is then the same whoever computes it, so the image is unchanged). */
 #ifndef VX_RENDER_VOXEL_CORE_H
 #define VX_RENDER_VOXEL_CORE_H
 
@@ -98,7 +98,7 @@ VX_INLINE float voxel_shadow_transmittance(voxel_ctx *x, const vx_query *q, int6
         float a;
 #ifdef VOXEL_SHADOW_MEMO
         if (memo) {
-            a = VOXEL_SHADOW_MEMO(x, h.index, li, VOXEL_OPACITY(x, voxel_record(x, h.index), &sq));
+            a = VOXEL_SHADOW_MEMO(x, h.index, li, &sq);
         } else
 #endif
         {
