@@ -72,30 +72,56 @@ def save_plot(fig, png_path, dpi=100, meta=None, formats=FORMATS):
 
 # ---------------------------------------------------------------------------------------------- labels
 
-# Candidate offsets (points) around a marker, tried in this order: right-above first, as before.
-OFFSETS = [(4, 3), (4, -9), (-4, 3), (-4, -9), (0, 8), (0, -13), (8, 0), (-8, 0),
-           (6, 12), (-6, 12), (6, -17), (-6, -17), (14, 4), (-14, 4), (14, -10), (-14, -10),
-           (0, 20), (0, -24), (22, 0), (-22, 0)]
+def _candidates():
+    """Candidate offsets (points) around a marker, nearest first; at each distance right-above first
+    (where the labels used to go), then around the circle."""
+    import math
+
+    out = []
+    for radius in (5, 10, 16, 24, 34, 46, 60):
+        for k in range(16):
+            ang = math.radians(30 - 22.5 * k)
+            out.append((round(radius * math.cos(ang), 1), round(radius * math.sin(ang), 1)))
+    return out
+
+
+OFFSETS = _candidates()
+LEADER_FROM = 12  # a label farther than this (points) from its marker gets a thin leader line
 
 
 def _overlap(a, b, pad=1.0):
     return a.x0 < b.x1 + pad and b.x0 < a.x1 + pad and a.y0 < b.y1 + pad and b.y0 < a.y1 + pad
 
 
+def _text_box(ann, renderer):
+    """The label's text alone (a leader line is not part of what must not overlap)."""
+    from matplotlib.text import Text
+
+    ann.update_positions(renderer)
+    return Text.get_window_extent(ann, renderer)
+
+
+def _align(ann, off):
+    dx, dy = off
+    ann.set_ha("left" if dx > 0.5 else "right" if dx < -0.5 else "center")
+    ann.set_va("bottom" if dy > 0.5 else "top" if dy < -0.5 else "center")
+
+
 def place_labels(fig, labels, avoid_points=None):
-    """Moves each annotation (matplotlib Annotation made with textcoords='offset points') to the first
-    candidate offset where it overlaps no label placed before it, no marker in avoid_points (display
-    coordinates are computed here from (axes, x, y) triples) and stays inside its axes. Deterministic:
-    labels are placed in the order given. A label with no free place keeps the candidate with the
-    least overlap. Returns the number of labels that still overlap another (0 when all fit)."""
+    """Moves each annotation (matplotlib Annotation made with textcoords='offset points') to the
+    nearest candidate offset where it overlaps no label placed before it, no marker in avoid_points
+    ((axes, x, y) triples, in data coordinates) and stays inside its axes; a label moved farther than
+    LEADER_FROM points gets a thin leader line to its marker. Deterministic: labels are placed in the
+    order given, candidates tried nearest first. A label with no free place keeps the candidate with
+    the least overlap. Returns the number of labels that still overlap another (0 when all fit)."""
+    from matplotlib.transforms import Bbox
+
     fig.canvas.draw()
     renderer = fig.canvas.get_renderer()
-    placed = {}  # axes -> list of bboxes
+    placed = {}  # axes -> bboxes of the labels placed so far
     markers = {}
     for ax, x, y in avoid_points or []:
         px, py = ax.transData.transform((x, y))
-        from matplotlib.transforms import Bbox
-
         markers.setdefault(ax, []).append(Bbox([[px - 3, py - 3], [px + 3, py + 3]]))
     left = 0
     for ann in labels:
@@ -104,17 +130,27 @@ def place_labels(fig, labels, avoid_points=None):
         best, best_cost = None, None
         for off in OFFSETS:
             ann.xyann = off
-            bb = ann.get_window_extent(renderer)
-            cost = sum(_overlap(bb, o) for o in placed.get(ax, [])) * 10 + \
+            _align(ann, off)
+            bb = _text_box(ann, renderer)
+            cost = sum(_overlap(bb, o) for o in placed.get(ax, [])) * 100 + \
                 sum(_overlap(bb, m, 0) for m in markers.get(ax, []))
             if bb.x0 < box_ax.x0 or bb.x1 > box_ax.x1 or bb.y0 < box_ax.y0 or bb.y1 > box_ax.y1:
-                cost += 5
+                cost += 50
             if best_cost is None or cost < best_cost:
                 best, best_cost = off, cost
             if cost == 0:
                 break
         ann.xyann = best
-        bb = ann.get_window_extent(renderer)
+        _align(ann, best)
+        bb = _text_box(ann, renderer)
+        if (best[0] ** 2 + best[1] ** 2) ** 0.5 > LEADER_FROM:
+            # A leader from the marker to the nearest point of the label's box, in data coordinates
+            # (so it stays attached whatever the dpi the figure is saved at).
+            mx, my = ax.transData.transform(ann.xy)
+            tx, ty = min(max(mx, bb.x0), bb.x1), min(max(my, bb.y0), bb.y1)
+            inv = ax.transData.inverted()
+            (x0, y0), (x1, y1) = inv.transform((mx, my)), inv.transform((tx, ty))
+            ax.plot([x0, x1], [y0, y1], "-", lw=0.5, color=ann.get_color(), alpha=0.6, scalex=False, scaley=False)
         if any(_overlap(bb, o, 0) for o in placed.get(ax, [])):
             left += 1
         placed.setdefault(ax, []).append(bb)
@@ -122,9 +158,9 @@ def place_labels(fig, labels, avoid_points=None):
 
 
 def label_overlaps(fig, labels):
-    """Pairs of labels (same axes) whose drawn boxes intersect: the tests' check of place_labels."""
+    """Pairs of labels (same axes) whose text boxes intersect: the tests' check of place_labels."""
     fig.canvas.draw()
     renderer = fig.canvas.get_renderer()
-    boxes = [(a.axes, a.get_window_extent(renderer), a.get_text()) for a in labels if a.get_visible()]
+    boxes = [(a.axes, _text_box(a, renderer), a.get_text()) for a in labels if a.get_visible()]
     return [(t1, t2) for i, (ax1, b1, t1) in enumerate(boxes) for ax2, b2, t2 in boxes[i + 1:]
             if ax1 is ax2 and _overlap(b1, b2, 0)]
