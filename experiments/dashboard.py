@@ -126,6 +126,7 @@ $(function () {
         scales: {y: {type: c.log ? 'logarithmic' : 'linear', title: {display: true, text: c.ylabel}},
                  x: {title: {display: true, text: 'commit (oldest first; * = uncommitted changes)'}}}}}));
   });
+  window.dashboardReady = true;  // for tests/test_dashboard.py
 });
 """
 

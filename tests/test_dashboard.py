@@ -47,29 +47,37 @@ function __column(table, metric) {
 window.addEventListener('load', function () {
   var imgs = document.images, bad = [];
   for (var i = 0; i < imgs.length; i++) if (!imgs[i].complete || imgs[i].naturalWidth === 0) bad.push(imgs[i].src);
-  var table = document.querySelector('table.metrics'), sort = {};
-  if (table) {
-    sort.before = __column(table, 'mse');
-    var th = table.querySelector('thead th[data-metric="mse"]');
-    __click(th);
-    sort.first = __column(table, 'mse');
-    sort.first_class = th.className;
-    __click(th);
-    sort.second = __column(table, 'mse');
-    sort.second_class = th.className;
-  }
-  var filt = {};
-  if (table && window.jQuery && jQuery.tablesorter && jQuery.tablesorter.setFilters) {
-    var model = table.querySelector('tbody tr').getAttribute('data-model');
-    jQuery.tablesorter.setFilters(table, ['', model], true);
-    filt.model = model;
-  }
-  setTimeout(function () {
-    if (filt.model) {
+  // jQuery 3 runs ready handlers after load: wait until the page says its tables and charts are set up.
+  var tries = 0, wait = setInterval(function () {
+    if (window.dashboardReady || ++tries > 40) { clearInterval(wait); __interact(bad, imgs.length); }
+  }, 100);
+});
+function __interact(bad, nimgs) {
+  // tablesorter sorts in a timer after the click: each step waits for the previous one.
+  var table = document.querySelector('table.metrics'), sort = {}, filt = {};
+  var th = table && table.querySelector('thead th[data-metric="mse"]');
+  var steps = [
+    function () { sort.before = __column(table, 'mse'); __click(th); },
+    function () { sort.first = __column(table, 'mse'); sort.first_class = th.className; __click(th); },
+    function () {
+      sort.second = __column(table, 'mse'); sort.second_class = th.className;
+      var model = table.querySelector('tbody tr').getAttribute('data-model');
+      jQuery.tablesorter.setFilters(table, ['', model], true);
+      filt.model = model;
+    },
+    function () {
       filt.visible = Array.prototype.filter.call(table.querySelectorAll('tbody tr'), function (tr) {
         return tr.style.display !== 'none' && !tr.classList.contains('filtered');
       }).map(function (tr) { return tr.getAttribute('data-model'); });
       jQuery.tablesorter.setFilters(table, ['', ''], true);  // cleared: the rest of the checks see every row
+    }];
+  if (!table || !window.jQuery || !jQuery.tablesorter) steps = [];
+  var k = 0;
+  (function next() {
+    if (k < steps.length) {
+      try { steps[k++](); } catch (e) { window.__errors.push('probe: ' + e); k = steps.length; }
+      setTimeout(next, 250);
+      return;
     }
     var charts = (window.__charts || []).map(function (c) {
       return {id: c.canvas.id, labels: c.data.labels,
@@ -77,12 +85,12 @@ window.addEventListener('load', function () {
     });
     var pre = document.createElement('pre');
     pre.id = 'probe-report';
-    pre.textContent = JSON.stringify({errors: window.__errors, broken: bad, images: imgs.length,
+    pre.textContent = JSON.stringify({errors: window.__errors, broken: bad, images: nimgs,
                                       svgs: document.querySelectorAll('svg').length, sort: sort, filter: filt,
                                       charts: charts, jquery: !!window.jQuery, chartjs: !!window.Chart});
     document.body.appendChild(pre);
-  }, 300);
-});
+  })();
+}
 </script>"""
 
 
