@@ -87,7 +87,7 @@ img.plot{max-width:100%;border:1px solid #ddd;margin:6px 0}
 .models li{margin:2px 0}.small{font-size:12px;color:#666}
 .swatch{display:inline-block;width:10px;height:10px;border-radius:2px;margin-right:4px;vertical-align:baseline}
 nav#toc{position:sticky;top:0;background:#fafafa;border-bottom:1px solid #ccc;padding:6px 0;z-index:5;font-size:13px}
-nav#toc a{margin-right:12px;text-decoration:none;color:#0645ad}
+nav#toc a{margin-right:12px;text-decoration:none;color:#0645ad}nav#toc a.current{font-weight:700;color:#000}
 .flip{position:relative;display:inline-block;width:96px;line-height:0;vertical-align:middle}
 .flip img{width:96px;image-rendering:pixelated;display:block}
 .flip img.model{position:absolute;top:0;left:0;clip-path:inset(0 50% 0 0)}
@@ -126,6 +126,18 @@ $(function () {
         scales: {y: {type: c.log ? 'logarithmic' : 'linear', title: {display: true, text: c.ylabel}},
                  x: {title: {display: true, text: 'commit (oldest first; * = uncommitted changes)'}}}}}));
   });
+  // index.html?exp=EXPERIMENT shows that experiment's section alone (a tab: the links in the table of
+  // contents' "only" row); &sort=METRIC[:desc] opens its table sorted (what --screenshot's second
+  // picture shows).
+  var q = /[?&]exp=([^&]+)/.exec(location.search), srt = /[?&]sort=([^&:]+)(?::(desc))?/.exec(location.search);
+  if (q) {
+    $('section.part').not('#sec-' + q[1]).hide();
+    $('nav#toc a.tab[data-exp="' + q[1] + '"]').addClass('current');
+    if (srt) {
+      var table = $('#table-' + q[1]), col = table.find('thead th[data-metric="' + srt[1] + '"]').index();
+      if (col >= 0) table.trigger('sorton', [[[col, srt[2] ? 1 : 0]]]);
+    }
+  }
   window.dashboardReady = true;  // for tests/test_dashboard.py
 });
 """
@@ -525,7 +537,7 @@ def build(a):
             start = len(page.parts)  # this experiment's part goes below the status banners
             sub = page
             toc.append((f"exp-{e}", e))
-            sub.add(f"<h2 id='exp-{esc(e)}'>{esc(e)}: current metrics"
+            sub.add(f"<section class=part id='sec-{esc(e)}'><h2 id='exp-{esc(e)}'>{esc(e)}: current metrics"
                     f"{' against the baseline' if section else ' (no baseline section)'}</h2>")
             sub.add("<p class=meta>" + "<br>".join(esc(x) for x in settings_text(meta)) +
                     (f"<br>baseline: commit {esc(section['commit'][:10])}{' (dirty)' if section.get('dirty') else ''}"
@@ -539,6 +551,7 @@ def build(a):
             if absent:
                 sub.add(f"<p class=small>registered but not in this run (run it again): {esc(', '.join(absent))}</p>")
             strips(sub, results_root, rows, e)
+            sub.add("</section>")
             summaries[e] = (counts, bool(section))
             body += page.parts[start:]
             del page.parts[start:]
@@ -569,10 +582,10 @@ def build(a):
         for k, (title, sub_dir, patterns) in enumerate(sections):
             files = [f for p in patterns for f in sorted(glob.glob(os.path.join(results_root, sub_dir, p)))]
             toc.append((f"fig-{k}", title.split(":")[0].split(" (")[0]))
-            page.add(f"<h2 id='fig-{k}'>{esc(title)}</h2>")
+            page.add(f"<section class=part id='sec-fig-{k}'><h2 id='fig-{k}'>{esc(title)}</h2>")
             if not files:
                 page.add(f"<p class=small>not made yet: run <code>make {'pareto' if sub_dir == 'pareto' else 'figures'}"
-                         f"</code></p>")
+                         f"</code></p></section>")
                 continue
             for f in files:
                 src = page.image(f, f"{sub_dir}_{os.path.basename(f)}")
@@ -586,8 +599,9 @@ def build(a):
                          f"<span class=small>{esc(os.path.relpath(f, results_root))}, "
                          f"{esc(datetime.datetime.fromtimestamp(os.path.getmtime(f)).isoformat(timespec='minutes'))}"
                          f"{' — ' + ' '.join(vec) if vec else ''}</span> {binary_notice(f, tables)}</p>")
+            page.add("</section>")
         toc.append(("history", "Trends and history"))
-        page.add("<h2 id=history>Trends over commits and history</h2>")
+        page.add("<section class=part id=sec-history><h2 id=history>Trends over commits and history</h2>")
         if not history:
             page.add("<p class=small>no history yet (results/history.csv has no rows: <code>make dashboard</code> "
                      "records one per commit and configuration)</p>")
@@ -599,12 +613,16 @@ def build(a):
                 specs += sp
         if history:
             history_table(page, history)
+        page.add("</section>")
         page.add("<script type='application/json' id=trend-data>" + json.dumps(specs).replace("</", "<\\/") +
                  "</script>")
         page.add(f"<script>{PAGE_JS}</script>" if not missing else "")
         page.add("</body></html>")
-        page.parts[toc_at:toc_at] = ["<nav id=toc>" + " ".join(f"<a href='#{esc(i)}'>{esc(t)}</a>" for i, t in toc)
-                                     + "</nav>"]
+        page.parts[toc_at:toc_at] = [
+            "<nav id=toc>" + " ".join(f"<a href='#{esc(i)}'>{esc(t)}</a>" for i, t in toc) +
+            ("<br><span class=small>one experiment alone:</span> " + " ".join(
+                f"<a class=tab data-exp='{esc(e)}' href='?exp={esc(e)}'>{esc(e)}</a>" for e in loaded) +
+             " <a class=tab href='index.html'>all</a>" if loaded else "") + "</nav>"]
         write_text(os.path.join(tmp, "index.html"), "\n".join(page.parts) + "\n")
         # Swap the finished folder in; the old one goes only after the new one is in place.
         old = None
@@ -639,10 +657,11 @@ def headless(url, extra, user_dir, timeout=60):
     return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
 
 
-def screenshot(index, png, size=(1400, 3000)):
+def screenshot(index, png, size=(1400, 3000), query=""):
     with tempfile.TemporaryDirectory() as ud:
         tmp = f"{png}.tmp.{os.getpid()}.png"
-        p = headless("file://" + index, [f"--screenshot={tmp}", f"--window-size={size[0]},{size[1]}"], ud)
+        p = headless("file://" + index + query, [f"--screenshot={tmp}", f"--window-size={size[0]},{size[1]}",
+                                                 "--virtual-time-budget=5000"], ud)
         if p.returncode != 0 or not os.path.exists(tmp):
             raise VoxlabError(f"chromium --screenshot failed: {p.stderr[-500:]}")
         os.replace(tmp, png)
@@ -669,7 +688,13 @@ def main(argv=None):
         if a.screenshot:
             if chromium_command():
                 screenshot(os.path.join(out, "index.html"), os.path.join(out, "screenshot.png"))
-                print(f"dashboard: wrote {rel(out, REPO)}/screenshot.png", file=sys.stderr)
+                shown = [e for e in a.experiments.split(",") if e.strip() and
+                         os.path.exists(os.path.join(os.path.abspath(a.results), e.strip(), "rows.json"))]
+                if shown:  # the last experiment's table sorted by MSE, best first
+                    screenshot(os.path.join(out, "index.html"), os.path.join(out, "screenshot_sorted.png"),
+                               size=(1400, 1600), query=f"?exp={shown[-1].strip()}&sort=mse")
+                print(f"dashboard: wrote {rel(out, REPO)}/screenshot.png" +
+                      (", screenshot_sorted.png" if shown else ""), file=sys.stderr)
             else:
                 print("dashboard: chromium is not installed: no screenshot", file=sys.stderr)
         return 0

@@ -215,7 +215,9 @@ def main():
     refs = re.findall(r"""src=['"]([^'"]+)['"]""", page)
     report("every image is inside the dashboard folder",
            refs and all(not os.path.isabs(r) and os.path.isfile(os.path.join(out, r)) for r in refs), str(refs[:5]))
-    hrefs = [h for h in re.findall(r"""href=['"]([^'"]+)['"]""", page) if not h.startswith("#")]
+    # In-page anchors aside; "?exp=E" (one experiment alone) is the page itself.
+    hrefs = [("index.html" if h.startswith("?") else h) for h in re.findall(r"""href=['"]([^'"]+)['"]""", page)
+             if not h.startswith("#")]
     report("every link points to a file inside the dashboard folder",
            hrefs and all(not os.path.isabs(h) and ".." not in h.split("/") and os.path.isfile(os.path.join(out, h))
                          for h in hrefs), str([h for h in hrefs if not os.path.isfile(os.path.join(out, h))][:5]))
@@ -257,6 +259,8 @@ def main():
     report("a table of contents links every experiment and section",
            "exp-tiny" in anchors and "history" in anchors and all(f"id='{x}'" in page or f"id={x}" in page
                                                                    for x in anchors), str(anchors))
+    report("tabs: one experiment alone (?exp=E)", re.search(r"<a class=tab data-exp='tiny' href='\?exp=tiny'>", page)
+           is not None and "<section class=part id='sec-tiny'>" in page, "")
     notice = re.search(r"<img class=plot src='img/figures_grid_old_16\.png'.*?</p>", page, re.S)
     same = re.search(r"<img class=plot src='img/pareto_pareto_same\.png'.*?</p>", page, re.S)
     report("a figure made by an older binary than the table carries a notice; one by the same binary none",
@@ -311,6 +315,18 @@ def main():
     report("the other models are not", all(re.search(rf'<tr class="ok[^"]*" data-model="{re.escape(mm)}"', dom)
                                            for mm in others), "")
     report("history table has both runs", dom.count("<td class=\"l\">tiny</td>") >= 2, "")
+
+    # A link that opens one experiment alone with its table sorted (what --screenshot's second picture shows).
+    c = chromium("file://" + index + "?exp=tiny&sort=mse:desc", "--dump-dom")
+    body = re.search(r'<table class="sortable metrics[^"]*" id="table-tiny".*?<tbody[^>]*>(.*?)</tbody>', c.stdout, re.S)
+    order = []
+    for tr in re.findall(r"<tr\b.*?</tr>", body.group(1), re.S) if body else []:
+        mse_td = re.findall(r"<td\b([^>]*)>", tr)[4]  # scene, model, res, image, MSE
+        order.append(float(re.search(r'data-text="([^"]+)"', mse_td).group(1)))
+    hidden = re.search(r'<section class="part" id="sec-history" style="display: none;">', c.stdout)
+    report("?exp=tiny&sort=mse:desc shows that experiment alone, sorted by MSE (descending)",
+           len(order) == len(models) and order == sorted(order, reverse=True) and hidden is not None,
+           f"order {order}; history hidden: {hidden is not None}")
 
     shot = os.path.join(TMP, "dashboard.png")
     s = chromium("file://" + index, f"--screenshot={shot}", "--window-size=1280,1800")
