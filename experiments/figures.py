@@ -20,6 +20,10 @@ writes into <results>/figures/:
                            against render time for the same renders.
   figures.md               what each figure shows, with the run's date, machine, commit, settings.
 
+Every plot is written as .png, .pdf and .svg (fonts embedded) with <stem>.json naming the voxlab
+binary, commit and date it was drawn from (voxlab_exp/plots.py); each model has its colour of every
+figure; titles state the images' size from the rows.
+
 A figure that needs a model which is not registered (heitz-neyret for view_angle and dof) is drawn
 with the models that exist and says so in its title. Failed configurations show as a grey tile
 with the reason.
