@@ -34,6 +34,9 @@ DEPS += chromium time python3-distributed
 # python3-jsonschema: declarations are checked against experiments/declaration.schema.json;
 # python3-pandas: the row and demo tables (experiments/voxlab_exp/files.py, demo.py).
 DEPS += python3-jsonschema python3-pandas
+# The dashboard's libraries, copied into results/dashboard/vendor/ (no network at view time):
+# jQuery + tablesorter (sortable, filterable tables), Chart.js (trends over commits).
+DEPS += libjs-jquery libjs-jquery-tablesorter libjs-chart.js
 # Only for `make test-slurm` (and --executor slurm on a machine that is its own cluster): SLURM's
 # daemons and clients, and munge for their authentication.
 SLURM_DEPS = slurm-wlm munge

@@ -20,6 +20,10 @@ writes into <results>/figures/:
                            against render time for the same renders.
   figures.md               what each figure shows, with the run's date, machine, commit, settings.
 
+Every plot is written as .png, .pdf and .svg (fonts embedded) with <stem>.json naming the voxlab
+binary, commit and date it was drawn from (voxlab_exp/plots.py); each model has its colour of every
+figure; titles state the images' size from the rows.
+
 A figure that needs a model which is not registered (heitz-neyret for view_angle and dof) is drawn
 with the models that exist and says so in its title. Failed configurations show as a grey tile
 with the reason.
@@ -34,9 +38,10 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from voxlab_exp.cli import add_common_args, main_wrapper  # noqa: E402
 from voxlab_exp.config import REPO  # noqa: E402
-from voxlab_exp.files import load_json, rel, save_figure, write_csv, write_text  # noqa: E402
+from voxlab_exp.files import load_json, rel, write_csv, write_text  # noqa: E402
+from voxlab_exp.plots import TRUTH_COLOUR, model_colour, save_plot  # noqa: E402
 from voxlab_exp.images import read_exr, srgb8  # noqa: E402
-from voxlab_exp.report import settings_text  # noqa: E402
+from voxlab_exp.report import settings_text, size_text  # noqa: E402
 from voxlab_exp.rows import run_experiment  # noqa: E402
 from voxlab_exp.scenes import write_variant  # noqa: E402
 from voxlab_exp.scheduler import Sweep  # noqa: E402
@@ -124,10 +129,10 @@ def grids(meta, rows, results, out):
                     clean(ae)
                 continue
             ai.imshow(load_png(results, r["preview"]), interpolation="nearest")
-            ai.set_title(f"{m}\nMSE {r['mse']:.2e}\nSSIM {r['ssim']:.3f}", fontsize=7)
+            ai.set_title(f"{m}\nMSE {r['mse']:.2e}\nSSIM {r['ssim']:.3f}", fontsize=7, color=model_colour(m))
             if ae is not None:
                 ae.imshow(errs[m], cmap="magma", vmin=0, vmax=vmax, interpolation="nearest")
-                ae.set_title(f"{m} error", fontsize=7)
+                ae.set_title(f"{m} error", fontsize=7, color=model_colour(m))
         return vmax
 
     for n in resolutions:
@@ -144,9 +149,10 @@ def grids(meta, rows, results, out):
                             transform=axes[1][0].transAxes)
             sm = plt.cm.ScalarMappable(cmap="magma", norm=plt.Normalize(0, v[0]))
             fig.colorbar(sm, ax=list(axes[1]), fraction=0.015, pad=0.01)
-            fig.suptitle(f"{sc}, {n}³ voxels, {n}x{n} pixels — {stamp(meta)}", fontsize=9)
+            px = size_text([r for r in rows if r["kind"] == "model" and r["scene"] == sc and r["res"] == n])
+            fig.suptitle(f"{sc}, {n}³ voxels, {px} pixels — {stamp(meta)}", fontsize=9)
             path = os.path.join(out, f"grid_{sc}_{n}.png")
-            save_figure(fig, path, dpi=100)
+            save_plot(fig, path, dpi=100, meta=meta)
             plt.close(fig)
             written.append(path)
         # The overview: every scene a row, images then error maps (each row on its own scale).
@@ -166,11 +172,12 @@ def grids(meta, rows, results, out):
                     ae.imshow(sq_error(results, r), cmap="magma", vmin=0, vmax=v[0], interpolation="nearest")
                     ae.set_title(f"{m} error", fontsize=7)
             row_axes[0].set_ylabel(sc, fontsize=9)
-        fig.suptitle(f"Figure 11 analogue: {n}³ voxels, {n}x{n} pixels; error maps share one scale per row — "
+        px = size_text([r for r in rows if r["kind"] == "model" and r["res"] == n])
+        fig.suptitle(f"Figure 11 analogue: {n}³ voxels, {px} pixels; error maps share one scale per row — "
                      f"{stamp(meta)}", fontsize=10)
         fig.tight_layout(rect=(0, 0, 1, 0.97))
         path = os.path.join(out, f"figure11_{n}.png")
-        save_figure(fig, path, dpi=100)
+        save_plot(fig, path, dpi=100, meta=meta)
         plt.close(fig)
         written.append(path)
     return written
@@ -229,7 +236,7 @@ def view_angle(sw, decl, meta, rows, results, out):
     missing = fig_decl.get("needs_model")
     title_extra = f" — {missing} is not registered: curves for the models that exist" \
         if missing and missing not in models else ""
-    colours = {m: plt.get_cmap("tab10")(i % 10) for i, m in enumerate(models)}
+    colours = {m: model_colour(m) for m in models}
     fig = plt.figure(figsize=(13, 7.5))
     gs = fig.add_gridspec(2, 3, height_ratios=[3, 1.25])
     chans = ["red", "green", "blue"]
@@ -240,7 +247,7 @@ def view_angle(sw, decl, meta, rows, results, out):
                 continue
             xs = sorted(pts)
             ax.plot(xs, [pts[x][c] for x in xs], "-o" if name != "truth" else "-*", ms=5 if name != "truth" else 9,
-                    color="black" if name == "truth" else colours.get(name, "0.5"), lw=2 if name == "truth" else 1.2,
+                    color=TRUTH_COLOUR if name == "truth" else colours.get(name, model_colour(name)), lw=2 if name == "truth" else 1.2,
                     label=name)
         ax.set_xlabel("view elevation above the surface (degrees)")
         ax.set_ylabel(f"mean {chans[c]} (linear)")
@@ -265,7 +272,7 @@ def view_angle(sw, decl, meta, rows, results, out):
                  f"{decl['truth_spp']} spp){title_extra}\n{stamp(meta)}", fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.93))
     path = os.path.join(out, "view_angle.png")
-    save_figure(fig, path, dpi=100)
+    save_plot(fig, path, dpi=100, meta=meta)
     plt.close(fig)
     data = [{"series": n, "angle": a, "r": float(v[0]), "g": float(v[1]), "b": float(v[2])}
             for n, pts in series.items() for a, v in sorted(pts.items())]
@@ -332,7 +339,7 @@ def coverage(decl, meta, rows, results, out):
                  f"image vs truth\n{stamp(meta)}", fontsize=8)
     fig.tight_layout(rect=(0, 0, 1, 0.92))
     path = os.path.join(out, "coverage.png")
-    save_figure(fig, path, dpi=100)
+    save_plot(fig, path, dpi=100, meta=meta)
     plt.close(fig)
     write_csv(os.path.join(out, "coverage.csv"), summary,
                  ["scene", "model", "res", "silhouette_abs_error", "total_coverage_change"])
@@ -383,7 +390,7 @@ def dof(decl, meta, rows, results, out):
         fig.suptitle(f"Depth of field with and without pre-filtering: {sc}{note}\n{stamp(meta)}", fontsize=9)
         fig.tight_layout(rect=(0, 0, 1, 0.95))
         path = os.path.join(out, f"dof_{sc}.png")
-        save_figure(fig, path, dpi=100)
+        save_plot(fig, path, dpi=100, meta=meta)
         plt.close(fig)
         written.append(path)
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
@@ -391,7 +398,7 @@ def dof(decl, meta, rows, results, out):
             pts = sorted((r for r in ok if r["model"] == m), key=lambda r: r["spp"])
             if pts:
                 ax.plot([r["render_ms"] for r in pts], [r["mse"] for r in pts], "-o" if m not in pre else "-s",
-                        color=plt.get_cmap("tab10")(i % 10), label=f"{m} ({'pre-filtered' if m in pre else 'lens rays'})")
+                        color=model_colour(m), label=f"{m} ({'pre-filtered' if m in pre else 'lens rays'})")
                 for r in pts:
                     ax.annotate(f"{r['spp']} spp", (r["render_ms"], r["mse"]), textcoords="offset points",
                                 xytext=(4, 3), fontsize=7)
@@ -404,7 +411,7 @@ def dof(decl, meta, rows, results, out):
         ax.set_title(f"{sc}: depth of field, error against time{note}", fontsize=9)
         fig.tight_layout()
         path = os.path.join(out, f"dof_{sc}_cost.png")
-        save_figure(fig, path, dpi=100)
+        save_plot(fig, path, dpi=100, meta=meta)
         plt.close(fig)
         written.append(path)
     return written

@@ -9,10 +9,12 @@ Runs the declared sweep (cached) and writes into <results>/<name>/:
   pareto.csv              one line per point: scene, series (a model, or "truth" for the triangle
                           ground truth at low spp), its parameters, render ms, memory MB, MSE, 1 - SSIM,
                           and on_front_<x>_<y> = 1 for the points on the Pareto front of that plot.
-  pareto_<scene>.png/.svg four panels: MSE and 1 - SSIM against render time and against memory, log
+  pareto_<scene>.png/.pdf/.svg  four panels: MSE and 1 - SSIM against render time and against memory, log
                           scales, every model over its parameters, the truth's spp curve in black,
                           the Pareto front (lower left: nothing else is both cheaper and better) as a
-                          dashed step line with ringed points.
+                          dashed step line with ringed points; labels placed so that none overlaps
+                          another (voxlab_exp/plots.py), each model in its colour of every figure;
+                          PDF and SVG with fonts embedded, pareto_<scene>.json: the binary that made it.
   pareto.md               per scene the fronts in words, and which model points the brute-force truth
                           curve dominates (a truth render that is both faster and more accurate:
                           such a model setting is not worth using on this scene).
@@ -30,7 +32,8 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from voxlab_exp.cli import add_common_args, main_wrapper, sweep_args  # noqa: E402
 from voxlab_exp.config import REPO  # noqa: E402
-from voxlab_exp.files import rel, save_figure, write_csv, write_text  # noqa: E402
+from voxlab_exp.files import rel, write_csv, write_text  # noqa: E402
+from voxlab_exp.plots import TRUTH_COLOUR, model_colour, place_labels, save_plot  # noqa: E402
 from voxlab_exp.report import settings_text  # noqa: E402
 from voxlab_exp.rows import run_experiment  # noqa: E402
 from voxlab_exp.schema import load_declaration  # noqa: E402
@@ -104,10 +107,12 @@ def plot_scene(scene, pts, models, out_stem, meta, decl):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    colours = {m: plt.get_cmap("tab10")(i % 10) for i, m in enumerate(models)}
+    colours = {m: model_colour(m) for m in models}
     fig, axes = plt.subplots(2, 2, figsize=(12, 9.5))
+    labels, markers = [], []  # every annotation, placed at the end so that none overlaps another
     for ax, (x, y) in zip(axes.flat, AXES):
         usable = [p for p in pts if p[x] and p[y] and p[x] > 0 and p[y] > 0]
+        markers += [(ax, p[x], p[y]) for p in usable]
         for m in models:
             mp = [p for p in usable if p["series"] == m]
             # The resolution sweep (default spp, rays, cache) as a connected line, the other
@@ -117,8 +122,8 @@ def plot_scene(scene, pts, models, out_stem, meta, decl):
                 ax.plot([p[x] for p in line], [p[y] for p in line], "-o", color=colours[m], ms=5, lw=1.3, label=m)
                 time_bars(ax, line, x, y, colours[m])
                 for p in line:
-                    ax.annotate(f"{p['res']}", (p[x], p[y]), textcoords="offset points", xytext=(4, 3), fontsize=7,
-                                color=colours[m])
+                    labels.append(ax.annotate(f"{p['res']}", (p[x], p[y]), textcoords="offset points",
+                                              xytext=(4, 3), fontsize=7, color=colours[m]))
             for p in mp:
                 if p in line:
                     continue
@@ -129,15 +134,16 @@ def plot_scene(scene, pts, models, out_stem, meta, decl):
                 short = " ".join(t for t in (f"{p['spp']}spp" if p["spp"] != 4 else "",
                                              f"{p['rays']}rays" if p["rays"] != 150 else "",
                                              "nocache" if not p["cache"] else "") if t)
-                ax.annotate(short, (p[x], p[y]), textcoords="offset points", xytext=(4, -8), fontsize=6,
-                            color=colours[m])
+                labels.append(ax.annotate(short, (p[x], p[y]), textcoords="offset points", xytext=(4, -8),
+                                          fontsize=6, color=colours[m]))
         tr = sorted((p for p in usable if p["series"] == "truth"), key=lambda p: p["spp"])
         if tr:
-            ax.plot([p[x] for p in tr], [p[y] for p in tr], "-*", color="black", ms=8, lw=1.5,
+            ax.plot([p[x] for p in tr], [p[y] for p in tr], "-*", color=TRUTH_COLOUR, ms=8, lw=1.5,
                     label=f"truth (triangles), {tr[0]['spp']}–{tr[-1]['spp']} spp")
-            time_bars(ax, tr, x, y, "black")
+            time_bars(ax, tr, x, y, TRUTH_COLOUR)
             for p in tr:
-                ax.annotate(f"{p['spp']} spp", (p[x], p[y]), textcoords="offset points", xytext=(4, 4), fontsize=7)
+                labels.append(ax.annotate(f"{p['spp']} spp", (p[x], p[y]), textcoords="offset points", xytext=(4, 4),
+                                          fontsize=7))
         front = [usable[i] for i in pareto_front(usable, x, y)]
         if front:
             fx, fy = [front[0][x]], [front[0][y]]
@@ -165,9 +171,10 @@ def plot_scene(scene, pts, models, out_stem, meta, decl):
                  f"{meta['threads']} thread(s); commit {g['commit'][:10]}{' (dirty)' if g['dirty'] else ''}, "
                  f"{meta['date'][:10]}", fontsize=10)
     fig.tight_layout(rect=(0, 0.06, 1, 0.95))
-    save_figure(fig, out_stem + ".png", dpi=110)
-    save_figure(fig, out_stem + ".svg")
+    place_labels(fig, labels, markers)  # after the layout: the offsets are measured on the final axes
+    save_plot(fig, out_stem + ".png", dpi=110, meta=meta)
     plt.close(fig)
+    return fig, labels
 
 
 def build(meta, rows, decl, out):
@@ -241,7 +248,7 @@ def main(argv=None):
         meta, rows = run_experiment(decl, **sweep_args(a))
         out = os.path.join(os.path.abspath(a.results), decl["name"])
         build(meta, rows, decl, out)
-        print(f"pareto: wrote {rel(out, REPO)}/pareto.csv, pareto.md, pareto_<scene>.png/.svg", file=sys.stderr)
+        print(f"pareto: wrote {rel(out, REPO)}/pareto.csv, pareto.md, pareto_<scene>.png/.pdf/.svg", file=sys.stderr)
         return 0
 
     return main_wrapper(go, "pareto")

@@ -26,7 +26,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from voxlab_exp.cli import add_common_args, main_wrapper, sweep_args  # noqa: E402
 from voxlab_exp.config import REPO  # noqa: E402
 from voxlab_exp.files import rel, write_csv, write_text  # noqa: E402
-from voxlab_exp.report import settings_text  # noqa: E402
+from voxlab_exp.report import settings_text, size_text  # noqa: E402
 from voxlab_exp.rows import run_experiment  # noqa: E402
 from voxlab_exp.schema import load_declaration  # noqa: E402
 
@@ -95,8 +95,8 @@ def build(meta, rows, decl, out):
     run = decl["runs"][0]
     setting_line = (f"settings: truth {decl['truth_spp']} spp (seed {decl['seed']}); models rendered at "
                     f"{', '.join(map(str, run['spp']))} spp with {', '.join(map(str, run['rays']))} bake rays per "
-                    f"voxel, shading cache {'on' if run['cache'] == [True] else run['cache']}; image size = voxel "
-                    f"resolution (N x N pixels for N³ voxels)")
+                    f"voxel, shading cache {'on' if run['cache'] == [True] else run['cache']}; image size "
+                    + "; ".join(f"{size_text([r for r in rows if r['res'] == n])} at {n}³" for n in resolutions))
 
     # --- Table 1, Markdown and LaTeX: one block per resolution, a column pair per scene.
     md = [f"# Table 1: accuracy against the ground truth ({meta['experiment']})", ""]
@@ -111,13 +111,14 @@ def build(meta, rows, decl, out):
                       f"{meta['date'][:10]}.") + "}",
            r"\label{tab:accuracy}"]
     for n in resolutions:
-        md.append(f"## {n}³ voxels, {n}x{n} images")
+        # The images' size as the rows give it (a declaration's "size" may be "scene", N or [W, H]).
+        md.append(f"## {n}³ voxels, {size_text([r for r in rows if r['res'] == n])} images")
         md.append("")
         md.append("| model | " + " | ".join(f"{sc} MSE | {sc} SSIM" for sc in scenes) + " |")
         md.append("|---|" + "---:|---:|" * len(scenes))
         tex.append(r"\begin{tabular}{l" + "rr" * len(scenes) + "}")
         tex.append(r"\toprule")
-        tex.append(f"{n}$^3$ & " + " & ".join(r"\multicolumn{2}{c}{" + tex_escape(sc) + "}" for sc in scenes)
+        tex.append(f"{n}$^3$, {size_text([r for r in rows if r['res'] == n])} & " + " & ".join(r"\multicolumn{2}{c}{" + tex_escape(sc) + "}" for sc in scenes)
                    + r" \\")
         tex.append("model & " + " & ".join("MSE & SSIM" for _ in scenes) + r" \\")
         tex.append(r"\midrule")

@@ -61,3 +61,11 @@ def settings_text(meta):
          if meta.get("invalidated") else ""),
     ]
     return lines
+
+
+def size_text(rows):
+    """The image sizes of rows as the tables and figures state them ("256x256", or "64x64, 128x128"
+    when they differ): from the rows' width and height, never assumed from the voxel resolution (a
+    declaration's "size" may be "scene", a number or [W, H])."""
+    sizes = list(dict.fromkeys((r.get("width"), r.get("height")) for r in rows if r.get("width")))
+    return ", ".join(f"{w}x{h}" for w, h in sizes) if sizes else "?"
