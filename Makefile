@@ -59,7 +59,7 @@ DEPS = build-essential libembree-dev libopenexr-dev libopenimageio-dev libtinygl
        ocl-icd-opencl-dev opencl-headers pocl-opencl-icd \
        python3-numpy python3-skimage python3-matplotlib python3-openimageio python3-mpmath
 
-.PHONY: all deps test test-asan bench bench-build demo clean fuzz fuzz-build
+.PHONY: all deps test test-asan bench bench-build demo clean fuzz fuzz-build pylib
 all: $(BUILD)/voxlab
 
 $(BUILD)/voxlab: $(BUILD)/tracer/cli/main.c.o $(LIB_OBJ) | $(PLUGIN)
@@ -68,6 +68,29 @@ $(BUILD)/voxlab: $(BUILD)/tracer/cli/main.c.o $(LIB_OBJ) | $(PLUGIN)
 $(PLUGIN): tracer/image/image_oiio.cpp tracer/image/image.h tracer/core/error.h tracer/core/readfile.h
 	@mkdir -p $(dir $@)
 	$(CXX) $(CXXFLAGS) -fPIC -shared -o $@ $< -lOpenImageIO -lOpenImageIO_Util
+
+# The Python API's library (tracer/api/voxlab_api.h, used by experiments/voxlab/): the library's
+# sources compiled again as position-independent code into $(BUILD)/pic/ (Debian's gcc makes the
+# executable's objects PIE, which a shared library cannot hold), so the CLI's own objects and
+# timings stay as they are. The OpenImageIO plugin is found beside it.
+PYLIB = $(BUILD)/libvoxlab.so
+PIC_OBJ = $(patsubst %,$(BUILD)/pic/%.o,$(LIB_SRC)) $(BUILD)/pic/gen/embedded_sources.c.o
+pylib: $(PYLIB)
+
+$(PYLIB): $(PIC_OBJ) | $(PLUGIN)
+	$(CXX) $(LDFLAGS) -shared -o $@ $^ $(LDLIBS)
+
+$(BUILD)/pic/gen/embedded_sources.c.o: $(EMBEDDED)
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS) -fPIC -c -o $@ $<
+
+$(BUILD)/pic/%.c.o: %.c
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS) -fPIC -c -o $@ $<
+
+$(BUILD)/pic/%.cpp.o: %.cpp
+	@mkdir -p $(dir $@)
+	$(CXX) $(CXXFLAGS) -fPIC -c -o $@ $<
 
 $(EMBEDDED): tracer/backends/opencl/embed_sources.sh $(KERNEL_SOURCES) Makefile
 	@mkdir -p $(dir $@)
@@ -118,7 +141,7 @@ deps:
 	fi
 
 test: deps
-	@$(MAKE) --no-print-directory $(BUILD)/voxlab $(UNIT_BIN)
+	@$(MAKE) --no-print-directory $(BUILD)/voxlab $(UNIT_BIN) $(PYLIB)
 	@BUILD=$(BUILD) tests/run_all.sh
 
 test-asan:
