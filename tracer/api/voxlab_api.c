@@ -22,6 +22,9 @@
 #include "vox_load.h"
 #include "voxfile.h"
 
+/* The CLI's limit: --stats writes the seed as a JSON number, exact up to 2^53. */
+#define SEED_MAX (1LL << 53)
+
 struct vxapi_scene {
     scene s;
 };
@@ -123,8 +126,8 @@ int vxapi_truth(const vxapi_scene *as, int width, int height, int spp, long long
     const scene *s = &as->s;
     truth_options o = {.spp = spp, .seed = (uint64_t)seed, .threads = threads};
     vx_err e;
-    if (spp < 1 || spp > (1 << 20) || seed < 0 || threads < 0)
-        return give_error("spp must be 1..1048576, seed and threads non-negative", err, err_size);
+    if (spp < 1 || spp > (1 << 20) || seed < 0 || seed > SEED_MAX || threads < 0)
+        return give_error("spp must be 1..1048576, seed 0..2^53, threads non-negative", err, err_size);
     if (image_size(s, width, height, &o.width, &o.height, &e))
         return give_error(e.msg, err, err_size);
     vx_estimate est;
@@ -153,8 +156,8 @@ vxapi_bake *vxapi_bake_run(const vxapi_scene *as, const char *model, int res, in
         give_error(e.msg, err, err_size);
         return NULL;
     }
-    if (res < 1 || res > GRID_MAX_N || rays < 1 || rays > (1 << 20) || seed < 0 || threads < 0) {
-        vx_fail(&e, "res must be 1..%d, rays 1..1048576, seed and threads non-negative", GRID_MAX_N);
+    if (res < 1 || res > GRID_MAX_N || rays < 1 || rays > (1 << 20) || seed < 0 || seed > SEED_MAX || threads < 0) {
+        vx_fail(&e, "res must be 1..%d, rays 1..1048576, seed 0..2^53, threads non-negative", GRID_MAX_N);
         give_error(e.msg, err, err_size);
         return NULL;
     }
@@ -245,8 +248,8 @@ int vxapi_render(const vxapi_scene *as, const vxapi_bake *b, int width, int heig
     }
     if (b->scene_identity != s->identity)
         return give_error("the bake was made for another scene (its identity differs)", err, err_size);
-    if (spp < 1 || spp > (1 << 16) || seed < 0 || threads < 0)
-        return give_error("spp must be 1..65536, seed and threads non-negative", err, err_size);
+    if (spp < 1 || spp > (1 << 16) || seed < 0 || seed > SEED_MAX || threads < 0)
+        return give_error("spp must be 1..65536, seed 0..2^53, threads non-negative", err, err_size);
     render_options o;
     render_default_options(&o);
     o.spp = spp;
