@@ -109,6 +109,8 @@ $(VERSION_H): FORCE
 FORCE:
 $(BUILD)/tracer/cli/version.c.o: $(VERSION_H)
 $(BUILD)/tracer/cli/version.c.o: CFLAGS += -I$(BUILD)/gen
+$(BUILD)/pic/tracer/cli/version.c.o: $(VERSION_H)
+$(BUILD)/pic/tracer/cli/version.c.o: CFLAGS += -I$(BUILD)/gen
 
 $(EMBEDDED).o: $(EMBEDDED)
 	$(CC) $(CFLAGS) -c -o $@ $<

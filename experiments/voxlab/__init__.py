@@ -62,6 +62,7 @@ def _load():
         "vxapi_render": (I, [P, P, I, I, I, LL, I, I, I, S, FPP, IP, IP, SPP, S, E]),
         "vxapi_image_read": (I, [S, FPP, IP, IP, IP, S, E]),
         "vxapi_compare": (I, [_float_p, _float_p, I, I, I, SPP, S, E]),
+        "vxapi_compare_files": (I, [S, S, SPP, S, E]),
         "vxapi_models": (I, [SPP]),
         "vxapi_free": (None, [P]),
     }
@@ -255,7 +256,13 @@ def _as_image(x):
 
 def compare(reference, image):
     """`voxlab compare A B --json`: {"mse", "psnr", "ssim", "width", "height"} (psnr None when identical).
-    Arrays (height, width, channels) or image paths."""
+    Arrays (height, width, channels) or image paths; two paths: their EXRs' "provenance" too."""
+    paths = (str, bytes, os.PathLike)
+    if isinstance(reference, paths) and isinstance(image, paths):
+        call = _Call()
+        if _load().vxapi_compare_files(_enc(reference), _enc(image), ctypes.byref(call.text), call.err, _ERR_SIZE):
+            call.fail()
+        return call.json()
     a, b = _as_image(reference), _as_image(image)
     if a.shape != b.shape:
         raise VoxlabError(f"image sizes differ: {a.shape[1]}x{a.shape[0]} with {a.shape[2]} channels vs "

@@ -292,17 +292,49 @@ int vxapi_compare(const float *a, const float *b, int width, int height, int cha
                   size_t err_size)
 {
     /* The metrics read the caller's arrays in place: the images only borrow them. */
-    image ia = {width, height, channels, (float *)a}, ib = {width, height, channels, (float *)b};
+    image ia = {.width = width, .height = height, .channels = channels, .data = (float *)a};
+    image ib = {.width = width, .height = height, .channels = channels, .data = (float *)b};
     image_metrics m;
     vx_err e;
-    char text[1024];
     if (width < 1 || height < 1 || channels < 1 || channels > 4)
         return give_error("images must be at least 1x1 with 1 to 4 channels", err, err_size);
     if (metrics_compare(&ia, &ib, &m, &e))
         return give_error(e.msg, err, err_size);
-    if (compare_json(&m, width, height, text, sizeof text) || !(*json = strdup(text)))
+    if (!(*json = compare_json(&m, width, height, NULL))) /* arrays carry no provenance */
         return give_error("out of memory for the metrics", err, err_size);
     return 0;
+}
+
+int vxapi_compare_files(const char *path_a, const char *path_b, char **json, char *err, size_t err_size)
+{
+    const char *paths[2] = {path_a, path_b};
+    image a = {0}, b = {0};
+    image_metrics m;
+    vx_err e;
+    char *prov = NULL;
+    int rc = -1;
+    if (image_read(path_a, &a, &e) || image_read(path_b, &b, &e))
+        give_error(e.msg, err, err_size);
+    else if (a.width != b.width || a.height != b.height || a.channels != b.channels) {
+        vx_fail(&e, "image sizes differ: %s is %dx%d with %d channels, %s is %dx%d with %d channels", path_a, a.width,
+                a.height, a.channels, path_b, b.width, b.height, b.channels);
+        give_error(e.msg, err, err_size);
+    } else if (metrics_compare(&a, &b, &m, &e)) {
+        char why[sizeof e.msg];
+        snprintf(why, sizeof why, "%s", e.msg);
+        vx_fail(&e, "%s vs %s: %s", path_a, path_b, why);
+        give_error(e.msg, err, err_size);
+    } else if (compare_provenance_json(paths, &prov, &e)) {
+        give_error(e.msg, err, err_size);
+    } else if (!(*json = compare_json(&m, a.width, a.height, prov))) {
+        give_error("out of memory for the metrics", err, err_size);
+    } else {
+        rc = 0;
+    }
+    free(prov);
+    image_free(&a);
+    image_free(&b);
+    return rc;
 }
 
 int vxapi_models(char **names)

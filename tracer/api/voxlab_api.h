@@ -55,6 +55,9 @@ int vxapi_image_read(const char *path, float **pixels, int *width, int *height, 
 int vxapi_compare(const float *a, const float *b, int width, int height, int channels, char **json, char *err,
                   size_t err_size);
 
+/* `voxlab compare A B --json` of two image files, provenance (their EXR headers') included. */
+int vxapi_compare_files(const char *path_a, const char *path_b, char **json, char *err, size_t err_size);
+
 /* The registered models, one name a line, in *names. */
 int vxapi_models(char **names);
 void vxapi_free(void *p);

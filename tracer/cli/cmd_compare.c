@@ -57,9 +57,7 @@ static const struct {
 };
 #define N_METRIC_KEYS (sizeof metric_keys / sizeof metric_keys[0])
 
-/* The voxlab attributes of each EXR's header (without the prefix) as the JSON object
- * {"a": {...}, "b": {...}} in *text (malloc'ed), when either file has some; NULL otherwise. */
-static int provenance_json(const char *const paths[2], char **text, vx_err *e)
+int compare_provenance_json(const char *const paths[2], char **text, vx_err *e)
 {
     image_meta meta[2];
     *text = NULL;
@@ -155,7 +153,7 @@ int cmd_compare(int argc, char **argv)
     }
     if (json) {
         char *prov, *text = NULL;
-        if (provenance_json(paths, &prov, &e) == 0 && !(text = compare_json(&m, a.width, a.height, prov)))
+        if (compare_provenance_json(paths, &prov, &e) == 0 && !(text = compare_json(&m, a.width, a.height, prov)))
             vx_fail(&e, "out of memory for the JSON");
         free(prov);
         if (!text) {
