@@ -27,7 +27,8 @@ endif
 # Every folder of the tracer and the models is on the include path (headers are named by file, not
 # by folder), so a new model folder needs no Makefile edit. The OpenCL program assembler searches the
 # same folders, in this order (SOURCE_DIRS is written into the embedded source table).
-SOURCE_DIRS := $(sort $(shell find tracer models -type d)) scenes/generators
+# tracer/api/ (the Python library's functions, not the binary's) is left out: no kernel source there.
+SOURCE_DIRS := $(sort $(filter-out tracer/api,$(shell find tracer models -type d))) scenes/generators
 INCLUDES = $(addprefix -I,$(SOURCE_DIRS)) -I/usr/include/embree3 -I/usr/include/OpenEXR
 CFLAGS = -std=c11 $(OPT) -g -march=x86-64-v2 -Wall -Wextra -Werror $(NOWARN) -D_GNU_SOURCE -pthread -MMD -MP $(INCLUDES) $(SANFLAGS)
 CXXFLAGS = -std=c++17 $(OPT) -g -Wall -Wextra -Werror -pthread -MMD -MP $(INCLUDES) $(SANFLAGS)
@@ -36,8 +37,9 @@ LDFLAGS = -pthread -rdynamic $(SANFLAGS)
 LDLIBS = -lembree3 -lOpenEXRCore -ltinygltf -lstb -ltinyobjloader -lcjson -lOpenCL -lm -ldl
 PLUGIN = $(BUILD)/libvoxlab_oiio.so
 
-# Every source file of the library; main.c is the CLI only.
-LIB_SRC = $(filter-out tracer/cli/main.c tracer/image/image_oiio.cpp,$(sort $(shell find tracer models -name '*.c' -o -name '*.cpp')) $(wildcard scenes/generators/*.c))
+# Every source file of the library; main.c is the CLI only, tracer/api/ the Python library's only.
+API_SRC = $(wildcard tracer/api/*.c)
+LIB_SRC = $(filter-out tracer/cli/main.c tracer/image/image_oiio.cpp $(API_SRC),$(sort $(shell find tracer models -name '*.c' -o -name '*.cpp')) $(wildcard scenes/generators/*.c))
 # The OpenCL kernels' sources (every header and .cl of those folders), embedded in the binary.
 KERNEL_SOURCES := $(shell find $(SOURCE_DIRS) -maxdepth 1 -type f \( -name '*.h' -o -name '*.cl' \))
 EMBEDDED = $(BUILD)/gen/embedded_sources.c
@@ -59,7 +61,7 @@ DEPS = build-essential libembree-dev libopenexr-dev libopenimageio-dev libtinygl
        ocl-icd-opencl-dev opencl-headers pocl-opencl-icd \
        python3-numpy python3-skimage python3-matplotlib python3-openimageio python3-mpmath
 
-.PHONY: all deps test test-asan bench bench-build demo clean fuzz fuzz-build
+.PHONY: all deps test test-asan bench bench-build demo clean fuzz fuzz-build pylib
 all: $(BUILD)/voxlab
 
 $(BUILD)/voxlab: $(BUILD)/tracer/cli/main.c.o $(LIB_OBJ) | $(PLUGIN)
@@ -68,6 +70,29 @@ $(BUILD)/voxlab: $(BUILD)/tracer/cli/main.c.o $(LIB_OBJ) | $(PLUGIN)
 $(PLUGIN): tracer/image/image_oiio.cpp tracer/image/image.h tracer/core/error.h tracer/core/readfile.h
 	@mkdir -p $(dir $@)
 	$(CXX) $(CXXFLAGS) -fPIC -shared -o $@ $< -lOpenImageIO -lOpenImageIO_Util
+
+# The Python API's library (tracer/api/voxlab_api.h, used by experiments/voxlab/): the library's
+# sources compiled again as position-independent code into $(BUILD)/pic/ (Debian's gcc makes the
+# executable's objects PIE, which a shared library cannot hold), so the CLI's own objects and
+# timings stay as they are. The OpenImageIO plugin is found beside it.
+PYLIB = $(BUILD)/libvoxlab.so
+PIC_OBJ = $(patsubst %,$(BUILD)/pic/%.o,$(LIB_SRC) $(API_SRC)) $(BUILD)/pic/gen/embedded_sources.c.o
+pylib: $(PYLIB)
+
+$(PYLIB): $(PIC_OBJ) | $(PLUGIN)
+	$(CXX) $(LDFLAGS) -shared -o $@ $^ $(LDLIBS)
+
+$(BUILD)/pic/gen/embedded_sources.c.o: $(EMBEDDED)
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS) -fPIC -c -o $@ $<
+
+$(BUILD)/pic/%.c.o: %.c
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS) -fPIC -c -o $@ $<
+
+$(BUILD)/pic/%.cpp.o: %.cpp
+	@mkdir -p $(dir $@)
+	$(CXX) $(CXXFLAGS) -fPIC -c -o $@ $<
 
 $(EMBEDDED): tracer/backends/opencl/embed_sources.sh $(KERNEL_SOURCES) Makefile
 	@mkdir -p $(dir $@)
@@ -84,6 +109,8 @@ $(VERSION_H): FORCE
 FORCE:
 $(BUILD)/tracer/cli/version.c.o: $(VERSION_H)
 $(BUILD)/tracer/cli/version.c.o: CFLAGS += -I$(BUILD)/gen
+$(BUILD)/pic/tracer/cli/version.c.o: $(VERSION_H)
+$(BUILD)/pic/tracer/cli/version.c.o: CFLAGS += -I$(BUILD)/gen
 
 $(EMBEDDED).o: $(EMBEDDED)
 	$(CC) $(CFLAGS) -c -o $@ $<
@@ -118,7 +145,7 @@ deps:
 	fi
 
 test: deps
-	@$(MAKE) --no-print-directory $(BUILD)/voxlab $(UNIT_BIN)
+	@$(MAKE) --no-print-directory $(BUILD)/voxlab $(UNIT_BIN) $(PYLIB)
 	@BUILD=$(BUILD) tests/run_all.sh
 
 test-asan:

@@ -14,6 +14,7 @@ whole binary (experiments/README.md, "What a cache key holds"):
   those include (models/common/ among them). models/registry.c and registry.def (one line per model) and the other
   models' folders are not part of it: adding a model leaves every other model's entries valid.
 - compare: tracer/ and scenes/generators/ (metrics, image readers).
+- none: tracer/api/ (the Python library's entry points; the voxlab binary that jobs run lacks them).
 
 The lists are conservative by default: a new file in tracer/ belongs to every code path until it is
 named here. tests/test_cache_keys.py checks them against the linker's view (no unit a code path
@@ -41,6 +42,8 @@ VOXEL_ONLY = ["tracer/bake/*.c", "tracer/grid/*.c", "tracer/render/*.c", "tracer
 # Translation units only the truth runs: never part of a model job's key.
 TRUTH_ONLY = ["tracer/truth/truth.c", "tracer/truth/truth.h", "tracer/cli/cmd_truth.c"]
 SOURCE_EXT = (".c", ".h", ".cpp", ".cl")
+# The Python library's entry points (build/libvoxlab.so only): in no key, and no reason to rebuild voxlab.
+NOT_IN_BINARY = "tracer/api/"
 _INCLUDE_RE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)
 _memo, _lock = {}, threading.Lock()
 
@@ -57,12 +60,13 @@ def _expand(patterns):
 
 
 def tracer_sources():
-    """Every source under tracer/ (kernels in tracer/backends/opencl/cl included) and scenes/generators/."""
+    """Every source under tracer/ (kernels in tracer/backends/opencl/cl included) and scenes/generators/,
+    but tracer/api/: the Python library's functions, which the voxlab binary does not contain."""
     out = set()
     for top in ("tracer", "scenes/generators"):
         for root, _, files in os.walk(os.path.join(REPO, top)):
             out.update(_rel(os.path.join(root, f)) for f in files if f.endswith(SOURCE_EXT))
-    return out
+    return {f for f in out if not f.startswith(NOT_IN_BINARY)}
 
 
 def includes(path):
@@ -183,7 +187,7 @@ def newer_sources(binary):
         for root, _, files in os.walk(os.path.join(REPO, top)):
             for f in files:
                 p = os.path.join(root, f)
-                if f.endswith(SOURCE_EXT) and os.stat(p).st_mtime > built + 1:
+                if f.endswith(SOURCE_EXT) and not _rel(p).startswith(NOT_IN_BINARY) and os.stat(p).st_mtime > built + 1:
                     out.append(_rel(p))
     return sorted(out)
 

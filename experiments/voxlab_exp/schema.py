@@ -160,6 +160,18 @@ def load_declaration(path):
         raise DeclarationError(f"{shown}: cannot read: {e.strerror}")
     except (ValueError, RecursionError) as e:
         raise DeclarationError(f"{shown}: not valid JSON: {e}")
+    return declaration_from_dict(d, shown, os.path.dirname(path), path)
+
+
+def declaration_from_dict(d, shown="<declaration dict>", base_dir=None, path=None):
+    """The same checks and defaults for a declaration already parsed (the Python API's
+    voxlab.experiment({...})): `shown` names it in messages, scene files resolve against base_dir
+    (default: the current directory) and then scenes/."""
+    base_dir = os.path.abspath(base_dir or os.getcwd())
+
+    def fail(where, msg):
+        raise DeclarationError(f"{shown}: {where}: {msg}")
+
     check_schema(d, shown)
     decl = {
         "path": path,
@@ -175,7 +187,6 @@ def load_declaration(path):
         "figure": d.get("figure", {}),
         "raw": d,
     }
-    base_dir = os.path.dirname(path)
 
     def scene_entry(v, where):
         if isinstance(v, str):

@@ -34,6 +34,22 @@ const cli_command cmd_bake_help = {
         {"--stats", "S.json", "none", "write statistics (times, bytes, rays) as JSON"},
         {0}}};
 
+void bake_header_fill(voxfile_header *h, const scene *s, const vx_model *m, const bake_options *o,
+                      const voxel_grid *g)
+{
+    memset(h, 0, sizeof *h);
+    snprintf(h->model, sizeof h->model, "%s", m->name);
+    h->scene_identity = s->identity;
+    h->n = g->n;
+    h->rays = o->rays;
+    h->seed = o->seed;
+    h->voxel_bytes = m->record.bytes;
+    h->layout_version = (uint32_t)m->record.layout_version;
+    bake_params_format(m, &o->params, h->params, sizeof h->params);
+    h->record_count = bake_record_count(m, g);
+    h->voxels = grid_count(g, 0);
+}
+
 int cmd_bake(int argc, char **argv)
 {
     static const char usage[] = "usage: " BAKE_SYNOPSIS "\n";
@@ -133,32 +149,13 @@ int cmd_bake(int argc, char **argv)
         return 1;
     }
     voxfile_header h;
-    memset(&h, 0, sizeof h);
-    snprintf(h.model, sizeof h.model, "%s", m->name);
-    h.scene_identity = s.identity;
-    h.n = res;
-    h.rays = o.rays;
-    h.seed = o.seed;
-    h.voxel_bytes = m->record.bytes;
-    h.layout_version = (uint32_t)m->record.layout_version;
-    bake_params_format(m, &o.params, h.params, sizeof h.params);
-    h.record_count = bake_record_count(m, &g);
-    h.voxels = grid_count(&g, 0);
+    bake_header_fill(&h, &s, m, &o, &g);
     if (voxfile_write(out_path, &h, records, &e)) {
         fprintf(stderr, "voxlab bake: %s\n", e.msg);
         goto done;
     }
     if (stats_path) {
-        cJSON *j = stats_scene_fields(&s);
-        cJSON_AddStringToObject(j, "command", "bake");
-        stats_add_bake(j, m, &o.params, &g, &c, o.rays, grid_seconds);
-        cJSON_AddNumberToObject(j, "seconds", c.seconds + c.finish_seconds);
-        cJSON_AddNumberToObject(j, "rays", (double)c.rays);
-        cJSON_AddNumberToObject(j, "shadow_rays", 0);
-        cJSON_AddNumberToObject(j, "bake_rays_per_second", (double)c.rays / c.seconds);
-        cJSON_AddNumberToObject(j, "threads", parallel_threads(o.threads));
-        cJSON_AddNumberToObject(j, "peak_rss_bytes", peak_rss_bytes());
-        if (stats_finish(j, stats_path, "bake", out_path))
+        if (stats_finish(stats_bake(&s, m, &o, &g, &c, grid_seconds), stats_path, "bake", out_path))
             goto done;
     }
     rc = 0;

@@ -38,12 +38,10 @@ static int fail(const char *fmt, ...)
 }
 
 /* JSON has no inf/NaN: infinite PSNR (identical images) and NaN (NaN pixels) become null. */
-static void json_double(const char *key, double v, const char *sep)
+static size_t json_double(char *out, size_t size, const char *key, double v)
 {
-    if (isfinite(v))
-        printf("\"%s\":%.17g%s", key, v, sep);
-    else
-        printf("\"%s\":null%s", key, sep);
+    int n = isfinite(v) ? snprintf(out, size, "\"%s\":%.17g,", key, v) : snprintf(out, size, "\"%s\":null,", key);
+    return n < 0 ? 0 : (size_t)n;
 }
 
 /* The metrics `--json` writes, in this order: the one list of them. The experiment scripts read it
@@ -59,11 +57,10 @@ static const struct {
 };
 #define N_METRIC_KEYS (sizeof metric_keys / sizeof metric_keys[0])
 
-/* "provenance": {"a": {...}, "b": {...}}, the voxlab attributes of each EXR's header (without the
- * prefix), when either file has some; nothing otherwise. */
-static int print_provenance(const char *const paths[2], vx_err *e)
+int compare_provenance_json(const char *const paths[2], char **text, vx_err *e)
 {
     image_meta meta[2];
+    *text = NULL;
     if (image_read_meta(paths[0], &meta[0], e) || image_read_meta(paths[1], &meta[1], e))
         return -1;
     if (!meta[0].count && !meta[1].count)
@@ -74,13 +71,24 @@ static int print_provenance(const char *const paths[2], vx_err *e)
         for (int k = 0; k < meta[i].count; k++)
             cJSON_AddStringToObject(o, meta[i].entry[k].key + strlen(IMAGE_META_PREFIX), meta[i].entry[k].value);
     }
-    char *text = cJSON_PrintUnformatted(p);
+    *text = cJSON_PrintUnformatted(p);
     cJSON_Delete(p);
-    if (!text)
-        return vx_fail(e, "out of memory for the provenance");
-    printf("\"provenance\":%s,", text);
-    free(text);
-    return 0;
+    return *text ? 0 : vx_fail(e, "out of memory for the provenance");
+}
+
+char *compare_json(const image_metrics *m, int width, int height, const char *provenance)
+{
+    char metrics[2048];
+    size_t n = 0;
+    for (size_t k = 0; k < N_METRIC_KEYS && n < sizeof metrics; k++)
+        n += json_double(metrics + n, sizeof metrics - n, metric_keys[k].key,
+                         *(const double *)((const char *)m + metric_keys[k].offset));
+    size_t size = sizeof metrics + (provenance ? strlen(provenance) : 0) + 64;
+    char *out = malloc(size);
+    if (out)
+        snprintf(out, size, "{%s%s%s%s\"width\":%d,\"height\":%d}", metrics, provenance ? "\"provenance\":" : "",
+                 provenance ? provenance : "", provenance ? "," : "", width, height);
+    return out;
 }
 
 int cmd_compare(int argc, char **argv)
@@ -144,14 +152,16 @@ int cmd_compare(int argc, char **argv)
         goto done;
     }
     if (json) {
-        putchar('{');
-        for (size_t k = 0; k < N_METRIC_KEYS; k++)
-            json_double(metric_keys[k].key, *(const double *)((const char *)&m + metric_keys[k].offset), ",");
-        if (print_provenance(paths, &e)) {
+        char *prov, *text = NULL;
+        if (compare_provenance_json(paths, &prov, &e) == 0 && !(text = compare_json(&m, a.width, a.height, prov)))
+            vx_fail(&e, "out of memory for the JSON");
+        free(prov);
+        if (!text) {
             fail("%s", e.msg);
             goto done;
         }
-        printf("\"width\":%d,\"height\":%d}\n", a.width, a.height);
+        puts(text);
+        free(text);
     } else {
         printf("%s vs %s: %dx%d, %d channel%s%s\n", paths[0], paths[1], a.width, a.height, a.channels,
                a.channels == 1 ? "" : "s", a.channels == 2 || a.channels == 4 ? " (alpha ignored)" : "");

@@ -229,28 +229,7 @@ int cmd_render(int argc, char **argv)
     if (image_write(&img, out_path, &e))
         goto fail;
     if (stats_path) {
-        cJSON *j = stats_scene_fields(&s);
-        cJSON_AddStringToObject(j, "command", "render");
-        stats_add_bake(j, m, &bo.params, &g, &bc, bo.rays, grid_seconds);
-        cJSON_AddStringToObject(j, "backend", backend->name);
-        cJSON_AddNumberToObject(j, "seconds", rcnt.seconds);
-        if (backend->splits_model_time) {
-            cJSON_AddNumberToObject(j, "traversal_seconds", rcnt.traversal_seconds);
-            cJSON_AddNumberToObject(j, "model_seconds", rcnt.model_seconds);
-        } else {
-            cJSON_AddNullToObject(j, "traversal_seconds");
-            cJSON_AddNullToObject(j, "model_seconds");
-        }
-        if (backend->has_device) /* NAME_compile_seconds ...: compile time is apart from seconds */
-            stats_add_backend(j, backend->name, &bcnt);
-        cJSON_AddNumberToObject(j, "rays", (double)rcnt.rays);
-        cJSON_AddNumberToObject(j, "shadow_rays", (double)rcnt.shadow_rays);
-        cJSON_AddNumberToObject(j, "voxel_visits", (double)rcnt.voxel_visits);
-        cJSON_AddNumberToObject(j, "model_evals", (double)rcnt.model_evals);
-        cJSON_AddNumberToObject(j, "cache_hits", (double)rcnt.cache_hits);
-        cJSON_AddBoolToObject(j, "cache", o.cache);
-        cJSON_AddBoolToObject(j, "shadow_skip", o.shadow_skip);
-        stats_add_image(j, o.spp, o.width, o.height, o.seed, o.threads);
+        cJSON *j = stats_render(&s, m, &bo, &g, &bc, grid_seconds, backend, &o, &rcnt, &bcnt);
         if (stats_finish(j, stats_path, "render", out_path))
             goto done;
     }

@@ -109,16 +109,7 @@ int cmd_truth(int argc, char **argv)
     if (image_write(&img, out_path, &e))
         goto fail;
     if (stats_path) {
-        cJSON *j = stats_scene_fields(&s);
-        cJSON_AddStringToObject(j, "command", "truth");
-        cJSON_AddNumberToObject(j, "seconds", counts.seconds);
-        cJSON_AddNumberToObject(j, "rays", (double)(counts.primary_rays + counts.shadow_rays));
-        cJSON_AddNumberToObject(j, "primary_rays", (double)counts.primary_rays);
-        cJSON_AddNumberToObject(j, "shadow_rays", (double)counts.shadow_rays);
-        cJSON_AddNumberToObject(j, "voxels", 0);
-        cJSON_AddNumberToObject(j, "bytes_per_voxel", 0);
-        stats_add_image(j, o.spp, o.width, o.height, o.seed, o.threads);
-        if (stats_finish(j, stats_path, "truth", out_path))
+        if (stats_finish(stats_truth(&s, &o, &counts), stats_path, "truth", out_path))
             goto done;
     }
     rc = 0;

@@ -31,6 +31,20 @@ cJSON *stats_scene_fields(const scene *s)
     return j;
 }
 
+cJSON *stats_truth(const scene *s, const truth_options *o, const truth_counts *c)
+{
+    cJSON *j = stats_scene_fields(s);
+    cJSON_AddStringToObject(j, "command", "truth");
+    cJSON_AddNumberToObject(j, "seconds", c->seconds);
+    cJSON_AddNumberToObject(j, "rays", (double)(c->primary_rays + c->shadow_rays));
+    cJSON_AddNumberToObject(j, "primary_rays", (double)c->primary_rays);
+    cJSON_AddNumberToObject(j, "shadow_rays", (double)c->shadow_rays);
+    cJSON_AddNumberToObject(j, "voxels", 0);
+    cJSON_AddNumberToObject(j, "bytes_per_voxel", 0);
+    stats_add_image(j, o->spp, o->width, o->height, o->seed, o->threads);
+    return j;
+}
+
 void stats_add_image(cJSON *j, int spp, int width, int height, uint64_t seed, int threads)
 {
     cJSON_AddNumberToObject(j, "spp", spp);

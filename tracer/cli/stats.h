@@ -9,6 +9,7 @@
 #include "image_meta.h"
 #include "bake.h"
 #include "scene.h"
+#include "truth.h"
 
 /* The scene's fields: name, triangles, effects. */
 cJSON *stats_scene_fields(const scene *s);
@@ -30,5 +31,13 @@ double peak_rss_bytes(void);
  * command line, the scene (name, identity hash), size, spp, seed. */
 void provenance_common(image_meta *m, int argc, char **argv, const scene *s, int width, int height, int spp,
                        uint64_t seed);
+
+/* Each command's whole --stats object (the Python API, tracer/api/, returns the same as a dict). */
+cJSON *stats_truth(const scene *s, const truth_options *o, const truth_counts *c);
+cJSON *stats_bake(const scene *s, const vx_model *m, const bake_options *o, const voxel_grid *g, const bake_counts *c,
+                  double grid_seconds);
+cJSON *stats_render(const scene *s, const vx_model *m, const bake_options *bo, const voxel_grid *g,
+                    const bake_counts *bc, double grid_seconds, const vx_backend *b, const render_options *o,
+                    const render_counts *rc, const backend_counts *bcnt);
 
 #endif

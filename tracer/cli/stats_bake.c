@@ -1,6 +1,7 @@
 /* The --stats fields of a bake (bake and render): apart from stats.c, which the truth uses too, so
  * that the truth's code path holds none of the bake's. */
 #include "bake_params.h"
+#include "parallel.h"
 #include "stats.h"
 
 void stats_add_bake(cJSON *j, const vx_model *m, const struct vx_bake_params *params, const voxel_grid *g,
@@ -28,4 +29,48 @@ void stats_add_bake(cJSON *j, const vx_model *m, const struct vx_bake_params *pa
         cJSON_AddNumberToObject(j, "bake_seconds", c->seconds + c->finish_seconds);
     cJSON_AddNumberToObject(j, "bake_rays", (double)c->rays);
     cJSON_AddNumberToObject(j, "rays_per_voxel", rays);
+}
+
+cJSON *stats_bake(const scene *s, const vx_model *m, const bake_options *o, const voxel_grid *g, const bake_counts *c,
+                  double grid_seconds)
+{
+    cJSON *j = stats_scene_fields(s);
+    cJSON_AddStringToObject(j, "command", "bake");
+    stats_add_bake(j, m, &o->params, g, c, o->rays, grid_seconds);
+    cJSON_AddNumberToObject(j, "seconds", c->seconds + c->finish_seconds);
+    cJSON_AddNumberToObject(j, "rays", (double)c->rays);
+    cJSON_AddNumberToObject(j, "shadow_rays", 0);
+    cJSON_AddNumberToObject(j, "bake_rays_per_second", (double)c->rays / c->seconds);
+    cJSON_AddNumberToObject(j, "threads", parallel_threads(o->threads));
+    cJSON_AddNumberToObject(j, "peak_rss_bytes", peak_rss_bytes());
+    return j;
+}
+
+cJSON *stats_render(const scene *s, const vx_model *m, const bake_options *bo, const voxel_grid *g,
+                    const bake_counts *bc, double grid_seconds, const vx_backend *b, const render_options *o,
+                    const render_counts *rc, const backend_counts *bcnt)
+{
+    cJSON *j = stats_scene_fields(s);
+    cJSON_AddStringToObject(j, "command", "render");
+    stats_add_bake(j, m, &bo->params, g, bc, bo->rays, grid_seconds);
+    cJSON_AddStringToObject(j, "backend", b->name);
+    cJSON_AddNumberToObject(j, "seconds", rc->seconds);
+    if (b->splits_model_time) {
+        cJSON_AddNumberToObject(j, "traversal_seconds", rc->traversal_seconds);
+        cJSON_AddNumberToObject(j, "model_seconds", rc->model_seconds);
+    } else {
+        cJSON_AddNullToObject(j, "traversal_seconds");
+        cJSON_AddNullToObject(j, "model_seconds");
+    }
+    if (b->has_device) /* NAME_compile_seconds ...: compile time is apart from seconds */
+        stats_add_backend(j, b->name, bcnt);
+    cJSON_AddNumberToObject(j, "rays", (double)rc->rays);
+    cJSON_AddNumberToObject(j, "shadow_rays", (double)rc->shadow_rays);
+    cJSON_AddNumberToObject(j, "voxel_visits", (double)rc->voxel_visits);
+    cJSON_AddNumberToObject(j, "model_evals", (double)rc->model_evals);
+    cJSON_AddNumberToObject(j, "cache_hits", (double)rc->cache_hits);
+    cJSON_AddBoolToObject(j, "cache", o->cache);
+    cJSON_AddBoolToObject(j, "shadow_skip", o->shadow_skip);
+    stats_add_image(j, o->spp, o->width, o->height, o->seed, o->threads);
+    return j;
 }

@@ -1,6 +1,7 @@
 /* Opens the OpenImageIO plugin (build/libvoxlab_oiio.so, see image_oiio.cpp) on first use and
- * forwards image_read and image_write_png8_oiio to it. Looked for beside the executable, then one
- * directory up (the test programs live in build/tests/), or at $VOXLAB_OIIO_PLUGIN. */
+ * forwards image_read and image_write_png8_oiio to it. Looked for at $VOXLAB_OIIO_PLUGIN, else beside
+ * build/libvoxlab.so when this code runs from that library, else beside the executable, then one
+ * directory up (the test programs live in build/tests/). */
 #include <dlfcn.h>
 #include <limits.h>
 #include <pthread.h>
@@ -38,6 +39,25 @@ static int try_open(const char *path)
     return 1;
 }
 
+/* The directory of the file that holds this code: build/libvoxlab.so when the library is loaded
+ * into another program (Python through tracer/api/), where /proc/self/exe names the interpreter.
+ * Empty when this code is in the executable itself. That library is also made global, since the
+ * plugin calls back into it (vx_fail, image_alloc, image_free) and a library opened with
+ * RTLD_LOCAL (ctypes' default) would not supply those symbols. */
+static void library_dir(char *out, size_t size, const char *exe_path)
+{
+    Dl_info info;
+    char lib[PATH_MAX];
+    out[0] = 0;
+    if (!dladdr((void *)library_dir, &info) || !info.dli_fname || !strchr(info.dli_fname, '/') ||
+        !realpath(info.dli_fname, lib) || strcmp(lib, exe_path) == 0)
+        return;
+    dlopen(lib, RTLD_NOW | RTLD_NOLOAD | RTLD_GLOBAL);
+    char *slash = strrchr(lib, '/');
+    *slash = 0;
+    snprintf(out, size, "%s", lib);
+}
+
 static void load_plugin(void)
 {
     const char *env = getenv("VOXLAB_OIIO_PLUGIN");
@@ -45,17 +65,22 @@ static void load_plugin(void)
         try_open(env);
         return;
     }
-    char exe[PATH_MAX];
+    char exe[PATH_MAX], dir[PATH_MAX], path[PATH_MAX + 64];
     ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
     if (n <= 0) {
         snprintf(plugin_error, sizeof plugin_error, "cannot locate the executable to find libvoxlab_oiio.so");
         return;
     }
     exe[n] = 0;
+    library_dir(dir, sizeof dir, exe);
+    if (dir[0]) {
+        snprintf(path, sizeof path, "%s/libvoxlab_oiio.so", dir);
+        try_open(path);
+        return;
+    }
     char *slash = strrchr(exe, '/');
     if (slash)
         *slash = 0;
-    char path[PATH_MAX + 64];
     snprintf(path, sizeof path, "%s/libvoxlab_oiio.so", exe);
     if (try_open(path))
         return;

@@ -600,23 +600,27 @@ static void compute_bounds_and_identity(scene *s)
 int scene_load(const char *path, scene *s, vx_err *e)
 {
     memset(s, 0, sizeof *s);
-    s->path = strdup(path);
     char *text = read_file(path, e);
-    if (!text) {
-        scene_free(s); /* s->path: every failure leaves nothing allocated */
+    if (!text)
         return -1;
-    }
+    int rc = scene_load_text(text, path, s, e);
+    free(text);
+    return rc;
+}
+
+int scene_load_text(const char *text, const char *path, scene *s, vx_err *e)
+{
+    memset(s, 0, sizeof *s);
+    s->path = strdup(path);
     cJSON *root = cJSON_Parse(text);
     if (!root) {
         const char *at = cJSON_GetErrorPtr();
         int line = 1;
         for (const char *c = text; at && c < at; c++)
             line += *c == '\n';
-        free(text);
-        scene_free(s);
+        scene_free(s); /* s->path: every failure leaves nothing allocated */
         return vx_fail(e, "%s: malformed JSON near line %d", path, line);
     }
-    free(text);
     int rc = -1;
     static const char *const known[] = {"name", "size", "background", "effects", "camera", "lights",
                                         "materials", "objects", "description", NULL};

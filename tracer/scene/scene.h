@@ -53,6 +53,10 @@ extern "C" {
 #endif
 
 int scene_load(const char *path, scene *s, vx_err *e);
+/* The same from the JSON text itself (the Python API's scenes given as dicts: no temporary file).
+ * path stands for the file: messages name it and relative paths inside (meshes, textures) resolve
+ * against its directory, as for a file at that path. */
+int scene_load_text(const char *text, const char *path, scene *s, vx_err *e);
 void scene_free(scene *s);
 /* Parses "shadows", "specular", "dof", "textures"; returns 0 for an unknown name. */
 unsigned effect_from_name(const char *name);
