@@ -52,41 +52,20 @@ report("the OBJ quad renders as the same quad given as PLY (to float rounding: 1
 # A glTF's own material: baseColorFactor and an embedded PNG baseColorTexture, against the same quad
 # as PLY with the factor as the scene colour and the same PNG as the scene texture (glTF's v runs
 # down the image, the scene textures' up: the PLY's v is 1 - the glTF's): the same image.
-import io  # noqa: E402
 import struct  # noqa: E402
 
-from PIL import Image  # noqa: E402
-
+# tests/data/textured_quad.glb (tests/data/make_fixtures.py): its PNG, taken out of the binary chunk
+# for the scene texture.
+glb = os.path.join(DATA, "textured_quad.glb")
+raw = open(glb, "rb").read()
+json_len = struct.unpack_from("<I", raw, 12)[0]
+doc = json.loads(raw[20:20 + json_len])
+bin_start = 20 + json_len + 8
+view = doc["bufferViews"][doc["images"][0]["bufferView"]]
 png_path = os.path.join(TMP, "tex.png")
-Image.fromarray(np.array([[[255, 0, 0], [0, 255, 0]], [[0, 0, 255], [255, 255, 255]]], dtype=np.uint8)).save(png_path)
-png = open(png_path, "rb").read()
-corners = [(0, 0), (1, 0), (1, 1), (0, 1)]
-blob = b"".join(struct.pack("<3f", x, y, 0) for x, y in corners)
-blob += b"".join(struct.pack("<3f", 0, 0, 1) for _ in corners)
-blob += b"".join(struct.pack("<2f", x, 1 - y) for x, y in corners)
-blob += struct.pack("<6H", 0, 1, 2, 0, 2, 3)
-offset = len(blob)
-blob += png + b"\0" * (-len(png) % 4)
-doc = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
-       "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}, "indices": 3,
-                                   "material": 0}]}],
-       "materials": [{"name": "tinted", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.9, 0.7, 1.0],
-                                                                 "baseColorTexture": {"index": 0}}}],
-       "textures": [{"source": 0}], "images": [{"bufferView": 4, "mimeType": "image/png"}],
-       "buffers": [{"byteLength": len(blob)}],
-       "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48}, {"buffer": 0, "byteOffset": 48, "byteLength": 48},
-                       {"buffer": 0, "byteOffset": 96, "byteLength": 32}, {"buffer": 0, "byteOffset": 128, "byteLength": 12},
-                       {"buffer": 0, "byteOffset": offset, "byteLength": len(png)}],
-       "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]},
-                     {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
-                     {"bufferView": 2, "componentType": 5126, "count": 4, "type": "VEC2"},
-                     {"bufferView": 3, "componentType": 5123, "count": 6, "type": "SCALAR"}]}
-js = json.dumps(doc).encode()
-js += b" " * (-len(js) % 4)
-glb = os.path.join(TMP, "textured.glb")
-with open(glb, "wb") as f:
-    f.write(struct.pack("<4sII", b"glTF", 2, 12 + 8 + len(js) + 8 + len(blob)))
-    f.write(struct.pack("<I4s", len(js), b"JSON") + js + struct.pack("<I4s", len(blob), b"BIN\0") + blob)
+with open(png_path, "wb") as f:
+    f.write(raw[bin_start + view["byteOffset"]:bin_start + view["byteOffset"] + view["byteLength"]])
+factor = doc["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"]
 gscene = scene("gltf_tex", {"gltf": glb}, ["textures"], texture=False)
 p = truth(gscene, os.path.join(TMP, "g.exr"))
 with open(ply, "w") as f:  # the quad again, v flipped
@@ -96,7 +75,7 @@ with open(ply, "w") as f:  # the quad again, v flipped
             "0 0 0 0 0 1 0 0\n1 0 0 0 0 1 1 0\n1 1 0 0 0 1 1 1\n0 1 0 0 0 1 0 1\n4 0 1 2 3\n")
 with open(scene("ply_png", {"ply": ply}, ["textures"])) as f:
     s = json.load(f)
-s["materials"]["m"] = {"color": [0.5, 0.9, 0.7], "texture": png_path}
+s["materials"]["m"] = {"color": factor[:3], "texture": png_path}
 pscene = os.path.join(TMP, "ply_png.json")
 with open(pscene, "w") as f:
     json.dump(s, f)
