@@ -80,7 +80,7 @@ static int render(opencl_launch *L, dilated_grid *skip, const opencl_runtime *rt
     char defines[256];
     snprintf(defines, sizeof defines, "#define VX_CL_CONE_ELEMENT %s\n#define VX_CL_PARAMS_BYTES %zu\n",
              m->cone->element.name, sizeof(vx_cl_cone_params));
-    if (opencl_launch_build(L, rt, m, defines, "render_cone.cl", "vx_render_cone", C_N, C_NEXT_TILE, VX_CONE_COUNTERS,
+    if (opencl_launch_build(L, rt, m, defines, "render_cone.cl", "vx_render_cone", C_N, C_NEXT_TILE,
                             build_dir, e))
         return -1;
     c.compiled = now_seconds();
@@ -114,16 +114,8 @@ static int render(opencl_launch *L, dilated_grid *skip, const opencl_runtime *rt
     c.bound = now_seconds();
     if (opencl_launch_warm_up(L, &c, e))
         return -1;
-    uint64_t sums[VX_CONE_COUNTERS];
-    if (opencl_launch_render(L, &c, (int)pixels, "running vx_render_cone", C_IMAGE, out->data, C_COUNTS, sums, counts,
-                             bc, e))
-        return -1;
-    counts->rays = pixels; /* one cone per pixel */
-    counts->voxel_visits = sums[VX_CONE_ELEMENTS];
-    counts->shadow_rays = sums[VX_CONE_SHADOW_RAYS];
-    counts->model_evals = sums[VX_CONE_EVALS];
-    counts->cache_hits = sums[VX_CONE_CACHE_HITS];
-    return 0;
+    return opencl_launch_render(L, &c, (int)pixels, "running vx_render_cone", C_IMAGE, out->data, C_COUNTS, counts, bc,
+                                e);
 }
 
 int opencl_render_cone(const opencl_runtime *rt, const scene *s, const voxel_grid *g, const vx_model *m,

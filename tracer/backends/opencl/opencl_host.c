@@ -21,7 +21,7 @@ static double opencl_cpu_seconds(void)
 }
 
 int opencl_launch_build(opencl_launch *L, const opencl_runtime *rt, const vx_model *m, const char *defines,
-                        const char *kernel_file, const char *kernel_name, int buffers, int next_tile, int counters,
+                        const char *kernel_file, const char *kernel_name, int buffers, int next_tile,
                         const char *build_dir, vx_err *e)
 {
     memset(L, 0, sizeof *L);
@@ -29,7 +29,6 @@ int opencl_launch_build(opencl_launch *L, const opencl_runtime *rt, const vx_mod
     L->kernel_name = kernel_name;
     L->buffers = buffers;
     L->next_tile = next_tile;
-    L->counters = counters;
     L->groups = rt->compute_units ? rt->compute_units : 1;
     if (buffers > OPENCL_HOST_MAX_BUFFERS)
         return vx_fail(e, "OpenCL: kernel %s has more than %d buffers", kernel_name, OPENCL_HOST_MAX_BUFFERS);
@@ -65,7 +64,7 @@ int opencl_launch_buffer(opencl_launch *L, int which, cl_mem_flags flags, size_t
 
 int opencl_launch_counters(opencl_launch *L, int which, vx_err *e)
 {
-    size_t bytes = L->groups * (size_t)L->counters * 2 * sizeof(uint32_t);
+    size_t bytes = L->groups * (size_t)VX_CL_COUNTERS * 2 * sizeof(uint32_t);
     L->counts = calloc(1, bytes ? bytes : 1);
     if (!L->counts)
         return vx_fail(e, "out of memory for the render's counters");
@@ -136,10 +135,10 @@ int opencl_launch_run(opencl_launch *L, int pixels, const char *what, vx_err *e)
 }
 
 int opencl_launch_results(opencl_launch *L, int image_which, float *out, size_t image_bytes, int counts_which,
-                          uint64_t *sums, vx_err *e)
+                          render_counts *counts, vx_err *e)
 {
     cl_command_queue q = L->rt->queue;
-    size_t count_bytes = L->groups * (size_t)L->counters * 2 * sizeof(uint32_t);
+    size_t count_bytes = L->groups * (size_t)VX_CL_COUNTERS * 2 * sizeof(uint32_t);
     cl_int err = clEnqueueReadBuffer(q, L->buf[image_which], CL_FALSE, 0, image_bytes, out, 0, NULL, NULL);
     if (err == CL_SUCCESS)
         err = clEnqueueReadBuffer(q, L->buf[counts_which], CL_FALSE, 0, count_bytes, L->counts, 0, NULL, NULL);
@@ -147,13 +146,17 @@ int opencl_launch_results(opencl_launch *L, int image_which, float *out, size_t 
         err = clFinish(q);
     if (opencl_check(err, "reading the image and the counters back", e))
         return -1;
-    for (int k = 0; k < L->counters; k++)
-        sums[k] = 0;
+    uint64_t sums[VX_CL_COUNTERS] = {0};
     for (size_t gi = 0; gi < L->groups; gi++)
-        for (int k = 0; k < L->counters; k++) {
-            const uint32_t *w = &L->counts[(gi * (size_t)L->counters + (size_t)k) * 2];
+        for (int k = 0; k < VX_CL_COUNTERS; k++) {
+            const uint32_t *w = &L->counts[(gi * (size_t)VX_CL_COUNTERS + (size_t)k) * 2];
             sums[k] += (uint64_t)w[0] | (uint64_t)w[1] << 32;
         }
+    counts->rays = sums[VX_CL_RAYS];
+    counts->shadow_rays = sums[VX_CL_SHADOW_RAYS];
+    counts->voxel_visits = sums[VX_CL_VISITS];
+    counts->model_evals = sums[VX_CL_EVALS];
+    counts->cache_hits = sums[VX_CL_CACHE_HITS];
     return 0;
 }
 
@@ -183,17 +186,16 @@ int opencl_launch_warm_up(opencl_launch *L, opencl_clock *c, vx_err *e)
 }
 
 int opencl_launch_render(opencl_launch *L, const opencl_clock *c, int pixels, const char *what, int image_which,
-                         float *out, int counts_which, uint64_t *sums, render_counts *counts, backend_counts *bc,
-                         vx_err *e)
+                         float *out, int counts_which, render_counts *counts, backend_counts *bc, vx_err *e)
 {
     if (opencl_launch_run(L, pixels, what, e))
         return -1;
     double traced = now_seconds();
     bc->kernel_cpu_seconds = opencl_cpu_seconds() - c->cpu_warm;
-    if (opencl_launch_results(L, image_which, out, (size_t)pixels * 3 * sizeof(float), counts_which, sums, e))
+    memset(counts, 0, sizeof *counts);
+    if (opencl_launch_results(L, image_which, out, (size_t)pixels * 3 * sizeof(float), counts_which, counts, e))
         return -1;
     double done = now_seconds();
-    memset(counts, 0, sizeof *counts);
     bc->compile_seconds = (c->compiled - c->start) + (c->warm - c->bound);
     bc->kernel_seconds = traced - c->warm;
     counts->seconds = (c->bound - c->compiled) + (done - c->warm);

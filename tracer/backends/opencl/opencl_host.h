@@ -11,6 +11,7 @@
 #include "backend.h"
 #include "grid.h"
 #include "model.h"
+#include "cl/counters.h"
 #include "opencl_runtime.h"
 
 #define OPENCL_HOST_MAX_BUFFERS 16
@@ -25,7 +26,6 @@ typedef struct {
     int next_tile;    /* which buffer is the tile counter */
     size_t local;     /* work-group size */
     size_t groups;    /* one per compute unit */
-    int counters;     /* 64-bit counters per work-group slot (two 32-bit words each) */
     uint32_t *counts; /* the slots, read back */
     char *source;
 } opencl_launch;
@@ -33,9 +33,9 @@ typedef struct {
 /* Assembles the program for model m around `kernel_file` (render.cl or render_cone.cl) with the
  * lines of `defines` first, builds it (or takes it from PoCL's cache; the whole build log goes to
  * build_dir/opencl-build-MODEL.log when long), creates `kernel_name` and sizes the launch: buffers
- * buffer arguments of which next_tile is the tile counter, `counters` counters per group. */
+ * buffer arguments of which next_tile is the tile counter; the kernel keeps cl/counters.h's counters. */
 int opencl_launch_build(opencl_launch *L, const opencl_runtime *rt, const vx_model *m, const char *defines,
-                        const char *kernel_file, const char *kernel_name, int buffers, int next_tile, int counters,
+                        const char *kernel_file, const char *kernel_name, int buffers, int next_tile,
                         const char *build_dir, vx_err *e);
 /* Buffer `which` (see opencl_buffer in opencl_runtime.h). */
 int opencl_launch_buffer(opencl_launch *L, int which, cl_mem_flags flags, size_t bytes, const void *host, vx_err *e);
@@ -54,9 +54,10 @@ int opencl_launch_zero(opencl_launch *L, int which, size_t bytes, vx_err *e);
  * render's time. */
 int opencl_launch_run(opencl_launch *L, int pixels, const char *what, vx_err *e);
 /* Reads image buffer `image_which` into out and the counters back: both reads enqueued, then one
- * wait (each blocking call costs a wake-up of PoCL's threads); sums[k] = counter k over the groups. */
+ * wait (each blocking call costs a wake-up of PoCL's threads); counts gets the counters summed over
+ * the groups (seconds untouched). */
 int opencl_launch_results(opencl_launch *L, int image_which, float *out, size_t image_bytes, int counts_which,
-                          uint64_t *sums, vx_err *e);
+                          render_counts *counts, vx_err *e);
 void opencl_launch_release(opencl_launch *L);
 
 /* The moments a render's time is split by (now_seconds), and the CPU time at the warm-up's end. */
@@ -69,12 +70,11 @@ typedef struct {
 int opencl_launch_warm_up(opencl_launch *L, opencl_clock *c, vx_err *e);
 
 /* The timed part of a render, after the warm-up launch (c->warm set, and whatever the render needs
- * enqueued): runs the kernel over `pixels`, reads the image and the counters back (sums), and splits
- * the time as the C backend's: counts->seconds = setting up (bound - compiled) plus the run and
- * the read-back; bc->compile_seconds = building (compiled - start) plus the warm-up (warm - bound).
- * counts is zeroed but for seconds: the caller maps its counters. */
+ * enqueued): runs the kernel over `pixels`, reads the image and the counters back into counts, and
+ * splits the time as the C backend's: counts->seconds = setting up (bound - compiled) plus the run
+ * and the read-back; bc->compile_seconds = building (compiled - start) plus the warm-up (warm -
+ * bound). */
 int opencl_launch_render(opencl_launch *L, const opencl_clock *c, int pixels, const char *what, int image_which,
-                         float *out, int counts_which, uint64_t *sums, render_counts *counts, backend_counts *bc,
-                         vx_err *e);
+                         float *out, int counts_which, render_counts *counts, backend_counts *bc, vx_err *e);
 
 #endif

@@ -49,7 +49,7 @@ static int render(opencl_launch *L, const opencl_runtime *rt, const scene *s, co
              "#define VX_CL_RECORD_BYTES %zu\n#define VX_CL_PARAMS_BYTES %zu\n",
              m->voxel->opacity.name, m->voxel->shade.name, m->voxel->compositing, m->record.bytes,
              sizeof(vx_cl_params));
-    if (opencl_launch_build(L, rt, m, defines, "render.cl", "vx_render", B_N, B_NEXT_TILE, VX_CL_COUNTERS, build_dir, e))
+    if (opencl_launch_build(L, rt, m, defines, "render.cl", "vx_render", B_N, B_NEXT_TILE, build_dir, e))
         return -1;
     c.compiled = now_seconds();
     vx_cl_params params;
@@ -75,15 +75,7 @@ static int render(opencl_launch *L, const opencl_runtime *rt, const scene *s, co
     if (opencl_launch_zero(L, B_STATE, cached * sizeof(cl_int), e) ||
         opencl_launch_grid_upload(L, B_COLS, B_BITS, B_PREFIX, g, e))
         return -1;
-    uint64_t sums[VX_CL_COUNTERS];
-    if (opencl_launch_render(L, &c, (int)pixels, "running vx_render", B_IMAGE, out->data, B_COUNTS, sums, counts, bc, e))
-        return -1;
-    counts->rays = sums[VX_CL_RAYS];
-    counts->voxel_visits = sums[VX_CL_VISITS];
-    counts->shadow_rays = sums[VX_CL_SHADOW_RAYS];
-    counts->model_evals = sums[VX_CL_EVALS];
-    counts->cache_hits = sums[VX_CL_CACHE_HITS];
-    return 0;
+    return opencl_launch_render(L, &c, (int)pixels, "running vx_render", B_IMAGE, out->data, B_COUNTS, counts, bc, e);
 }
 
 int opencl_render_voxels(const opencl_runtime *rt, const scene *s, const voxel_grid *g, const vx_model *m,

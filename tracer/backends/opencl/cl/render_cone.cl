@@ -61,6 +61,7 @@ __kernel void vx_render_cone(__global const vx_cl_cone_params *P, __global ulong
     int dof = (P->effects & VX_EFFECT_DOF) && cam.aperture_radius > 0.0f;
     float spread = P->spread;
     vec3 background = P->background;
+    ulong rays = 0; /* one cone per pixel */
     int tiles = (pixels + VX_CONE_TILE_PIXELS - 1) / VX_CONE_TILE_PIXELS;
     for (int tile = atomic_inc(next_tile); tile < tiles; tile = atomic_inc(next_tile)) {
         int end = min(pixels, (tile + 1) * VX_CONE_TILE_PIXELS);
@@ -69,6 +70,7 @@ __kernel void vx_render_cone(__global const vx_cl_cone_params *P, __global ulong
             /* The pixel's centre ray from the lens centre (render_cone.c's cone_row). */
             vec3 org, dir;
             camera_ray(&cam, width, height, (float)px + 0.5f, (float)py + 0.5f, 0.5f, 0.5f, 0, &org, &dir);
+            rays++;
             vec3 c = cone_trace(&x, org, dir, spread, dof ? cam.aperture_radius : 0.0f, cam.focus_distance,
                                 cam.forward, background);
             __global float *dst = &image[3 * (size_t)pix];
@@ -77,8 +79,9 @@ __kernel void vx_render_cone(__global const vx_cl_cone_params *P, __global ulong
             dst[2] = c.z;
         }
     }
-    vx_cl_flush_count(counts, VX_CONE_COUNTERS, VX_CONE_ELEMENTS, x.counts.elements);
-    vx_cl_flush_count(counts, VX_CONE_COUNTERS, VX_CONE_SHADOW_RAYS, x.counts.shadow_rays);
-    vx_cl_flush_count(counts, VX_CONE_COUNTERS, VX_CONE_EVALS, x.counts.evals);
-    vx_cl_flush_count(counts, VX_CONE_COUNTERS, VX_CONE_CACHE_HITS, x.counts.cache_hits);
+    vx_cl_flush_count(counts, VX_CL_COUNTERS, VX_CL_RAYS, rays);
+    vx_cl_flush_count(counts, VX_CL_COUNTERS, VX_CL_SHADOW_RAYS, x.counts.shadow_rays);
+    vx_cl_flush_count(counts, VX_CL_COUNTERS, VX_CL_VISITS, x.counts.elements);
+    vx_cl_flush_count(counts, VX_CL_COUNTERS, VX_CL_EVALS, x.counts.evals);
+    vx_cl_flush_count(counts, VX_CL_COUNTERS, VX_CL_CACHE_HITS, x.counts.cache_hits);
 }

@@ -5,6 +5,7 @@
 #ifndef VX_CL_RENDER_CONE_PARAMS_H
 #define VX_CL_RENDER_CONE_PARAMS_H
 
+#include "counters.h"
 #include "camera.h"
 #include "grid_params.h"
 #include "light.h"
@@ -30,8 +31,5 @@ typedef struct {
  * enough that the last tiles even out the threads' finishing times, large enough that the counter
  * is rarely touched. */
 #define VX_CONE_TILE_PIXELS 16
-
-/* A work-item's counters, summed per work-group as 64-bit (low, high) pairs of 32-bit words. */
-enum { VX_CONE_ELEMENTS = 0, VX_CONE_SHADOW_RAYS = 1, VX_CONE_EVALS = 2, VX_CONE_CACHE_HITS = 3, VX_CONE_COUNTERS = 4 };
 
 #endif

@@ -7,6 +7,7 @@
 #define VX_CL_RENDER_PARAMS_H
 
 #include "camera.h"
+#include "counters.h"
 #include "grid_params.h"
 #include "light.h"
 #include "model.h"
@@ -40,8 +41,5 @@ typedef struct {
     float opacity;
 } vx_cl_cache;
 
-/* The marcher's counters (voxel_counts, render_counts' fields). The kernel adds them up per
- * work-group, each as a 64-bit sum in two 32-bit words (low, high), and the host sums the groups. */
-enum { VX_CL_RAYS, VX_CL_SHADOW_RAYS, VX_CL_VISITS, VX_CL_EVALS, VX_CL_CACHE_HITS, VX_CL_COUNTERS };
 
 #endif
