@@ -5,6 +5,7 @@
 // loader are thrown as load_error and turned into a vx_err at the C boundary, which also catches
 // anything else C++ may throw (std::bad_alloc from tinygltf's vectors, for instance).
 #include "mesh_load.h"
+#include "mesh_load_cpp.h"
 #include "image.h"
 #include "readfile.h"
 
@@ -26,11 +27,9 @@
 
 namespace {
 
-struct load_error {
-    std::string msg;
-};
-
-[[noreturn]] void fail(const std::string &msg) { throw load_error{msg}; }
+using vx_mesh_load::fail;
+using vx_mesh_load::load_error;
+using vx_mesh_load::trimmed;
 
 // 4x4 matrices column-major, as glTF stores them: m[col * 4 + row].
 using mat4 = std::array<double, 16>;
@@ -497,13 +496,6 @@ bool bounded_image(tinygltf::Image *image, const int index, std::string *err, st
     return tinygltf::LoadImageData(image, index, err, warn, req_width, req_height, bytes, size, user);
 }
 
-std::string trimmed(std::string s)
-{
-    while (!s.empty() && (s.back() == '\n' || s.back() == '\r' || s.back() == ' '))
-        s.pop_back();
-    return s;
-}
-
 bool ends_with_nocase(const std::string &s, const char *suffix)
 {
     size_t n = std::strlen(suffix);
@@ -710,21 +702,6 @@ extern "C" int mesh_load_gltf_uris(const char *path, mesh *out, uint32_t materia
 extern "C" int mesh_load_gltf_materials(const char *path, mesh *out, uint32_t material, int uris_anywhere,
                                         gltf_material_fn make_material, void *ctx, vx_err *e)
 {
-    size_t v0 = out->vertex_count, t0 = out->triangle_count;
-    int rc = 0;
-    try {
-        load(path, out, material, uris_anywhere != 0, make_material, ctx);
-    } catch (const load_error &err) {
-        rc = vx_fail(e, "%s: %s", path, err.msg.c_str());
-    } catch (const std::exception &ex) {
-        rc = vx_fail(e, "%s: glTF loading failed (%s)", path, ex.what());
-    } catch (...) {
-        rc = vx_fail(e, "%s: glTF loading failed (unknown C++ exception)", path);
-    }
-    if (rc != 0) {
-        // Leave the mesh as the caller gave it: a failed load must not leave half a model behind.
-        out->vertex_count = v0;
-        out->triangle_count = t0;
-    }
-    return rc;
+    return vx_mesh_load::guarded(
+        path, out, "glTF", [&] { load(path, out, material, uris_anywhere != 0, make_material, ctx); }, e);
 }

@@ -11,21 +11,13 @@
 #include <tiny_obj_loader.h>
 
 #include "mesh_load.h"
+#include "mesh_load_cpp.h"
 #include "readfile.h"
 
 namespace {
 
-struct load_error {
-    std::string msg;
-};
-
-[[noreturn]] void fail(const std::string &msg) { throw load_error{msg}; }
-
-std::string trimmed(const std::string &s)
-{
-    size_t a = s.find_first_not_of(" \t\r\n"), b = s.find_last_not_of(" \t\r\n");
-    return a == std::string::npos ? std::string() : s.substr(a, b - a + 1);
-}
+using vx_mesh_load::fail;
+using vx_mesh_load::trimmed;
 
 void load(const char *path, mesh *out, uint32_t material)
 {
@@ -112,21 +104,5 @@ void load(const char *path, mesh *out, uint32_t material)
 
 extern "C" int mesh_load_obj(const char *path, mesh *out, uint32_t material, vx_err *e)
 {
-    size_t v0 = out->vertex_count, t0 = out->triangle_count;
-    int rc = 0;
-    try {
-        load(path, out, material);
-    } catch (const load_error &err) {
-        rc = vx_fail(e, "%s: %s", path, err.msg.c_str());
-    } catch (const std::exception &ex) {
-        rc = vx_fail(e, "%s: OBJ loading failed (%s)", path, ex.what());
-    } catch (...) {
-        rc = vx_fail(e, "%s: OBJ loading failed (unknown C++ exception)", path);
-    }
-    if (rc != 0) {
-        // Leave the mesh as the caller gave it: a failed load must not leave half a model behind.
-        out->vertex_count = v0;
-        out->triangle_count = t0;
-    }
-    return rc;
+    return vx_mesh_load::guarded(path, out, "OBJ", [&] { load(path, out, material); }, e);
 }
