@@ -144,7 +144,7 @@ typedef struct {
 /* The interface version a model was written against: the registry refuses a model built for
  * another (tests/unit_models.c checks every registered model). Bump it when a field's meaning
  * changes, so that an out-of-tree model fails loudly instead of rendering garbage. */
-#define VX_MODEL_ABI_VERSION 2
+#define VX_MODEL_ABI_VERSION 3
 
 /* A portable evaluation function as both backends see it: the C function and its name in the
  * model's portable source, which the OpenCL program calls (OpenCL C has no function pointers).
@@ -162,6 +162,10 @@ typedef struct {
     void (*fn)(const vx_query *q, vx_answer *a);
     const char *name;
 } vx_cone_element_fn;
+typedef struct {
+    float (*fn)(VX_GLOBAL const void *record, float opacity, float transmittance);
+    const char *name;
+} vx_transmit_fn;
 
 /* Protocol 1, voxel evaluation: the tracer visits the level-0 voxels along each ray (3D-DDA) and
  * composites their answers with `compositing` (VX_COMPOSITE_FIRST_HIT or VX_COMPOSITE_ALPHA). */
@@ -177,6 +181,13 @@ typedef struct {
      * once and reuse it for every shadow ray (the same number, so the same image). 0 (the safe
      * default): every shadow step asks the model. */
     int opacity_by_direction;
+    /* Optional (fn NULL: the exponential rule T (1 - opacity)), alpha compositing only: the
+     * transmittance behind the voxel for a ray that reaches it with transmittance `transmittance`,
+     * `opacity` being what `opacity` answered (the fraction a ray arriving unattenuated loses).
+     * For models whose attenuation depends on what the ray already crossed, as Vicini et al.
+     * 2021's non-exponential transmittance does; primary and shadow rays both use it, and the
+     * colour is weighted by the transmittance the voxel removes. */
+    vx_transmit_fn transmit;
 } vx_voxel_eval;
 
 /* Protocol 2, cone evaluation: the tracer steps cone elements (length = diameter) along each ray,

@@ -59,6 +59,10 @@ int model_check(const vx_model *m, char *why, size_t why_size)
         if (!v->source || !v->opacity.fn || !v->shade.fn || !portable_name_ok(v->opacity.name) ||
             !portable_name_ok(v->shade.name))
             return BROKEN("voxel evaluation needs its source and opacity/shade declared with VX_PORTABLE");
+        if (v->transmit.fn && !portable_name_ok(v->transmit.name))
+            return BROKEN("transmit must be declared with VX_PORTABLE");
+        if (v->transmit.fn && v->compositing != VX_COMPOSITE_ALPHA)
+            return BROKEN("transmit changes how opacities accumulate: it needs alpha compositing");
     } else {
         if (!m->cone->source || !m->cone->element.fn || !portable_name_ok(m->cone->element.name))
             return BROKEN("cone evaluation needs its source and element declared with VX_PORTABLE");

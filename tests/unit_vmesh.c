@@ -46,7 +46,7 @@ static vec3 random_cap(rng *r, float a)
     return v3(s * cosf(phi), s * sinf(phi), z);
 }
 
-static int frame_ok(const vmesh_sggx *f)
+static int frame_ok(const sggx_frame *f)
 {
     for (int i = 0; i < 3; i++) {
         if (fabsf(v3_length(f->axis[i]) - 1.0f) > 1e-4f || !isfinite(f->area[i]) || f->area[i] < 0.0999f ||
@@ -63,7 +63,7 @@ static void test_sggx(void)
 {
     enum { N = 20000 };
     static vec3 nrm[N];
-    vmesh_sggx f;
+    sggx_frame f;
     char name[128];
     rng r = rng_seed(11, 0);
 
@@ -71,7 +71,7 @@ static void test_sggx(void)
     vec3 d = v3_normalize(v3(1, 2, 3));
     for (int i = 0; i < 50; i++)
         nrm[i] = d;
-    vmesh_sggx_fit(nrm, 50, &f);
+    sggx_fit(nrm, 50, VMESH_MIN_AREA, &f);
     CHECK("sggx single direction: orthonormal right-handed frame", frame_ok(&f));
     CHECK_NEAR("sggx single direction: axis 0 is the direction", fabs(v3_dot(f.axis[0], d)), 1.0, 1e-5);
     CHECK_NEAR("sggx single direction: projected area along it", f.area[0], 1.0, 1e-5);
@@ -81,7 +81,7 @@ static void test_sggx(void)
     /* A plane's two sides: same second moment and same mean |v.n| as one side. */
     for (int i = 0; i < 100; i++)
         nrm[i] = v3_scale(d, i % 2 ? -1.0f : 1.0f);
-    vmesh_sggx_fit(nrm, 100, &f);
+    sggx_fit(nrm, 100, VMESH_MIN_AREA, &f);
     CHECK("sggx two sides: frame", frame_ok(&f));
     CHECK_NEAR("sggx two sides: axis 0 along the plane normal", fabs(v3_dot(f.axis[0], d)), 1.0, 1e-5);
     CHECK_NEAR("sggx two sides: area along the normal", f.area[0], 1.0, 1e-5);
@@ -95,7 +95,7 @@ static void test_sggx(void)
         float a = caps[c];
         for (int i = 0; i < N; i++)
             nrm[i] = random_cap(&r, a);
-        vmesh_sggx_fit(nrm, N, &f);
+        sggx_fit(nrm, N, VMESH_MIN_AREA, &f);
         double along = (1.0 + cos(a)) / 2.0;
         double across = fmax(0.1, (2.0 / PI) * (a - sin(a) * cos(a)) / (2.0 * (1.0 - cos(a))));
         snprintf(name, sizeof name, "sggx cap %.0f deg: frame", a * 180 / PI);
@@ -114,7 +114,7 @@ static void test_sggx(void)
         float phi = 2.0f * (float)PI * rng_float(&r);
         nrm[i] = v3(cosf(phi), 0.0f, sinf(phi));
     }
-    vmesh_sggx_fit(nrm, N, &f);
+    sggx_fit(nrm, N, VMESH_MIN_AREA, &f);
     CHECK("sggx great circle: frame", frame_ok(&f));
     CHECK_NEAR("sggx great circle: axis 2 = cylinder axis", fabs(f.axis[2].y), 1.0, 1e-3);
     CHECK_NEAR("sggx great circle: areas across the axis", 0.5 * (f.area[0] + f.area[1]), 2.0 / PI, 0.01);
@@ -123,7 +123,7 @@ static void test_sggx(void)
     /* The full sphere: mean |v.n| = 1/2 for every v, whatever frame the fit picks. */
     for (int i = 0; i < N; i++)
         nrm[i] = random_sphere(&r);
-    vmesh_sggx_fit(nrm, N, &f);
+    sggx_fit(nrm, N, VMESH_MIN_AREA, &f);
     CHECK("sggx sphere: frame", frame_ok(&f));
     for (int k = 0; k < 3; k++) {
         snprintf(name, sizeof name, "sggx sphere: area %d = 1/2", k);
@@ -131,12 +131,12 @@ static void test_sggx(void)
     }
 
     /* Degenerate sets: no normal, one normal. */
-    vmesh_sggx_fit(nrm, 0, &f);
+    sggx_fit(nrm, 0, VMESH_MIN_AREA, &f);
     CHECK("sggx no normals: identity frame", frame_ok(&f) && f.axis[0].x == 1.0f && f.axis[2].z == 1.0f);
     CHECK("sggx no normals: areas 1/2 (no preferred orientation)",
           f.area[0] == 0.5f && f.area[1] == 0.5f && f.area[2] == 0.5f);
     nrm[0] = v3(0, 0, -1);
-    vmesh_sggx_fit(nrm, 1, &f);
+    sggx_fit(nrm, 1, VMESH_MIN_AREA, &f);
     CHECK("sggx one normal: frame", frame_ok(&f));
     CHECK_NEAR("sggx one normal: axis 0", fabs(f.axis[0].z), 1.0, 1e-6);
     CHECK("sggx one normal: areas (1, 0.1, 0.1)",

@@ -46,8 +46,8 @@ static void build_mesh(vmesh_record *r, front_hit *hits, int front, vec3 *normal
 {
     for (int i = 0; i < front; i++)
         normals[i] = hits[i].normal;
-    vmesh_sggx fit;
-    vmesh_sggx_fit(normals, front, &fit);
+    sggx_frame fit;
+    sggx_fit(normals, front, VMESH_MIN_AREA, &fit);
     for (int k = 0; k < 3; k++) {
         encode_vec(fit.axis[k], r->axis[k]);
         r->area[k] = encode_unorm(fit.area[k]);

@@ -3,19 +3,10 @@
 #ifndef VX_VMESH_BAKE_H
 #define VX_VMESH_BAKE_H
 
+#include "sggx_fit.h"
 #include "vmesh_record.h"
 
-/* SGGX fit to a set of unit normals: eigenvectors of the second moment E = (1/N) sum n n^T, sorted
- * by decreasing eigenvalue and made right-handed; projected areas lambda_k = (1/N) sum |v_k . n|
- * clamped to [VMESH_MIN_AREA, 1] (the SGGX matrix would be R diag(lambda^2) R^T). No normals give
- * the identity frame and lambda = 1/2 each, the value of normals uniform on the sphere: no
- * preferred orientation. */
-typedef struct {
-    vec3 axis[3];
-    float area[3];
-} vmesh_sggx;
-
-void vmesh_sggx_fit(const vec3 *normals, int n, vmesh_sggx *out);
+/* The SGGX frame of the voxel's normals: sggx_fit (models/common/sggx_fit.h) with VMESH_MIN_AREA. */
 
 /* The normals a face stores, one per vertex (vertex k lies along vertex_dir[k]). With 1-3 distinct
  * normals (clusters 5 degrees apart) they are the clusters' mean normals, each on its own vertex

@@ -36,6 +36,8 @@ static void cache_put(struct voxel_ctx *x, int64_t index, const vx_answer *a);
 #define VOXEL_CACHE_GET(x, index, a) cache_get(x, index, a)
 #define VOXEL_CACHE_PUT(x, index, a) cache_put(x, index, a)
 #define VOXEL_SHADOW_MEMO(x, index, light, q) memo_opacity(x, index, light, q)
+#define VOXEL_HAS_TRANSMIT(x) ((x)->eval->transmit.fn != NULL)
+#define VOXEL_TRANSMIT(x, rec, a, T) call_transmit(x, rec, a, T)
 #define VOXEL_CTX_BACKEND_FIELDS \
     const vx_voxel_eval *eval;   \
     int compositing;             \
@@ -44,6 +46,7 @@ static void cache_put(struct voxel_ctx *x, int64_t index, const vx_answer *a);
     int memo_lights;             \
     uint64_t model_cycles;
 static float memo_opacity(struct voxel_ctx *x, int64_t index, int light, const vx_query *q);
+static float call_transmit(struct voxel_ctx *x, const void *rec, float a, float T);
 #include "render_voxel_core.h"
 
 static float call_opacity(voxel_ctx *x, const void *rec, const vx_query *q)
@@ -52,6 +55,14 @@ static float call_opacity(voxel_ctx *x, const void *rec, const vx_query *q)
     float a = x->eval->opacity.fn(rec, q);
     x->model_cycles += cycles() - c0;
     return a;
+}
+
+static float call_transmit(voxel_ctx *x, const void *rec, float a, float T)
+{
+    uint64_t c0 = cycles();
+    float t = x->eval->transmit.fn(rec, a, T);
+    x->model_cycles += cycles() - c0;
+    return t;
 }
 
 static void call_shade(voxel_ctx *x, const void *rec, const vx_query *q, vx_answer *a)

@@ -21,6 +21,10 @@
  *   VOXEL_COMPOSITING(x)          the model's VX_COMPOSITE_* rule (a constant in an OpenCL program)
  *   VOXEL_CACHE_GET(x, index, a)  1 with voxel `index`'s cached answer in *a when it is ready, else 0
  *   VOXEL_CACHE_PUT(x, index, a)  publishes *a as that voxel's answer (the first writer wins)
+ * It may define, for a model with vx_voxel_eval.transmit,
+ *   VOXEL_HAS_TRANSMIT(x)          1 when the model declares transmit
+ *   VOXEL_TRANSMIT(x, rec, a, T)   the transmittance behind the voxel of opacity a reached with T
+ * (without them, the exponential rule T (1 - a), written as it always was),
  * and may add its own fields to voxel_ctx through VOXEL_CTX_BACKEND_FIELDS (the cache's memory, the
  * C backend's model timer). It may also define
  *   VOXEL_SHADOW_MEMO(x, index, light, q)  voxel `index`'s opacity toward directional light
@@ -43,6 +47,10 @@
 #endif
 #ifndef VOXEL_CTX_BACKEND_FIELDS
 #define VOXEL_CTX_BACKEND_FIELDS
+#endif
+#ifndef VOXEL_HAS_TRANSMIT
+#define VOXEL_HAS_TRANSMIT(x) 0
+#define VOXEL_TRANSMIT(x, rec, a, T) ((T) * (1.0f - (a)))
 #endif
 
 /* What a march counts (render statistics). */
@@ -109,7 +117,11 @@ VX_INLINE float voxel_shadow_transmittance(voxel_ctx *x, const vx_query *q, int6
             grid_cell_corners(g, 0, h.x, h.y, h.z, &sq.voxel_lo, &hi);
             a = VOXEL_OPACITY(x, voxel_record(x, h.index), &sq);
         }
-        T *= 1.0f - fminf(fmaxf(a, 0.0f), 1.0f);
+        a = fminf(fmaxf(a, 0.0f), 1.0f);
+        if (VOXEL_HAS_TRANSMIT(x))
+            T = VOXEL_TRANSMIT(x, voxel_record(x, h.index), a, T);
+        else
+            T *= 1.0f - a;
         if (T < 1e-4f)
             return 0.0f;
     }
@@ -215,6 +227,12 @@ VX_INLINE vec3 voxel_trace_ray(voxel_ctx *x, vec3 org, vec3 dir)
                 color = a.radiance;
                 A = 1.0f;
                 done = 1;
+            } else if (VOXEL_HAS_TRANSMIT(x)) { /* alpha, with the model's own attenuation */
+                float T = 1.0f - A;
+                float T_out = fminf(fmaxf(VOXEL_TRANSMIT(x, voxel_record(x, h.index), alpha, T), 0.0f), T);
+                color = v3_madd(color, a.radiance, T - T_out);
+                A = 1.0f - T_out;
+                done = A >= x->stop_opacity;
             } else { /* VX_COMPOSITE_ALPHA */
                 color = v3_madd(color, a.radiance, (1.0f - A) * alpha);
                 A += (1.0f - A) * alpha;

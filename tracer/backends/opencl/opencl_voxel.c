@@ -49,6 +49,10 @@ static int render(opencl_launch *L, const opencl_runtime *rt, const scene *s, co
              "#define VX_CL_RECORD_BYTES %zu\n#define VX_CL_PARAMS_BYTES %zu\n",
              m->voxel->opacity.name, m->voxel->shade.name, m->voxel->compositing, m->record.bytes,
              sizeof(vx_cl_params));
+    if (m->voxel->transmit.fn) {
+        size_t used = strlen(defines);
+        snprintf(defines + used, sizeof defines - used, "#define VX_CL_TRANSMIT %s\n", m->voxel->transmit.name);
+    }
     if (opencl_launch_build(L, rt, m, defines, "render.cl", "vx_render", B_N, B_NEXT_TILE, build_dir, e))
         return -1;
     c.compiled = now_seconds();

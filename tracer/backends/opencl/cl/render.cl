@@ -2,6 +2,7 @@
  * (tracer/render/render_voxel.c). opencl_program.c assembles the program: prelude.h, the model's
  * portable source, then this file, with
  *   VX_CL_OPACITY, VX_CL_SHADE  the model's opacity and shade functions (by name)
+ *   VX_CL_TRANSMIT              its transmit function, when it declares one
  *   VX_CL_COMPOSITING           its VX_COMPOSITE_* rule (a constant, so each program keeps one rule)
  *   VX_CL_RECORD_BYTES          its record.bytes
  *   VX_CL_PARAMS_BYTES          sizeof(vx_cl_params) on the host
@@ -24,6 +25,10 @@ static void cl_cache_put(struct voxel_ctx *x, long index, const vx_answer *a);
 #define VOXEL_OPACITY(x, rec, q) VX_CL_OPACITY(rec, q)
 #define VOXEL_SHADE(x, rec, q, a) VX_CL_SHADE(rec, q, a)
 #define VOXEL_COMPOSITING(x) VX_CL_COMPOSITING
+#ifdef VX_CL_TRANSMIT
+#define VOXEL_HAS_TRANSMIT(x) 1
+#define VOXEL_TRANSMIT(x, rec, a, T) VX_CL_TRANSMIT(rec, a, T)
+#endif
 #define VOXEL_CACHE_GET(x, index, a) cl_cache_get(x, index, a)
 #define VOXEL_CACHE_PUT(x, index, a) cl_cache_put(x, index, a)
 #define VOXEL_CTX_BACKEND_FIELDS                 \

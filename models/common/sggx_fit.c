@@ -1,11 +1,11 @@
-/* `vmesh`: SGGX fit to a voxel's front-facing normals (Heitz et al. 2015 as the authors' code does
- * it; see vmesh_bake.h), with the shared Jacobi eigen-decomposition (eigen_sym3.h). */
+/* SGGX fit to a voxel's normals (sggx_fit.h), with the shared Jacobi eigen-decomposition
+ * (eigen_sym3.h). */
 #include <math.h>
 
 #include "eigen_sym3.h"
-#include "vmesh_bake.h"
+#include "sggx_fit.h"
 
-void vmesh_sggx_fit(const vec3 *normals, int n, vmesh_sggx *out)
+void sggx_fit(const vec3 *normals, int n, float min_area, sggx_frame *out)
 {
     out->axis[0] = v3(1, 0, 0);
     out->axis[1] = v3(0, 1, 0);
@@ -34,7 +34,7 @@ void vmesh_sggx_fit(const vec3 *normals, int n, vmesh_sggx *out)
     vec3 ax[3];
     for (int k = 0; k < 3; k++)
         ax[k] = v3_normalize((vec3){(float)v[0][order[k]], (float)v[1][order[k]], (float)v[2][order[k]]});
-    /* Right-handed, so that the octahedron's faces wind outward (vmesh_record.h). */
+    /* Right-handed (vmesh's octahedron faces then wind outward, vmesh_record.h). */
     ax[2] = v3_normalize(v3_cross(ax[0], ax[1]));
     for (int k = 0; k < 3; k++) {
         double sum = 0.0;
@@ -42,6 +42,6 @@ void vmesh_sggx_fit(const vec3 *normals, int n, vmesh_sggx *out)
             sum += fabs((double)v3_dot(ax[k], normals[i]));
         float l = (float)(sum / (double)n);
         out->axis[k] = ax[k];
-        out->area[k] = fminf(fmaxf(l, VMESH_MIN_AREA), 1.0f);
+        out->area[k] = fminf(fmaxf(l, min_area), 1.0f);
     }
 }

@@ -1,0 +1,188 @@
+/* `vicini`: the non-exponential transmittance model of Vicini, Jakob and Kaplanyan 2021 as Brito et
+ * al. 2023 §5 compare it: per voxel an SGGX distribution of normals, a density and a linear /
+ * exponential mix, and one average colour, 11 bytes (vicini_eval.h: the record, the transmittance
+ * and the shading). The bake fits the SGGX matrix to the front-facing hit normals (Heitz et al.
+ * 2015, the fit vmesh shares) and the density and mix to the sample rays' free flights through the
+ * voxel by maximum likelihood (vicini_fit.h). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "average_bake.h"
+#include "sggx_fit.h"
+#include "vicini_eval.h"
+#include "vicini_fit.h"
+
+#define SGGX_MIN_AREA 0.1f /* the authors' clamp of the projected areas (as vmesh's) */
+#define STACK_RAYS 256     /* the default is 150 rays; more than this uses the heap */
+
+/* vicini_params[0]: Brito et al. sample only the voxel's own triangles and keep the flights inside
+ * the voxel (0). Vicini et al. extend the rays beyond the voxel so that occlusion correlated across
+ * voxels counts (1): here, a hit on the voxel's own triangles outside its box ends the flight at
+ * the box's near side (hit before entry) or far side (hit after exit). */
+enum { PARAM_EXTENDED = 0 };
+
+static unsigned char unorm8(float x)
+{
+    if (!(x > 0.0f))
+        return 0;
+    return (unsigned char)lroundf(fminf(x, 1.0f) * 255.0f);
+}
+
+/* S = R diag(area^2) R^T, written as Heitz et al.'s six bytes. */
+static void encode_sggx(const sggx_frame *fr, vicini_record *r)
+{
+    double S[3][3] = {{0}};
+    for (int k = 0; k < 3; k++) {
+        double a2 = (double)fr->area[k] * (double)fr->area[k];
+        double v[3] = {fr->axis[k].x, fr->axis[k].y, fr->axis[k].z};
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                S[i][j] += a2 * v[i] * v[j];
+    }
+    double s[3], smax = 0.0;
+    for (int k = 0; k < 3; k++) {
+        s[k] = sqrt(fmax(S[k][k], 0.0));
+        smax = fmax(smax, s[k]);
+    }
+    for (int k = 0; k < 3; k++)
+        r->sigma[k] = unorm8((float)(s[k] / smax));
+    const int pair[3][2] = {{0, 1}, {0, 2}, {1, 2}};
+    for (int k = 0; k < 3; k++) {
+        double d = s[pair[k][0]] * s[pair[k][1]];
+        double c = d > 0.0 ? S[pair[k][0]][pair[k][1]] / d : 0.0;
+        r->corr[k] = (unsigned char)lround(fmin(fmax(c, -1.0), 1.0) * 127.0 + 127.0);
+    }
+}
+
+static unsigned char encode_density(double rho)
+{
+    if (!(rho > 0.0))
+        return 0;
+    double code = 1.0 + 254.0 * log2(rho / VICINI_DENSITY_MIN) / VICINI_DENSITY_LOG2_RANGE;
+    return (unsigned char)lround(fmin(fmax(code, 1.0), 255.0));
+}
+
+/* The flight of sample s through the voxel (0 when it tells nothing about the voxel's inside). */
+static int flight_of(const vx_sample *s, float size, const float S[9], int extended, vicini_flight *f)
+{
+    float chord = (s->t_exit - s->t_entry) / size;
+    if (!(chord > 0.0f))
+        return 0;
+    float sigma = vicini_sigma(S, s->dir);
+    switch (s->kind) {
+    case VX_SAMPLE_INSIDE_FRONT:
+    case VX_SAMPLE_INSIDE_BACK:
+        f->x = sigma * fminf(fmaxf((s->t_hit - s->t_entry) / size, 0.0f), chord);
+        f->collided = 1;
+        return 1;
+    case VX_SAMPLE_OUTSIDE:
+        if (s->t_hit <= s->t_entry) { /* stopped before reaching the voxel */
+            f->x = 0.0f;
+            f->collided = 1;
+            return extended;
+        }
+        f->x = sigma * chord; /* crossed the voxel, met its triangles beyond */
+        f->collided = extended;
+        return 1;
+    default: /* VX_SAMPLE_MISS */
+        f->x = sigma * chord;
+        f->collided = 0;
+        return 1;
+    }
+}
+
+static void vicini_bake(const vx_voxel *v, const vx_sample *samples, int n, void *out)
+{
+    vicini_record *r = out;
+    vec3 normals_stack[STACK_RAYS];
+    vicini_flight flights_stack[STACK_RAYS];
+    vec3 *normals = n <= STACK_RAYS ? normals_stack : malloc((size_t)n * sizeof *normals);
+    vicini_flight *flights = n <= STACK_RAYS ? flights_stack : malloc((size_t)n * sizeof *flights);
+    if (!normals || !flights) { /* out of memory for an oversized sample count: an empty voxel */
+        if (normals != normals_stack)
+            free(normals);
+        if (flights != flights_stack)
+            free(flights);
+        return;
+    }
+
+    float color[3] = {0, 0, 0}, normal[3], specular = 0, roughness = 0;
+    unsigned int two_sided;
+    average_front_hits(samples, n, color, normal, &specular, &roughness, &two_sided);
+    for (int k = 0; k < 3; k++)
+        r->color[k] = unorm8(sqrtf(color[k]));
+    /* Under `specular`, a rough surface's microflakes spread at least as far as its roughness
+     * (Heitz et al. 2015 model a rough surface by an SGGX of that width): the lobe is then the
+     * material's, not sharper. Without it, the authors' clamp alone. */
+    int shiny = (v->effects & VX_EFFECT_SPECULAR) && specular >= 0.5f * VICINI_SPECULAR_F0;
+    float min_area = shiny ? fmaxf(SGGX_MIN_AREA, fminf(roughness, 1.0f)) : SGGX_MIN_AREA;
+    int front = 0;
+    for (int i = 0; i < n; i++)
+        if (samples[i].kind == VX_SAMPLE_INSIDE_FRONT)
+            normals[front++] = vx_sample_front_normal(&samples[i]);
+    sggx_frame fr;
+    sggx_fit(normals, front, min_area, &fr);
+    encode_sggx(&fr, r);
+
+    /* The flights measured with the decoded S: the renderer's sigma(w), so the density fits it. */
+    float S[9];
+    vicini_decode_sggx(r, S);
+    int extended = v->params && v->params->value[PARAM_EXTENDED] > 0.5;
+    int m = 0;
+    for (int i = 0; i < n; i++)
+        m += flight_of(&samples[i], v->size, S, extended, &flights[m]);
+    vicini_estimate est;
+    vicini_fit(flights, m, VICINI_DENSITY_MIN, VICINI_DENSITY_MIN * exp2(VICINI_DENSITY_LOG2_RANGE), &est);
+    r->density = encode_density(est.density);
+    r->mix = (unsigned char)(lround(fmin(fmax(est.gamma, 0.0), 1.0) * VICINI_GAMMA_MAX_CODE) |
+                             (shiny ? VICINI_SPECULAR_BIT : 0u));
+    if (normals != normals_stack)
+        free(normals);
+    if (flights != flights_stack)
+        free(flights);
+}
+
+static int vicini_validate(const void *record, const vx_record_context *c, char *why, size_t why_size)
+{
+    (void)c;
+    const vicini_record *r = record;
+    for (int k = 0; k < 3; k++)
+        if (r->corr[k] > VICINI_CORR_MAX_CODE) {
+            snprintf(why, why_size, "corr[%d]: code %u (expected 0..%d)", k, r->corr[k], VICINI_CORR_MAX_CODE);
+            return -1;
+        }
+    if (r->sigma[0] == 0 && r->sigma[1] == 0 && r->sigma[2] == 0) { /* the bake normalises to max 1 */
+        snprintf(why, why_size, "sigma: all zero (expected the largest at 255)");
+        return -1;
+    }
+    return 0;
+}
+
+static const vx_param vicini_params[] = {
+    {"extended", 0.0, 0.0, 1.0,
+     "1: Vicini et al.'s extended rays (hits on the voxel's triangles outside it end the flight at its side); "
+     "0: Brito et al.'s flights inside the voxel"},
+    {0},
+};
+
+static const vx_voxel_eval vicini_eval = {
+    .compositing = VX_COMPOSITE_ALPHA,
+    .source = "vicini_eval.h",
+    .opacity = VX_PORTABLE(vicini_eval_opacity),
+    .shade = VX_PORTABLE(vicini_eval_shade),
+    .opacity_by_direction = 1, /* the opacity reads the record and q->ray_dir only (the mean chord) */
+    .transmit = VX_PORTABLE(vicini_eval_transmit),
+};
+
+const vx_model model_vicini = {
+    .abi_version = VX_MODEL_ABI_VERSION,
+    .name = "vicini",
+    .description = "Vicini et al. 2021 as Brito et al. compare it: SGGX normals, non-exponential transmittance "
+                   "(density and linear/exponential mix fitted by maximum likelihood), one colour; 11 bytes",
+    .record = {.bytes = sizeof(vicini_record), .layout_version = 1},
+    .params = vicini_params,
+    .bake_voxel = vicini_bake,
+    .validate_record = vicini_validate,
+    .voxel = &vicini_eval,
+};
