@@ -11,7 +11,7 @@ whole binary (experiments/README.md, "What a cache key holds"):
   the headers only those the remaining files include (directly or not); plus Embree's version.
 - bake and render of model M: tracer/ and scenes/generators/ without the truth-only units in
   TRUTH_ONLY, models/model.h, and M's own folder models/<m>/ (its .c files) with every models/ header
-  those include (models/common/ among them). models/registry.c and registry.def (one line per model) and the other
+  those include (models/common/ among them) and the models/common/ units behind those headers. models/registry.c and registry.def (one line per model) and the other
   models' folders are not part of it: adding a model leaves every other model's entries valid.
 - compare: tracer/ and scenes/generators/ (metrics, image readers).
 - none: tracer/api/ (the Python library's entry points; the voxlab binary that jobs run lacks them).
@@ -107,11 +107,17 @@ def model_stem(model):
 
 
 def model_sources(model):
-    """models/<m>/*.c and the models/ headers they include (model.h among them)."""
+    """models/<m>/*.c and the models/ headers they include (model.h among them), with the shared
+    units behind those headers (models/common/x.c for an included models/common/x.h)."""
     stem = model_stem(model)
-    units = {_rel(p) for p in glob.glob(os.path.join(REPO, "models", stem, "*.c"))}
-    return {f for f in include_closure(units | {"models/model.h"}) if f.startswith("models/")
-            and os.path.isfile(os.path.join(REPO, f))}
+    units = {_rel(p) for p in glob.glob(os.path.join(REPO, "models", stem, "*.c"))} | {"models/model.h"}
+    while True:
+        files = {f for f in include_closure(units) if f.startswith("models/") and os.path.isfile(os.path.join(REPO, f))}
+        shared = {f[:-2] + ".c" for f in files if f.startswith("models/common/") and f.endswith(".h")
+                  and os.path.isfile(os.path.join(REPO, f[:-2] + ".c"))}
+        if shared <= units:
+            return files
+        units |= shared
 
 
 def code_files(kind, model=None):

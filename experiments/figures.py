@@ -15,6 +15,13 @@ writes into <results>/figures/:
                            against the view elevation, truth and each model, plus colour swatches.
   coverage.png             Brito et al. 2023, Figure 4: silhouette coverage (from black- and
                            white-background renders) of the truth and each model, and model - truth.
+  figure7.png              Brito et al. Figure 7: the bunny at 128^3 and 256^3, Averages | [VJK21] | Ours
+                           | truth (alpha | vicini | vmesh); tables/: Tables 1 and 2 and Table 1 beside
+                           the paper's, from the same runs (table1.py).
+  figure10.png             Brito et al. Figure 10: diffuse / specular, light in front / behind, red
+                           background (fig_paper10.json).
+  island2x2.png/.md/.csv   Brito et al. §5: each model at 256^3 averaged 2x2 to 128^2 against the
+                           same model at 128^3, metrics by voxlab compare, the paper's numbers beside.
   dof_<scene>.png          depth of field: truth, each model at low and high spp, error maps; which
                            models pre-filter (cone marching) is stated; dof_<scene>_cost.png: MSE
                            against render time for the same renders.
@@ -41,6 +48,7 @@ from voxlab_exp.config import REPO  # noqa: E402
 from voxlab_exp.files import load_json, rel, write_csv, write_text  # noqa: E402
 from voxlab_exp.plots import TRUTH_COLOUR, model_colour, save_plot  # noqa: E402
 from voxlab_exp.images import read_exr, srgb8  # noqa: E402
+from voxlab_exp import paper_figs  # noqa: E402
 from voxlab_exp.report import settings_text, size_text  # noqa: E402
 from voxlab_exp.rows import run_experiment  # noqa: E402
 from voxlab_exp.scenes import write_variant  # noqa: E402
@@ -48,7 +56,7 @@ from voxlab_exp.scheduler import Sweep  # noqa: E402
 from voxlab_exp.schema import load_declaration  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-FIGURES = ["grids", "view_angle", "coverage", "dof"]
+FIGURES = ["grids", "view_angle", "coverage", "dof", "figure7", "figure10", "island2x2"]
 
 
 def plt_module():
@@ -427,6 +435,7 @@ def main(argv=None):
     ap.add_argument("--view-angle", default=os.path.join(HERE, "fig_hn_angle.json"))
     ap.add_argument("--coverage", default=os.path.join(HERE, "fig_silhouette.json"))
     ap.add_argument("--dof", default=os.path.join(HERE, "fig_dof.json"))
+    ap.add_argument("--figure10", default=os.path.join(HERE, "fig_paper10.json"))
     a = ap.parse_args(argv)
     only = [x.strip() for x in a.only.split(",") if x.strip()]
     bad = [x for x in only if x not in FIGURES]
@@ -437,7 +446,8 @@ def main(argv=None):
         results = os.path.abspath(a.results)
         out = os.path.join(results, "figures")
         os.makedirs(out, exist_ok=True)
-        decls = {"grids": a.experiment, "view_angle": a.view_angle, "coverage": a.coverage, "dof": a.dof}
+        decls = {"grids": a.experiment, "view_angle": a.view_angle, "coverage": a.coverage, "dof": a.dof,
+                 "figure7": a.experiment, "figure10": a.figure10, "island2x2": a.experiment}
         loaded = {k: load_declaration(decls[k]) for k in only}  # every declaration checked before any work
         cache = a.cache or os.path.join(results, "cache")
         sw = Sweep(a.voxlab, cache, jobs=a.jobs, fresh=a.fresh, name="figures", executor=a.executor,
@@ -454,6 +464,20 @@ def main(argv=None):
                 paths, notes = view_angle(sw, decl, meta, rows, results, out)
             elif k == "coverage":
                 paths = coverage(decl, meta, rows, results, out)
+            elif k == "figure7":
+                paths = paper_figs.figure7(meta, rows, results, out)
+                # Tables 1 and 2 (triangles, MB, bake s, ms per frame, every model) from the same runs.
+                import table1
+
+                os.makedirs(os.path.join(out, "tables"), exist_ok=True)
+                table1.build(meta, rows, decl, os.path.join(out, "tables"))
+                notes = ["tables/table1.md, tables/table2.md and tables/table1_vs_paper.md: Tables 1 and 2 "
+                         "from the same runs, beside the paper's Table 1"]
+            elif k == "figure10":
+                paths = paper_figs.figure10(meta, rows, results, out)
+            elif k == "island2x2":
+                paths, _ = paper_figs.island2x2(meta, rows, results, out, a.voxlab)
+                notes = ["island2x2.md: the table, with the paper's figures and whether its claim holds"]
             else:
                 paths = dof(decl, meta, rows, results, out)
             md += [f"## {k}: {', '.join(os.path.basename(p) for p in paths)}", "", decl["description"], ""]

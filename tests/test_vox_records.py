@@ -70,7 +70,7 @@ def render_fails(name, vox, pattern_words, model=None):
 
 # ---------- one small bake per model ----------
 bakes = {}
-for model in ("binary", "alpha", "vmesh", "heitz-neyret"):
+for model in ("binary", "alpha", "vmesh", "heitz-neyret", "vicini"):
     bakes[model] = path(f"{model}.vox")
     voxlab("bake", SPHERES, "--model", model, "--res", "16", "--rays", "16", "-o", bakes[model])
     raw = open(bakes[model], "rb").read()
@@ -98,6 +98,8 @@ cases = [
     ("heitz-neyret", 0, NAN, ["field h"]),
     ("heitz-neyret", 0, INF, ["field h"]),
     ("heitz-neyret", 10, struct.pack("<H", 0x7E00), ["var_h"]),  # a half NaN
+    ("vicini", 3, b"\xff", ["corr[0]"]),  # correlation codes stop at 254
+    ("vicini", 0, b"\x00\x00\x00", ["sigma"]),  # the bake normalises the largest to 255
 ]
 for model, off, data, words in cases:
     raw = open(bakes[model], "rb").read()
@@ -122,6 +124,23 @@ for model in ("binary", "alpha", "heitz-neyret", "vmesh"):
 
     name = f"random_{model}"
     render_fails(name, craft(name + ".vox", raw, patch), ["voxel 0 ", "record field"])
+# vicini's record is bytes only, almost all of them valid codes: random ones render or are refused,
+# never crash, and what renders is finite.
+raw = open(bakes["vicini"], "rb").read()
+for trial in range(3):
+    def patch(b):
+        for i in range(HEADER, len(b)):
+            b[i] = rng.randrange(256)
+
+    name = f"random_vicini_{trial}"
+    vox = craft(name + ".vox", raw, patch)
+    p = voxlab("render", SPHERES, "--vox", vox, *SMALL, "-o", path(name + ".exr"), check=False)
+    ok = p.returncode == 1 and "record field" in p.stderr
+    if p.returncode == 0:
+        import numpy as np
+        from testlib import read_image
+        ok = bool(np.isfinite(read_image(path(name + ".exr"))).all())
+    report(f"{name}: random record bytes render finite pixels or are refused (rc {p.returncode})", ok, p.stderr)
 
 # ---------- header fields that once gave misleading messages ----------
 raw = open(bakes["alpha"], "rb").read()

@@ -18,9 +18,10 @@ MODEL_COLOURS = {
     "alpha": "#E69F00",         # orange
     "heitz-neyret": "#009E73",  # green
     "vmesh": "#CC79A7",         # reddish purple
+    "vicini": "#D55E00",        # vermillion (Okabe-Ito, as the others)
 }
 TRUTH_COLOUR = "#000000"
-EXTRA_COLOURS = ["#D55E00", "#56B4E9", "#F0E442", "#8C564B", "#7F7F7F", "#17BECF", "#BCBD22", "#9467BD"]
+EXTRA_COLOURS = ["#56B4E9", "#F0E442", "#8C564B", "#7F7F7F", "#17BECF", "#BCBD22", "#9467BD"]
 
 # The three formats of every plot: a raster preview for the page, and vector files for a paper.
 FORMATS = ("png", "pdf", "svg")

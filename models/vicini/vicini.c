@@ -133,7 +133,10 @@ static void vicini_bake(const vx_voxel *v, const vx_sample *samples, int n, void
     for (int i = 0; i < n; i++)
         m += flight_of(&samples[i], v->size, S, extended, &flights[m]);
     vicini_estimate est;
-    vicini_fit(flights, m, VICINI_DENSITY_MIN, VICINI_DENSITY_MIN * exp2(VICINI_DENSITY_LOG2_RANGE), &est);
+    double densities[255]; /* what codes 1..255 store: the fit picks among them */
+    for (int k = 0; k < 255; k++)
+        densities[k] = vicini_decode_density((unsigned)k + 1u);
+    vicini_fit(flights, m, densities, 255, &est);
     r->density = encode_density(est.density);
     r->mix = (unsigned char)(lround(fmin(fmax(est.gamma, 0.0), 1.0) * VICINI_GAMMA_MAX_CODE) |
                              (shiny ? VICINI_SPECULAR_BIT : 0u));

@@ -3,17 +3,18 @@
  *
  * For a fixed density every flight's likelihood is affine in gamma (gamma times its exponential
  * term plus (1 - gamma) times its linear term), so L is concave in gamma and its best gamma is a
- * one-dimensional concave maximisation needing no new exponentials. The search is therefore over
- * the density: the profile L*(rho) = max_gamma L(rho, gamma) is scanned at densities a factor 2
- * apart, and around the best scan point the zero of its slope is found by bisection (by the envelope
- * theorem, the slope of L* is dL/drho at the best gamma). */
+ * one-dimensional concave maximisation needing no new exponentials. The density is then searched
+ * over the candidates the record can store, on the profile L*(rho) = max_gamma L(rho, gamma):
+ * every 16th candidate, then every candidate within 16 of the best. Not by following the slope:
+ * the profile is a sawtooth, each flight whose depth passes the linear part's reach (tau = 2)
+ * dropping it by a step, and its maximum often sits just before a step (for a surface, gamma = 0
+ * at the largest density every collision allows). */
 #include <math.h>
 #include <stdlib.h>
 
 #include "vicini_fit.h"
 
-#define SCAN_FACTOR 2.0    /* scan densities a factor 2 apart */
-#define BISECTION_STEPS 12 /* over a factor 4: 2^-12 of it, far below the record's code step (4.5 %) */
+#define SCAN_STRIDE 16 /* coarse scan: every 16th candidate density (a factor 2 on the record's codes) */
 #define GAMMA_STEPS 40     /* safeguarded Newton on a concave function: a handful are used */
 #define STACK_FLIGHTS 256
 
@@ -103,89 +104,62 @@ static int possible(const terms *t, int n)
     return 1;
 }
 
-/* The profile at rho: its best gamma, L there and dL/drho there (-INFINITY beyond the possible). */
+/* The profile at rho: its best gamma and L there (-INFINITY where a flight is impossible). */
 typedef struct {
-    double gamma, ll, slope;
+    double gamma, ll;
 } profile_point;
 
-static void profile(const vicini_flight *f, int n, double rho, terms *t, int want_ll, profile_point *p)
+static void profile(const vicini_flight *f, int n, double rho, terms *t, profile_point *p)
 {
     fill_terms(f, n, rho, t);
     if (!possible(t, n)) {
-        p->gamma = 1.0, p->ll = -INFINITY, p->slope = -INFINITY;
+        p->gamma = 1.0, p->ll = -INFINITY;
         return;
     }
-    double g = best_gamma(t, n), ll = 0.0, slope = 0.0;
+    double g = best_gamma(t, n), ll = 0.0;
     for (int i = 0; i < n; i++) {
-        double x = (double)f[i].x, tau = rho * x, e = g * t->ex[i];
         double p_i = t->lin[i] + g * (t->ex[i] - t->lin[i]);
         if (!(p_i > 0.0)) {
-            p->gamma = g, p->ll = -INFINITY, p->slope = -INFINITY;
+            p->gamma = g, p->ll = -INFINITY;
             return;
         }
-        if (f[i].collided) {
-            slope += 1.0 / rho - x * e / p_i; /* d/drho [log rho + log g(rho x)] */
-            if (want_ll)
-                ll += log(rho * p_i);
-        } else {
-            slope -= x * (e + (tau < 2.0 ? 0.5 * (1.0 - g) : 0.0)) / p_i; /* d/drho log f(rho x) */
-            if (want_ll)
-                ll += log(p_i);
-        }
+        ll += log(f[i].collided ? rho * p_i : p_i);
     }
-    p->gamma = g, p->ll = ll, p->slope = slope;
+    p->gamma = g, p->ll = ll;
 }
 
-void vicini_fit(const vicini_flight *f, int n, double rho_min, double rho_max, vicini_estimate *out)
+void vicini_fit(const vicini_flight *f, int n, const double *densities, int count, vicini_estimate *out)
 {
     int collided = 0;
     for (int i = 0; i < n; i++)
         collided += f[i].collided != 0;
     out->density = 0.0, out->gamma = 1.0, out->log_likelihood = 0.0;
-    if (!collided)
+    if (!collided || count <= 0)
         return;
     double stack[2 * STACK_FLIGHTS];
     double *mem = n <= STACK_FLIGHTS ? stack : malloc(2 * (size_t)n * sizeof *mem);
     if (!mem)
         return; /* out of memory for an oversized sample count: left empty */
     terms t = {mem, mem + n};
-
-    /* Scan. */
-    double best_rho = rho_min;
-    profile_point best = {1.0, -INFINITY, 0.0};
-    for (double rho = rho_min; rho <= rho_max * 1.0000001; rho *= SCAN_FACTOR) {
+    profile_point best = {1.0, -INFINITY};
+    int best_k = 0;
+    /* Coarse: every SCAN_STRIDE-th density. Fine: every density within a stride of the best. */
+    for (int k = 0; k < count; k += k + SCAN_STRIDE < count || k == count - 1 ? SCAN_STRIDE : count - 1 - k) {
         profile_point p;
-        profile(f, n, rho, &t, 1, &p);
+        profile(f, n, densities[k], &t, &p);
         if (p.ll > best.ll)
-            best = p, best_rho = rho;
+            best = p, best_k = k;
     }
-    /* Refine: the zero of the slope between the best scan point's neighbours. */
-    double a = fmax(best_rho / SCAN_FACTOR, rho_min), b = fmin(best_rho * SCAN_FACTOR, rho_max);
-    profile_point pa, pb;
-    profile(f, n, a, &t, 0, &pa);
-    profile(f, n, b, &t, 0, &pb);
-    if (pa.slope > 0.0 && !(pb.slope > 0.0)) {
-        double la = log(a), lb = log(b);
-        for (int i = 0; i < BISECTION_STEPS; i++) {
-            double m = 0.5 * (la + lb);
-            profile_point pm;
-            profile(f, n, exp(m), &t, 0, &pm);
-            if (pm.slope > 0.0)
-                la = m;
-            else
-                lb = m;
-        }
-        /* The last density still rising is always possible; the first falling may lie past an
-         * impossible flight: keep the better of the two. */
-        profile_point p1, p2;
-        profile(f, n, exp(la), &t, 1, &p1);
-        profile(f, n, exp(lb), &t, 1, &p2);
-        if (p1.ll > best.ll)
-            best = p1, best_rho = exp(la);
-        if (p2.ll > best.ll)
-            best = p2, best_rho = exp(lb);
+    int lo = best_k - SCAN_STRIDE + 1, hi = best_k + SCAN_STRIDE - 1, centre = best_k;
+    for (int k = lo < 0 ? 0 : lo; k <= hi && k < count; k++) {
+        if (k == centre)
+            continue;
+        profile_point p;
+        profile(f, n, densities[k], &t, &p);
+        if (p.ll > best.ll)
+            best = p, best_k = k;
     }
-    out->density = best_rho;
+    out->density = densities[best_k];
     out->gamma = best.gamma;
     out->log_likelihood = best.ll;
     if (mem != stack)

@@ -11,8 +11,8 @@
  * g = -df/dtau = gamma e^-tau + (1 - gamma)/2 [tau < 2], so the log-likelihood is
  *     L(rho, gamma) = sum_collided log(rho g(rho x)) + sum_censored log f(rho x).
  * For a fixed density the likelihood is concave in gamma (each flight's term is affine in it), so
- * the best gamma is cheap; the density is searched on that profile: a scan a factor 2 apart, then
- * bisection on the profile's slope around the best point (vicini_fit.c). A collision or a transit
+ * the best gamma is cheap; the density is searched on that profile among the densities the record
+ * can store (vicini_fit.c). A collision or a transit
  * beyond the linear part's reach, impossible under the model, rules a density out. Surface-like
  * voxels, whose flights all stop within a bounded depth, come out linear (gamma near 0); foliage, whose flights end at exponentially
  * distributed depths, exponential (gamma near 1). */
@@ -33,7 +33,8 @@ typedef struct {
 /* L(rho, gamma) as above (-INFINITY where the flights are impossible under the model). */
 double vicini_log_likelihood(const vicini_flight *f, int n, double rho, double gamma);
 
-/* The maximum-likelihood density in [rho_min, rho_max] and gamma in [0, 1]. */
-void vicini_fit(const vicini_flight *f, int n, double rho_min, double rho_max, vicini_estimate *out);
+/* The maximum-likelihood density among the candidates densities[0..count-1] (ascending, log
+ * spaced: the values the record can store) and gamma in [0, 1]. */
+void vicini_fit(const vicini_flight *f, int n, const double *densities, int count, vicini_estimate *out);
 
 #endif
