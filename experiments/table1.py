@@ -12,7 +12,7 @@ Runs the declared sweep (cached: see voxlab_exp/scheduler.py) and writes into <r
   table2.csv/.md/.tex  cost: per scene and resolution the triangles, non-empty voxels and the ground
                        truth's render time, and per model MB (records + sparse grid, 10^6 bytes),
                        bake seconds and render ms per frame; bytes per voxel in the model's header.
-  table1_vs_paper.csv/.md  the paper's printed Table 1 (experiments/paper_brito2023.json) beside ours:
+  table1_vs_paper.csv/.md  the paper's printed Table 1 (experiments/paper/brito2023.json) beside ours:
                        both sets of numbers, the three methods' ranks, and which of the paper's claims
                        hold on our scenes. Models carry the paper's names: alpha (Averages), vicini
                        ([VJK21]), vmesh (Ours).
@@ -169,7 +169,8 @@ def build(meta, rows, decl, out):
     md2 += [f"- {x}" for x in head + [setting_line]]
     md2 += ["", "Triangles of the scene; voxels = non-empty voxels at that resolution; truth s = the "
                 f"ground truth's render time ({decl['truth_spp']} spp, same image size, same threads); per model: "
-                "MB = per-voxel records + sparse grid (10^6 bytes), bake s = sampling rays + building the "
+                "MB = per-voxel records + sparse grid (10^6 bytes), with the render process's peak resident "
+                "memory in parentheses (shading cache, grid build and image included), bake s = sampling rays + building the "
                 "records, render ms = one frame (the voxel render alone, bake excluded). Times are the median of the "
                 "timed repeats ± their spread (max − min); * = measured under a load above the machine's cores.", ""]
     md2.append("| scene | res | triangles | voxels | truth s | " +
@@ -210,7 +211,8 @@ def build(meta, rows, decl, out):
                     tc += [r"\multicolumn{3}{c}{failed$^{" + f.split("[")[1].rstrip("]") + "}$}"]
                 else:
                     star = "*" if r.get("loaded") else ""
-                    mc += [fmt_num(r["mb"], 2), fmt_spread(r["bake_s"], r.get("bake_s_spread"), 2) + star,
+                    rss = f" ({r['peak_rss_bytes'] / 1e6:.0f})" if r.get("peak_rss_bytes") else ""
+                    mc += [fmt_num(r["mb"], 2) + rss, fmt_spread(r["bake_s"], r.get("bake_s_spread"), 2) + star,
                            fmt_spread(r["render_ms"], r.get("render_ms_spread"), 1) + star]
                     tc += [fmt_num(r["mb"], 2), fmt_spread(r["bake_s"], r.get("bake_s_spread"), 2, r"$\pm$") + star,
                            fmt_spread(r["render_ms"], r.get("render_ms_spread"), 1, r"$\pm$") + star]

@@ -1,4 +1,4 @@
-"""Brito et al. 2023's printed Table 1 (experiments/paper_brito2023.json) beside our numbers.
+"""Brito et al. 2023's printed Table 1 (experiments/paper/brito2023.json) beside our numbers.
 
 Their scenes are not ours, so values are not expected to match: what can be compared is how the
 three methods rank on each scene and resolution, and whether the paper's claims hold on our scenes.
@@ -8,7 +8,7 @@ import os
 
 from .config import REPO
 
-PAPER_FILE = os.path.join(REPO, "experiments", "paper_brito2023.json")
+PAPER_FILE = os.path.join(REPO, "experiments", "paper", "brito2023.json")
 
 
 def load_paper(path=PAPER_FILE):
