@@ -13,18 +13,20 @@
 #include "vicini_eval.h"
 #include "vicini_fit.h"
 
-/* The smallest projected area of the fit. Heitz et al.'s SGGX of a flat surface is degenerate
- * (areas 0, 0, 1); 0.01 keeps S invertible and a plate shading as Lambert to 0.1 %. vmesh's 0.1 (the
- * authors' clamp, which only orients its octahedron) would spread a plate's microflakes enough to
- * darken it by 3 % at 30 degrees (tests/test_convergence.py's interior shading). */
-#define SGGX_MIN_AREA 0.01f
+/* The smallest projected area of the SGGX fit (parameter sggx_min_area). Heitz et al.'s SGGX of a
+ * flat surface is degenerate (areas 0, 0, 1): a floor keeps S invertible, and it decides how opaque
+ * a flat voxel stays when seen edge-on and how far its microflakes spread the shading. The default
+ * is the largest floor at which a flat plate still shades as Lambert within 1 % (light 30 degrees
+ * off its normal: tests/test_convergence.py's interior shading): at vmesh's 0.1 (the authors'
+ * clamp, which only orients its octahedron) a plate comes out 3 % dark. */
+#define SGGX_MIN_AREA_DEFAULT 0.05
 #define STACK_RAYS 256     /* the default is 150 rays; more than this uses the heap */
 
 /* vicini_params[0]: Brito et al. sample only the voxel's own triangles and keep the flights inside
  * the voxel (0). Vicini et al. extend the rays beyond the voxel so that occlusion correlated across
  * voxels counts (1): here, a hit on the voxel's own triangles outside its box ends the flight at
  * the box's near side (hit before entry) or far side (hit after exit). */
-enum { PARAM_EXTENDED = 0 };
+enum { PARAM_EXTENDED = 0, PARAM_MIN_AREA = 1 };
 
 static unsigned char unorm8(float x)
 {
@@ -120,7 +122,8 @@ static void vicini_bake(const vx_voxel *v, const vx_sample *samples, int n, void
      * (Heitz et al. 2015 model a rough surface by an SGGX of that width): the lobe is then the
      * material's, not sharper. Without it, the authors' clamp alone. */
     int shiny = (v->effects & VX_EFFECT_SPECULAR) && specular >= 0.5f * VICINI_SPECULAR_F0;
-    float min_area = shiny ? fmaxf(SGGX_MIN_AREA, fminf(roughness, 1.0f)) : SGGX_MIN_AREA;
+    float floor_area = v->params ? (float)v->params->value[PARAM_MIN_AREA] : (float)SGGX_MIN_AREA_DEFAULT;
+    float min_area = shiny ? fmaxf(floor_area, fminf(roughness, 1.0f)) : floor_area;
     int front = 0;
     for (int i = 0; i < n; i++)
         if (samples[i].kind == VX_SAMPLE_INSIDE_FRONT)
@@ -170,6 +173,8 @@ static const vx_param vicini_params[] = {
     {"extended", 0.0, 0.0, 1.0,
      "1: Vicini et al.'s extended rays (hits on the voxel's triangles outside it end the flight at its side); "
      "0: Brito et al.'s flights inside the voxel"},
+    {"sggx_min_area", SGGX_MIN_AREA_DEFAULT, 0.01, 1.0,
+     "floor of the SGGX fit's projected areas: how opaque a flat voxel stays edge-on, how far its shading spreads"},
     {0},
 };
 
