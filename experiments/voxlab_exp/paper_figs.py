@@ -62,7 +62,7 @@ def _grid(rows_spec, meta, results, out, stem, title):
     """rows_spec: [(row label, {model: row}, truth row)] -> one figure, a row each."""
     plt = _plt()
     cols = _method_columns()
-    fig, axes = plt.subplots(len(rows_spec), len(cols) + 1, figsize=(2.2 * (len(cols) + 1), 2.45 * len(rows_spec)),
+    fig, axes = plt.subplots(len(rows_spec), len(cols) + 1, figsize=(2.2 * (len(cols) + 1), 2.9 * len(rows_spec)),
                              squeeze=False)
     for k, (label, by_model, truth) in enumerate(rows_spec):
         for i, (p, m) in enumerate(cols):
@@ -109,7 +109,7 @@ def figure10(meta, rows, results, out):
     if not spec:
         return []
     return [_grid(spec, meta, results, out, "figure10",
-                  "Brito et al. Figure 10 analogue: diffuse and specular shading, light in front of and behind "
+                  "Brito et al. Figure 10 analogue: diffuse and specular shading,\nlight in front of and behind "
                   "the bunny, red background (transparency shows red)")]
 
 
