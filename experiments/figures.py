@@ -46,7 +46,8 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from voxlab_exp.cli import add_common_args, main_wrapper  # noqa: E402
 from voxlab_exp.config import REPO  # noqa: E402
 from voxlab_exp.files import load_json, rel, write_csv, write_text  # noqa: E402
-from voxlab_exp.plots import TRUTH_COLOUR, model_colour, save_plot  # noqa: E402
+from voxlab_exp.plots import TRUTH_COLOUR, model_colour, save_plot, stamp  # noqa: E402
+from voxlab_exp.plots import clean_axes, pyplot  # noqa: E402
 from voxlab_exp.images import read_exr, srgb8  # noqa: E402
 from voxlab_exp import paper_figs  # noqa: E402
 from voxlab_exp.report import settings_text, size_text  # noqa: E402
@@ -57,15 +58,6 @@ from voxlab_exp.schema import load_declaration  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 FIGURES = ["grids", "view_angle", "coverage", "dof", "figure7", "figure10", "island2x2"]
-
-
-def plt_module():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def load_png(results, rel):
@@ -89,23 +81,11 @@ def failed_tile(ax, text):
             ha="center", va="center", fontsize=6, transform=ax.transAxes, wrap=True)
 
 
-def clean(ax):
-    ax.set_xticks([])
-    ax.set_yticks([])
-    for s in ax.spines.values():
-        s.set_visible(False)
-
-
-def stamp(meta):
-    g = meta["git"]
-    return f"commit {g['commit'][:10]}{' (dirty)' if g['dirty'] else ''}, {meta['date'][:10]}, {meta['machine']['host']}"
-
-
 # ---------------------------------------------------------------------------------------------- grids
 
 
 def grids(meta, rows, results, out):
-    plt = plt_module()
+    plt = pyplot()
     models = [m for m in dict.fromkeys(r["model"] for r in rows if r["kind"] == "model")]
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
     resolutions = list(dict.fromkeys(r["res"] for r in rows))
@@ -134,7 +114,7 @@ def grids(meta, rows, results, out):
                 failed_tile(ai, (r or {}).get("error", "not run"))
                 ai.set_title(m, fontsize=8)
                 if ae is not None:
-                    clean(ae)
+                    clean_axes(ae)
                 continue
             ai.imshow(load_png(results, r["preview"]), interpolation="nearest")
             ai.set_title(f"{m}\nMSE {r['mse']:.2e}\nSSIM {r['ssim']:.3f}", fontsize=7, color=model_colour(m))
@@ -149,7 +129,7 @@ def grids(meta, rows, results, out):
             tile = max(n, 160) / 100
             fig, axes = plt.subplots(2, cols, figsize=(cols * tile, 2 * tile + 1.3), squeeze=False)
             for ax in axes.flat:
-                clean(ax)
+                clean_axes(ax)
             v = []
             draw_row(axes[0], axes[1], sc, n, v)
             axes[1][0].text(0.5, 0.5, f"squared error\n(mean of R, G, B)\nscale 0 – {v[0]:.2g}\n(same for every\n"
@@ -168,7 +148,7 @@ def grids(meta, rows, results, out):
         tile = 1.7
         fig, axes = plt.subplots(len(scenes), cols, figsize=(cols * tile, len(scenes) * (tile + 0.55)), squeeze=False)
         for ax in axes.flat:
-            clean(ax)
+            clean_axes(ax)
         for k, sc in enumerate(scenes):
             v = []
             row_axes = axes[k]
@@ -196,7 +176,7 @@ def grids(meta, rows, results, out):
 
 def view_angle(sw, decl, meta, rows, results, out):
     """Mean colour over the fully covered pixels against the varied camera parameter."""
-    plt = plt_module()
+    plt = pyplot()
     fig_decl = decl["figure"]
     key = fig_decl.get("vary", "camera.orbit.elevation_deg")
     bg = fig_decl.get("coverage_background", [1, 1, 1])
@@ -292,7 +272,7 @@ def view_angle(sw, decl, meta, rows, results, out):
 
 
 def coverage(decl, meta, rows, results, out):
-    plt = plt_module()
+    plt = pyplot()
     key = decl["figure"].get("vary", "background")
     models = [m for m in dict.fromkeys(r["model"] for r in rows if r["kind"] == "model")]
     families = list(dict.fromkeys(r["base_scene"] for r in rows))
@@ -304,7 +284,7 @@ def coverage(decl, meta, rows, results, out):
     fig, axes = plt.subplots(len(families), cols, figsize=(cols * 2.0, len(families) * 2.5), squeeze=False)
     summary = []
     for ax in axes.flat:
-        clean(ax)
+        clean_axes(ax)
     for k, fam in enumerate(families):
         any_r = next((by.get((fam, m, True)) for m in models if by.get((fam, m, True))), None)
         any_b = next((by.get((fam, m, False)) for m in models if by.get((fam, m, False))), None)
@@ -358,7 +338,7 @@ def coverage(decl, meta, rows, results, out):
 
 
 def dof(decl, meta, rows, results, out):
-    plt = plt_module()
+    plt = pyplot()
     pre = decl["figure"].get("prefiltered", [])
     registered = [m["name"] for m in meta["models"]]
     models = [m for m in dict.fromkeys(r["model"] for r in rows if r["kind"] == "model")]
@@ -369,7 +349,7 @@ def dof(decl, meta, rows, results, out):
         cols = 1 + len(models)
         fig, axes = plt.subplots(2 * len(spps), cols, figsize=(cols * 2.4, 2 * len(spps) * 2.55), squeeze=False)
         for ax in axes.flat:
-            clean(ax)
+            clean_axes(ax)
         ok = [r for r in cell.values() if r["status"] == "ok"]
         errs = {(r["model"], r["spp"]): sq_error(results, r) for r in ok}
         vmax = max([np.percentile(e, 99.5) for e in errs.values()] + [1e-12])

@@ -17,30 +17,9 @@ import numpy as np
 from .files import write_csv, write_text
 from .images import read_exr, srgb8
 from .paper import load_paper
-from .plots import model_colour, save_plot
+from .plots import clean_axes, model_colour, pyplot, save_plot, stamp
 
 PAPER_ORDER = ["Averages", "[VJK21]", "Ours"]
-
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
-def _clean(ax):
-    ax.set_xticks([])
-    ax.set_yticks([])
-    for s in ax.spines.values():
-        s.set_visible(False)
-
-
-def _stamp(meta):
-    g = meta["git"]
-    return f"commit {g['commit'][:10]}{' (dirty)' if g['dirty'] else ''}, {meta['date'][:10]}"
 
 
 def _tile(ax, results, rel_exr, title, colour="black"):
@@ -60,7 +39,7 @@ def _method_columns():
 
 def _grid(rows_spec, meta, results, out, stem, title):
     """rows_spec: [(row label, {model: row}, truth row)] -> one figure, a row each."""
-    plt = _plt()
+    plt = pyplot()
     cols = _method_columns()
     fig, axes = plt.subplots(len(rows_spec), len(cols) + 1, figsize=(2.2 * (len(cols) + 1), 2.9 * len(rows_spec)),
                              squeeze=False)
@@ -74,8 +53,8 @@ def _grid(rows_spec, meta, results, out, stem, title):
               f"truth ({truth.get('truth_spp', '?')} spp)" if truth else "truth")
         axes[k][0].set_ylabel(label, fontsize=8)
         for ax in axes[k]:
-            _clean(ax)
-    fig.suptitle(f"{title}\n{_stamp(meta)}", fontsize=9)
+            clean_axes(ax)
+    fig.suptitle(f"{title}\n{stamp(meta)}", fontsize=9)
     fig.tight_layout(rect=(0, 0, 1, 0.95))
     path = os.path.join(out, f"{stem}.png")
     save_plot(fig, path, dpi=110, meta=meta)
@@ -163,7 +142,7 @@ def island2x2(meta, rows, results, out, voxlab, scene="island"):
     fields = ["model", "paper_name", f"mse_{coarse}", f"ssim_{coarse}", f"mse_{fine}_2x2", f"ssim_{fine}_2x2"]
     write_csv(os.path.join(out, "island2x2.csv"), table, fields)
     p = paper["island_2x2"]
-    md = [f"# The island 2x2 experiment (Brito et al. §5) — {_stamp(meta)}", "",
+    md = [f"# The island 2x2 experiment (Brito et al. §5) — {stamp(meta)}", "",
           f"Each model at {fine}³ rendered at {fine}² and averaged 2x2 to {coarse}², against the {coarse}² truth "
           f"({truth_c.get('truth_spp', '?')} spp), beside the same model at {coarse}³ rendered at {coarse}². Metrics "
           "by `voxlab compare` (MSE, SSIM as scikit-image defines it).", "",
@@ -185,7 +164,7 @@ def island2x2(meta, rows, results, out, voxlab, scene="island"):
                   f"(MSE {'better' if better_mse else 'worse'}, SSIM {'better' if better_ssim else 'worse'} for vmesh).")
     write_text(os.path.join(out, "island2x2.md"), "\n".join(md) + "\n")
 
-    plt = _plt()
+    plt = pyplot()
     fig, axes = plt.subplots(1, 1 + 2 * len(table), figsize=(2.0 * (1 + 2 * len(table)), 2.6), squeeze=False)
     ax = axes[0]
     _tile(ax[0], results, truth_c["truth_image"], f"truth {coarse}²")
@@ -196,8 +175,8 @@ def island2x2(meta, rows, results, out, voxlab, scene="island"):
         _tile(ax[2 + 2 * i], out, f"island2x2_{m}.exr",
               f"{m} {fine}³ → 2x2\n{t[f'mse_{fine}_2x2']:.4f} / {t[f'ssim_{fine}_2x2']:.3f}", model_colour(m))
     for a in ax:
-        _clean(a)
-    fig.suptitle(f"Island: {coarse}³ against {fine}³ averaged 2x2 (MSE / SSIM) — {_stamp(meta)}", fontsize=8)
+        clean_axes(a)
+    fig.suptitle(f"Island: {coarse}³ against {fine}³ averaged 2x2 (MSE / SSIM) — {stamp(meta)}", fontsize=8)
     fig.tight_layout(rect=(0, 0, 1, 0.9))
     path = os.path.join(out, "island2x2.png")
     save_plot(fig, path, dpi=110, meta=meta)

@@ -37,6 +37,30 @@ def model_colour(name):
     return EXTRA_COLOURS[h % len(EXTRA_COLOURS)]
 
 
+def pyplot():
+    """matplotlib's pyplot on the Agg backend (no display needed)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def clean_axes(ax):
+    """An image tile: no ticks, no frame."""
+    ax.set_xticks([])
+    ax.set_yticks([])
+    for s in ax.spines.values():
+        s.set_visible(False)
+
+
+def stamp(meta):
+    """The line every figure carries: the commit (dirty or not), the date and the host."""
+    g = meta["git"]
+    return f"commit {g['commit'][:10]}{' (dirty)' if g['dirty'] else ''}, {meta['date'][:10]}, {meta['machine']['host']}"
+
+
 def vector_rc():
     """matplotlib settings for vector files whose fonts are embedded: TrueType (Type 42) fonts in PDF
     (/FontFile2), glyphs as outlines in SVG (no font needed to view it)."""
