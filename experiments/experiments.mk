@@ -3,6 +3,7 @@
 #   make table1      Tables 1 and 2 (every scene x 128^3, 256^3 x every model)     results/table1/
 #   make pareto      error against render time and memory, Pareto fronts            results/pareto/
 #   make figures     image grids, view-angle colour, silhouette coverage, DoF       results/figures/
+#   make shadows     shadow methods (march, slicemap, slicemap-model) x every model  results/shadows/
 #   make regress     the CI subset against results/baseline.json; fails on a regression
 #   make dashboard   all of the above, then results/dashboard/index.html (+ screenshot.png)
 #   make dashboard-page  only the page, from whatever results exist (seconds)
@@ -41,7 +42,7 @@ DEPS += libjs-jquery libjs-jquery-tablesorter libjs-chart.js
 # daemons and clients, and munge for their authentication.
 SLURM_DEPS = slurm-wlm munge
 
-.PHONY: table1 pareto figures regress regress-run dashboard dashboard-page baseline experiments-clean-cache test-slurm
+.PHONY: table1 pareto figures shadows regress regress-run dashboard dashboard-page baseline experiments-clean-cache test-slurm
 
 # Every target first makes sure the packages and the binary are there (as `make test` does).
 define exp_prepare
@@ -60,6 +61,10 @@ pareto:
 figures:
 	$(exp_prepare)
 	$(EXP_PY) experiments/figures.py $(EXP_ARGS)
+
+shadows:
+	$(exp_prepare)
+	$(EXP_PY) experiments/shadows.py $(EXP_ARGS)
 
 regress:
 	$(exp_prepare)

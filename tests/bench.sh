@@ -16,6 +16,9 @@ BUILD=${BUILD:-build}
 # 4 spp; medians of 5 alternating runs, compile time apart; ~1 min).
 "$BUILD"/tests/bench_opencl scenes/bunny.json
 "$BUILD"/tests/bench_opencl scenes/spheres.json
+# Precomputed shadows (issue 18): every model's frame time with slicemap-model over march, same run,
+# bunny 256^3, 256x256, 4 spp (medians of 5 interleaved; also without the shading cache; ~5 min).
+"$BUILD"/tests/bench_shadows scenes/bunny.json 256 256 5
 # Frame times (issue 15): every model at bunny 256^3 against 50 ms, binary over the 4-spp truth, growth
 # per doubling of the grid up to 1024^3, binary's 2-thread speed-up on city (medians; ~10 min).
 "$BUILD"/tests/bench_frame scenes/bunny.json scenes/city.json 1024

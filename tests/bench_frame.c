@@ -83,7 +83,7 @@ static double frame(const scene *s, const baked *b, int size, int threads)
 
 static double truth_frame(const rt_scene *rt, int size)
 {
-    truth_options o = {.spp = 4, .seed = 1, .threads = 0, .progress = 0, .width = size, .height = size};
+    truth_options o = {.spp = 4, .seed = 1, .threads = 0, .progress = 0, .width = size, .height = size, .shadow_method = -1};
     image img;
     truth_counts c;
     vx_err e;

@@ -73,7 +73,7 @@ int main(int argc, char **argv)
         parallel_for(s.height, threads, raw_row, &j, NULL);
         raw[run] = (double)s.width * s.height * spp / (now_seconds() - t0);
 
-        truth_options o = {.spp = spp, .width = s.width, .height = s.height, .seed = 1, .threads = threads};
+        truth_options o = {.spp = spp, .width = s.width, .height = s.height, .seed = 1, .threads = threads, .shadow_method = -1};
         image img = {0};
         truth_counts c;
         if (truth_render(&rt, &o, &img, &c, &e)) {

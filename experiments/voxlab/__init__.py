@@ -54,12 +54,12 @@ def _load():
         "vxapi_scene_load": (P, [S, S, S, S, E]),
         "vxapi_scene_free": (None, [P]),
         "vxapi_scene_size": (None, [P, IP, IP]),
-        "vxapi_truth": (I, [P, I, I, I, LL, I, FPP, IP, IP, SPP, S, E]),
+        "vxapi_truth": (I, [P, I, I, I, LL, I, S, I, FPP, IP, IP, SPP, S, E]),
         "vxapi_bake_run": (P, [P, S, I, I, LL, I, _c_char_pp, I, SPP, S, E]),
         "vxapi_bake_load": (P, [P, S, S, S, E]),
         "vxapi_bake_save": (I, [P, S, S, E]),
         "vxapi_bake_free": (None, [P]),
-        "vxapi_render": (I, [P, P, I, I, I, LL, I, I, I, S, FPP, IP, IP, SPP, S, E]),
+        "vxapi_render": (I, [P, P, I, I, I, LL, I, I, I, S, S, I, FPP, IP, IP, SPP, S, E]),
         "vxapi_image_read": (I, [S, FPP, IP, IP, IP, S, E]),
         "vxapi_compare": (I, [_float_p, _float_p, I, I, I, SPP, S, E]),
         "vxapi_compare_files": (I, [S, S, SPP, S, E]),
@@ -183,12 +183,13 @@ class Bake:
             self._h = None
 
 
-def truth(scene, size=None, spp=1024, seed=1, threads=0, base_dir=None):
-    """`voxlab truth`: (image, stats)."""
+def truth(scene, size=None, spp=1024, seed=1, threads=0, base_dir=None, shadows=None, shadow_res=0):
+    """`voxlab truth`: (image, stats); shadows "march" or "slicemap" (None: the scene's method)."""
     s = _scene(scene, base_dir)
     w, h = _size(size)
     call = _Call()
-    if _lib.vxapi_truth(s._h, w, h, int(spp), int(seed), int(threads), ctypes.byref(call.pixels),
+    if _lib.vxapi_truth(s._h, w, h, int(spp), int(seed), int(threads), _enc(shadows), int(shadow_res),
+                        ctypes.byref(call.pixels),
                         ctypes.byref(call.w), ctypes.byref(call.h), ctypes.byref(call.text), call.err, _ERR_SIZE):
         call.fail()
     return call.image(), call.json()
@@ -211,7 +212,7 @@ def bake(scene, model, res, rays=150, seed=1, threads=0, params=None, out=None, 
 
 
 def render(scene, model=None, res=None, vox=None, size=None, spp=4, seed=1, rays=150, params=None, threads=0,
-           cache=True, shadow_skip=True, backend="c", base_dir=None):
+           cache=True, shadow_skip=True, backend="c", base_dir=None, shadows=None, shadow_res=0):
     """`voxlab render`: (image, stats). Bakes at res first (model, rays, params, seed: as
     `render --res`), or renders vox: a Bake or a .vox path (model then optional, checked)."""
     s = _scene(scene, base_dir)
@@ -230,7 +231,8 @@ def render(scene, model=None, res=None, vox=None, size=None, spp=4, seed=1, rays
     w, h = _size(size)
     call = _Call()
     if _lib.vxapi_render(s._h, b._h, w, h, int(spp), int(seed), int(threads), int(bool(cache)),
-                         int(bool(shadow_skip)), _enc(backend), ctypes.byref(call.pixels), ctypes.byref(call.w),
+                         int(bool(shadow_skip)), _enc(backend), _enc(shadows), int(shadow_res),
+                         ctypes.byref(call.pixels), ctypes.byref(call.w),
                          ctypes.byref(call.h), ctypes.byref(call.text), call.err, _ERR_SIZE):
         call.fail()
     return call.image(), call.json()

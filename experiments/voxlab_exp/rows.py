@@ -22,10 +22,11 @@ from .scenes import write_variant
 
 # The columns before and after the metric columns (mse, psnr, ssim, ...: see row_fields).
 ROW_FIELDS_HEAD = ["experiment", "scene", "base_scene", "variant", "kind", "model", "res", "width", "height", "spp",
-                   "rays", "cache", "shadow_skip", "seed", "truth_spp", "status", "error"]
+                   "rays", "cache", "shadow_skip", "shadows", "seed", "truth_spp", "status", "error"]
 ROW_FIELDS_TAIL = ["render_s", "render_ms", "render_ms_min", "render_ms_spread", "repeats", "bake_s", "bake_s_min",
                    "bake_s_spread", "truth_s_min", "truth_s_spread", "load", "loaded", "bytes_per_voxel", "voxels",
-                   "model_bytes", "grid_bytes", "mb", "peak_rss_bytes", "cache_hits", "model_evals", "triangles",
+                   "model_bytes", "grid_bytes", "mb", "shadow_build_s", "shadow_bytes", "shadow_queries",
+                   "peak_rss_bytes", "cache_hits", "model_evals", "triangles",
                    "truth_s", "image", "preview", "truth_image", "truth_preview", "computed", "jobs_cached"]
 
 
@@ -36,9 +37,12 @@ def row_fields(metrics):
 
 def row_key(r):
     """What identifies a configuration across runs (baseline, history)."""
-    return "/".join(str(x) for x in (r["scene"], r["model"], f"r{r['res']}", f"{r['width']}x{r['height']}",
-                                     f"spp{r['spp']}", f"k{r['rays']}", "cache" if r["cache"] else "nocache",
-                                     f"truth{r['truth_spp']}", f"seed{r['seed']}"))
+    key = "/".join(str(x) for x in (r["scene"], r["model"], f"r{r['res']}", f"{r['width']}x{r['height']}",
+                                    f"spp{r['spp']}", f"k{r['rays']}", "cache" if r["cache"] else "nocache",
+                                    f"truth{r['truth_spp']}", f"seed{r['seed']}"))
+    # The default shadow method leaves the key as it was before there were methods.
+    sh = r.get("shadows") or "march"
+    return key if sh == "march" else f"{key}/shadows-{sh}"
 
 
 def wanted_all(wanted):
@@ -141,7 +145,8 @@ def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
             continue
         t = sw.truth(s["path"], s["name"], size, truth_spp, seed)
         b = sw.bake(s["path"], s["name"], cfg["model"], cfg["res"], cfg["rays"], seed)
-        r = sw.render(b, s["path"], s["name"], size, cfg["spp"], seed, cfg["cache"], cfg["shadow_skip"])
+        r = sw.render(b, s["path"], s["name"], size, cfg["spp"], seed, cfg["cache"], cfg["shadow_skip"],
+                      cfg.get("shadows", "march"))
         plan.append((cfg, t, b, r, sw.compare(t, r)))
     curve = []
     tc = decl["truth_curve"]
@@ -188,7 +193,7 @@ def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
         s = scenes[cfg["scene"]]
         row = base_row(s, {"kind": "model", "model": cfg["model"], "res": cfg["res"], "width": cfg["width"],
                            "height": cfg["height"], "spp": cfg["spp"], "rays": cfg["rays"], "cache": cfg["cache"],
-                           "shadow_skip": cfg["shadow_skip"]})
+                           "shadow_skip": cfg["shadow_skip"], "shadows": cfg.get("shadows", "march")})
         if t is None:
             row.update(status="failed", error=f"model {cfg['model']} is not registered in this voxlab "
                                               f"(voxlab models: {', '.join(model_names)})")
@@ -209,6 +214,8 @@ def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
             **load_columns(t, b, r), bytes_per_voxel=rs.get("bytes_per_voxel"), voxels=rs.get("voxels"),
             model_bytes=rs.get("model_bytes"), grid_bytes=rs.get("grid_bytes"),
             mb=(rs["model_bytes"] + rs["grid_bytes"]) / 1e6 if "model_bytes" in rs and "grid_bytes" in rs else None,
+            shadow_build_s=rs.get("shadow_build_seconds"), shadow_bytes=rs.get("shadow_bytes"),
+            shadow_queries=rs.get("shadow_queries"),
             peak_rss_bytes=rs.get("peak_rss_bytes"), cache_hits=rs.get("cache_hits"),
             model_evals=rs.get("model_evals"), triangles=rs.get("triangles", row["triangles"]),
             image=rel(r.path("image.exr"), results), preview=rel(r.path("image.png"), results),
@@ -218,7 +225,7 @@ def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
     base_rss = sw.baseline_memory() if curve else 0
     for s, size, spp, ref, t, c in curve:
         row = base_row(s, {"kind": "truth", "model": "truth", "res": 0, "width": size[0], "height": size[1],
-                           "spp": spp, "rays": 0, "cache": True, "shadow_skip": True})
+                           "spp": spp, "rays": 0, "cache": True, "shadow_skip": True, "shadows": "march"})
         err = first_failure(ref, t, c)
         if err:
             row.update(status="failed", error=err)

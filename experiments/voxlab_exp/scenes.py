@@ -64,7 +64,7 @@ def _referenced_fingerprint(path):
 # bake sampler's rays start outside them (tracer/bake/bake.c), and voxlab's own scene identity, which a
 # .vox file must match, also leaves them out. Variants that differ only here (another camera, another
 # background) share one bake.
-BAKE_IRRELEVANT = ("camera", "size", "background", "description", "name")
+BAKE_IRRELEVANT = ("camera", "size", "background", "description", "name", "shadows")
 
 
 def scene_fingerprint(path, for_bake=False):

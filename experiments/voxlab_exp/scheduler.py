@@ -206,10 +206,13 @@ class Sweep:
         self.all[j.key] = j
         return j
 
-    def truth(self, scene_path, scene_name, size, spp, seed):
+    def truth(self, scene_path, scene_name, size, spp, seed, shadows="march"):
         w, h = size
-        return self._job("truth", f"{scene_name}-{w}x{h}-spp{spp}-seed{seed}",
-                         {"scene": scene_fingerprint(scene_path), "size": [w, h], "spp": spp, "seed": seed,
+        # The shadow method is an input only when it is not the default: every key made before
+        # there were methods stays valid.
+        sh = {} if shadows == "march" else {"shadows": shadows}
+        return self._job("truth", f"{scene_name}-{w}x{h}-spp{spp}-seed{seed}{'' if not sh else '-' + shadows}",
+                         {"scene": scene_fingerprint(scene_path), "size": [w, h], "spp": spp, "seed": seed, **sh,
                           "_scene_path": scene_path, "_scene_name": scene_name},
                          [], w * h * spp, ("truth", scene_name))
 
@@ -219,13 +222,15 @@ class Sweep:
                           "rays": rays, "seed": seed, "_scene_path": scene_path, "_scene_name": scene_name},
                          [], res * res * rays, ("bake", model), model)
 
-    def render(self, bake, scene_path, scene_name, size, spp, seed, cache, shadow_skip):
+    def render(self, bake, scene_path, scene_name, size, spp, seed, cache, shadow_skip, shadows="march"):
         w, h = size
         b = bake.inputs
+        sh = {} if shadows == "march" else {"shadows": shadows}  # as in truth(): old keys stay valid
         return self._job("render", f"{scene_name}-{b['model']}-r{b['res']}-{w}x{h}-spp{spp}"
-                                   f"{'' if cache else '-nocache'}{'' if shadow_skip else '-noskip'}",
+                                   f"{'' if cache else '-nocache'}{'' if shadow_skip else '-noskip'}"
+                                   f"{'' if not sh else '-' + shadows}",
                          {"bake": bake.key, "scene": scene_fingerprint(scene_path), "size": [w, h], "spp": spp,
-                          "seed": seed, "cache": cache, "shadow_skip": shadow_skip, "_scene_path": scene_path,
+                          "seed": seed, "cache": cache, "shadow_skip": shadow_skip, **sh, "_scene_path": scene_path,
                           "_scene_name": scene_name, "_model": b["model"], "_res": b["res"]},
                          [bake], w * h * spp, ("render", b["model"]), b["model"])
 
@@ -245,7 +250,7 @@ class Sweep:
         if job.kind == "truth":
             w, h = i["size"]
             return ["truth", i["_scene_path"], "--spp", i["spp"], "--size", f"{w}x{h}", "--seed", i["seed"], *t,
-                    "-o", out, "--stats", stats]
+                    *(["--shadows", i["shadows"]] if "shadows" in i else []), "-o", out, "--stats", stats]
         if job.kind == "bake":
             return ["bake", i["_scene_path"], "--model", i["model"], "--res", i["res"], "--rays", i["rays"],
                     "--seed", i["seed"], *t, "-o", "{tmp}/model.vox", "--stats", stats]
@@ -254,7 +259,7 @@ class Sweep:
             return ["render", i["_scene_path"], "--model", i["_model"], "--vox", job.deps[0].path("model.vox"),
                     "--spp", i["spp"], "--size", f"{w}x{h}", "--seed", i["seed"], *t,
                     *([] if i["cache"] else ["--no-cache"]), *([] if i["shadow_skip"] else ["--no-shadow-skip"]),
-                    "-o", out, "--stats", stats]
+                    *(["--shadows", i["shadows"]] if "shadows" in i else []), "-o", out, "--stats", stats]
         if job.kind == "compare":
             # No --heatmap: it costs `voxlab compare` as much again as the metrics, and the figures
             # draw their own heat maps on one scale per scene (voxlab scales each to its own maximum).

@@ -20,7 +20,8 @@ from .hashing import canonical
 from .scenes import resolve_scene
 
 SCHEMA_PATH = os.path.join(REPO, "experiments", "declaration.schema.json")
-RUN_DEFAULTS = {"models": "all", "size": "res", "spp": [4], "rays": [150], "cache": [True], "shadow_skip": [True]}
+RUN_DEFAULTS = {"models": "all", "size": "res", "spp": [4], "rays": [150], "cache": [True], "shadow_skip": [True],
+                "shadows": ["march"]}
 MAX_CONFIGS = 100000  # scene variants of one entry, or configurations of one run
 
 _validator = None
@@ -256,14 +257,16 @@ def declaration_from_dict(d, shown="<declaration dict>", base_dir=None, path=Non
             "rays": _unique(r["rays"]),
             "cache": _unique(r["cache"]),
             "shadow_skip": _unique(r["shadow_skip"]),
+            "shadows": _unique(r["shadows"]),
             "scenes": scene_subset(r["scenes"], f"runs[{i}].scenes") if "scenes" in r else [s["name"] for s in scenes],
         })
     for i, r in enumerate(runs):
         n = len(r["scenes"]) * (len(r["models"]) if r["models"] != "all" else 1)
-        for k in ("res", "spp", "rays", "cache", "shadow_skip"):
+        for k in ("res", "spp", "rays", "cache", "shadow_skip", "shadows"):
             n *= len(r[k])
         if n > MAX_CONFIGS:
-            fail(f"runs[{i}]", f"{n} configurations (scenes x models x res x spp x rays x cache x shadow_skip; "
+            fail(f"runs[{i}]", f"{n} configurations (scenes x models x res x spp x rays x cache x shadow_skip x "
+                               f"shadows; "
                                f"more than {MAX_CONFIGS})")
     decl["runs"] = runs
     tc = d.get("truth_curve")
@@ -291,11 +294,12 @@ def expand_configs(decl, model_names):
     scenes = {s["name"]: s for s in decl["scenes"]}
     for r in decl["runs"]:
         models = model_names if r["models"] == "all" else r["models"]
-        for sc, res, m, spp, rays, cache, skip in itertools.product(r["scenes"], r["res"], models, r["spp"],
-                                                                     r["rays"], r["cache"], r["shadow_skip"]):
+        for sc, res, m, spp, rays, cache, skip, sh in itertools.product(r["scenes"], r["res"], models, r["spp"],
+                                                                         r["rays"], r["cache"], r["shadow_skip"],
+                                                                         r["shadows"]):
             size = r["size"]
             cfg = {"scene": sc, "model": m, "res": res, "size": size, "spp": spp, "rays": rays, "cache": cache,
-                   "shadow_skip": skip}
+                   "shadow_skip": skip, "shadows": sh}
             k = canonical(cfg)
             if k not in seen:
                 seen.add(k)

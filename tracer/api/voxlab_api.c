@@ -120,14 +120,32 @@ static int image_size(const scene *s, int width, int height, int *w, int *h, vx_
     return scene_parse_size_string(text, w, h, e);
 }
 
-int vxapi_truth(const vxapi_scene *as, int width, int height, int spp, long long seed, int threads, float **pixels,
-                int *out_width, int *out_height, char **stats, char *err, size_t err_size)
+/* The shadow method and resolution as --shadows and --shadow-res check them (truth: no
+ * slicemap-model). */
+static int shadow_args(const char *shadows, int shadow_res, int truth, int *method, char *err, size_t err_size)
+{
+    *method = -1;
+    if (shadows && (*method = shadow_method_from_name(shadows)) < 0)
+        return give_error("shadows: expected one of " SHADOW_METHOD_NAMES, err, err_size);
+    if (truth && *method == SHADOW_SLICEMAP_MODEL)
+        return give_error("shadows: the truth takes march or slicemap (slicemap-model needs a model's bake)", err,
+                          err_size);
+    if (shadow_res < 0 || shadow_res > SHADOW_MAX_RES)
+        return give_error("shadow_res: expected 0 (the default) to 2048 columns per side", err, err_size);
+    return 0;
+}
+
+int vxapi_truth(const vxapi_scene *as, int width, int height, int spp, long long seed, int threads, const char *shadows,
+                int shadow_res, float **pixels, int *out_width, int *out_height, char **stats, char *err,
+                size_t err_size)
 {
     const scene *s = &as->s;
-    truth_options o = {.spp = spp, .seed = (uint64_t)seed, .threads = threads};
+    truth_options o = {.spp = spp, .seed = (uint64_t)seed, .threads = threads, .shadow_res = shadow_res};
     vx_err e;
     if (spp < 1 || spp > (1 << 20) || seed < 0 || seed > SEED_MAX || threads < 0)
         return give_error("spp must be 1..1048576, seed 0..2^53, threads non-negative", err, err_size);
+    if (shadow_args(shadows, shadow_res, 1, &o.shadow_method, err, err_size))
+        return -1;
     if (image_size(s, width, height, &o.width, &o.height, &e))
         return give_error(e.msg, err, err_size);
     vx_estimate est;
@@ -236,8 +254,9 @@ void vxapi_bake_free(vxapi_bake *b)
 }
 
 int vxapi_render(const vxapi_scene *as, const vxapi_bake *b, int width, int height, int spp, long long seed,
-                 int threads, int cache, int shadow_skip, const char *backend_name, float **pixels, int *out_width,
-                 int *out_height, char **stats, char *err, size_t err_size)
+                 int threads, int cache, int shadow_skip, const char *backend_name, const char *shadows,
+                 int shadow_res, float **pixels, int *out_width, int *out_height, char **stats, char *err,
+                 size_t err_size)
 {
     const scene *s = &as->s;
     vx_err e;
@@ -257,6 +276,9 @@ int vxapi_render(const vxapi_scene *as, const vxapi_bake *b, int width, int heig
     o.threads = threads;
     o.cache = cache;
     o.shadow_skip = shadow_skip;
+    o.shadow_res = shadow_res;
+    if (shadow_args(shadows, shadow_res, 0, &o.shadow_method, err, err_size))
+        return -1;
     if (image_size(s, width, height, &o.width, &o.height, &e))
         return give_error(e.msg, err, err_size);
     vx_estimate est;

@@ -27,9 +27,11 @@ void vxapi_scene_free(vxapi_scene *s);
 /* The scene's default image size. */
 void vxapi_scene_size(const vxapi_scene *s, int *width, int *height);
 
-/* `voxlab truth`: width/height 0 = the scene's; threads 0 = every core. */
-int vxapi_truth(const vxapi_scene *s, int width, int height, int spp, long long seed, int threads, float **pixels,
-                int *out_width, int *out_height, char **stats, char *err, size_t err_size);
+/* `voxlab truth`: width/height 0 = the scene's; threads 0 = every core; shadows "march" or "slicemap"
+ * (NULL: the scene's method), shadow_res its --shadow-res (0: the default). */
+int vxapi_truth(const vxapi_scene *s, int width, int height, int spp, long long seed, int threads, const char *shadows,
+                int shadow_res, float **pixels, int *out_width, int *out_height, char **stats, char *err,
+                size_t err_size);
 
 /* `voxlab bake` kept in memory: params are "name=value" strings (n_params of them). NULL on failure. */
 vxapi_bake *vxapi_bake_run(const vxapi_scene *s, const char *model, int res, int rays, long long seed, int threads,
@@ -42,10 +44,12 @@ int vxapi_bake_save(const vxapi_bake *b, const char *vox_path, char *err, size_t
 void vxapi_bake_free(vxapi_bake *b);
 
 /* `voxlab render` of a bake (from vxapi_bake_run or vxapi_bake_load, for the same scene): seed is
- * the render's; backend "c" or "opencl" (NULL: "c"). */
+ * the render's; backend "c" or "opencl" (NULL: "c"); shadows "march", "slicemap" or "slicemap-model"
+ * (NULL: the scene's method), shadow_res its --shadow-res (0: the default). Precomputed shadow maps
+ * stay cached in the process (tracer/shadows/shadow_cache.c). */
 int vxapi_render(const vxapi_scene *s, const vxapi_bake *b, int width, int height, int spp, long long seed,
-                 int threads, int cache, int shadow_skip, const char *backend, float **pixels, int *out_width,
-                 int *out_height, char **stats, char *err, size_t err_size);
+                 int threads, int cache, int shadow_skip, const char *backend, const char *shadows, int shadow_res,
+                 float **pixels, int *out_width, int *out_height, char **stats, char *err, size_t err_size);
 
 /* Reads an image file as float (channels as stored, 1-4) like `voxlab compare` does. */
 int vxapi_image_read(const char *path, float **pixels, int *width, int *height, int *channels, char *err,

@@ -1,6 +1,6 @@
 /* voxlab render SCENE --model M (--res N [--rays K] [--param NAME=VALUE]... | --vox FILE) [--spp N]
  *               [--size WxH] [--seed S] [--threads T] [--no-cache] [--no-shadow-skip] [--backend NAME]
- *               -o OUT [--stats S.json] */
+ *               [--shadows METHOD] [--shadow-res N] -o OUT [--stats S.json] */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -21,7 +21,8 @@
 #define RENDER_SYNOPSIS                                                                                      \
     "voxlab render SCENE --model M (--res N [--rays K] [--param NAME=VALUE]... | --vox FILE) [--spp N]\n"         \
     "                     [--size WxH] [--seed S] [--threads T] [--no-cache] [--no-shadow-skip] [--backend c|opencl]\n" \
-    "                     [--dry-run] -o OUT.exr|OUT.png [--stats S.json]"
+    "                     [--shadows march|slicemap|slicemap-model] [--shadow-res N] [--dry-run] -o OUT.exr|OUT.png\n" \
+    "                     [--stats S.json]"
 static const char usage[] = "usage: " RENDER_SYNOPSIS "\n";
 
 const cli_command cmd_render_help = {
@@ -41,6 +42,11 @@ const cli_command cmd_render_help = {
         {"--backend", "NAME", "c", "c or opencl"},
         {"--no-cache", NULL, NULL, "evaluate every voxel per ray (default: cache each voxel's answer toward the camera)"},
         {"--no-shadow-skip", NULL, NULL, "shadow rays test the voxels next to the shaded one too (default: skip 1.5 voxels)"},
+        {"--shadows", "METHOD", "the scene's (march)",
+         "how declared shadows are computed: march (the model's opacity per shading point), slicemap (the "
+         "triangles' light-space slicemap, per-material shadow_sigma), slicemap-model (the model's opacity "
+         "precomputed per light)"},
+        {"--shadow-res", "N", "512; slicemap-model: 1.5 x the grid's N", "columns per side of the precomputed shadow maps"},
         {"--dry-run", NULL, NULL, "print the memory and time estimate and stop"},
         {"--stats", "S.json", "none", "write statistics (times, rays, cache hits) as JSON"},
         {0}}};
@@ -87,7 +93,17 @@ int cmd_render(int argc, char **argv)
             stats_path = val;
         else if (strcmp(a, "--size") == 0)
             size = val;
-        else if (strcmp(a, "--param") == 0) {
+        else if (strcmp(a, "--shadows") == 0) {
+            if ((o.shadow_method = shadow_method_from_name(val)) < 0) {
+                fprintf(stderr, "voxlab render: --shadows %s: expected one of " SHADOW_METHOD_NAMES "\n%s", val,
+                        usage);
+                return 1;
+            }
+        } else if (strcmp(a, "--shadow-res") == 0) {
+            if (cli_int("render", a, val, 1, SHADOW_MAX_RES, &v))
+                return 1;
+            o.shadow_res = (int)v;
+        } else if (strcmp(a, "--param") == 0) {
             if (param_count == (int)(sizeof param_assign / sizeof *param_assign)) {
                 fprintf(stderr, "voxlab render: --param given more than %d times\n", param_count);
                 return 1;

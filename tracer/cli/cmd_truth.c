@@ -1,4 +1,5 @@
-/* voxlab truth SCENE [--spp N] [--size WxH] [--seed S] [--threads T] -o OUT [--stats S.json] */
+/* voxlab truth SCENE [--spp N] [--size WxH] [--seed S] [--threads T] [--shadows METHOD] [--shadow-res N]
+ *              -o OUT [--stats S.json] */
 #include <cjson/cJSON.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -13,8 +14,8 @@
 #include "truth.h"
 
 #define TRUTH_SYNOPSIS                                                                                       \
-    "voxlab truth SCENE [--spp N] [--size WxH] [--seed S] [--threads T] [--dry-run] -o OUT.exr|OUT.png\n"          \
-    "                    [--stats S.json]"
+    "voxlab truth SCENE [--spp N] [--size WxH] [--seed S] [--threads T] [--shadows march|slicemap]\n"             \
+    "                    [--shadow-res N] [--dry-run] -o OUT.exr|OUT.png [--stats S.json]"
 static const char usage[] = "usage: " TRUTH_SYNOPSIS "\n";
 
 const cli_command cmd_truth_help = {
@@ -26,6 +27,10 @@ const cli_command cmd_truth_help = {
         {"--size", "WxH", "the scene's", "image size"},
         {"--seed", "S", "1", "random seed"},
         {"--threads", "T", "every core", "threads"},
+        {"--shadows", "METHOD", "the scene's (march)",
+         "how declared shadows are computed: march (Embree shadow rays) or slicemap (the triangles' light-space "
+         "slicemap, per-material shadow_sigma: a comparison of shadow techniques)"},
+        {"--shadow-res", "N", "512", "columns per side of the slicemap"},
         {"--dry-run", NULL, NULL, "print the memory and time estimate and stop"},
         {"--stats", "S.json", "none", "write statistics (times, rays) as JSON"},
         {0}}};
@@ -37,7 +42,7 @@ int cmd_truth(int argc, char **argv)
         return 0;
     }
     const char *scene_path = NULL, *out_path = NULL, *stats_path = NULL, *size = NULL;
-    truth_options o = {.spp = 1024, .seed = 1, .progress = 1};
+    truth_options o = {.spp = 1024, .seed = 1, .progress = 1, .shadow_method = -1};
     int dry_run = 0;
     long long v;
     for (int i = 1; i < argc; i++) {
@@ -59,6 +64,20 @@ int cmd_truth(int argc, char **argv)
         } else if (strcmp(a, "--size") == 0) {
             if (!(size = cli_value("truth", argc, argv, &i)))
                 return 1;
+        } else if (strcmp(a, "--shadows") == 0) {
+            if (!(val = cli_value("truth", argc, argv, &i)))
+                return 1;
+            o.shadow_method = shadow_method_from_name(val);
+            if (o.shadow_method != SHADOW_MARCH && o.shadow_method != SHADOW_SLICEMAP) {
+                fprintf(stderr, "voxlab truth: --shadows %s: expected march or slicemap%s\n%s", val,
+                        o.shadow_method == SHADOW_SLICEMAP_MODEL ? " (slicemap-model needs a model's bake)" : "",
+                        usage);
+                return 1;
+            }
+        } else if (strcmp(a, "--shadow-res") == 0) {
+            if (!(val = cli_value("truth", argc, argv, &i)) || cli_int("truth", a, val, 1, SHADOW_MAX_RES, &v))
+                return 1;
+            o.shadow_res = (int)v;
         } else if (strcmp(a, "-o") == 0) {
             if (!(out_path = cli_value("truth", argc, argv, &i)))
                 return 1;

@@ -39,10 +39,29 @@ cJSON *stats_truth(const scene *s, const truth_options *o, const truth_counts *c
     cJSON_AddNumberToObject(j, "rays", (double)(c->primary_rays + c->shadow_rays));
     cJSON_AddNumberToObject(j, "primary_rays", (double)c->primary_rays);
     cJSON_AddNumberToObject(j, "shadow_rays", (double)c->shadow_rays);
+    stats_add_shadows(j, &c->shadows);
     cJSON_AddNumberToObject(j, "voxels", 0);
     cJSON_AddNumberToObject(j, "bytes_per_voxel", 0);
     stats_add_image(j, o->spp, o->width, o->height, o->seed, o->threads);
     return j;
+}
+
+void stats_add_shadows(cJSON *j, const shadow_stats *st)
+{
+    if (st->method < 0) { /* the scene declares no shadows: nothing was computed */
+        cJSON_AddNullToObject(j, "shadow_method");
+        cJSON_AddNullToObject(j, "shadow_res");
+    } else {
+        cJSON_AddStringToObject(j, "shadow_method", shadow_method_name(st->method));
+        if (st->method == SHADOW_MARCH)
+            cJSON_AddNullToObject(j, "shadow_res");
+        else
+            cJSON_AddNumberToObject(j, "shadow_res", st->res);
+    }
+    cJSON_AddNumberToObject(j, "shadow_build_seconds", st->build_seconds);
+    cJSON_AddNumberToObject(j, "shadow_bytes", (double)st->bytes);
+    cJSON_AddNumberToObject(j, "shadow_queries", (double)st->queries);
+    cJSON_AddBoolToObject(j, "shadow_cache_hit", st->cache_hit);
 }
 
 void stats_add_image(cJSON *j, int spp, int width, int height, uint64_t seed, int threads)

@@ -25,6 +25,10 @@ void stats_add_bake(cJSON *j, const vx_model *m, const struct vx_bake_params *pa
 /* A device backend's figures as NAME_compile_seconds, NAME_kernel_seconds, NAME_kernel_cpu_seconds,
  * NAME_device, NAME_compute_units. */
 void stats_add_backend(cJSON *j, const char *name, const backend_counts *bc);
+/* The shadow method's fields: shadow_method (null when the scene declares no shadows), shadow_res,
+ * shadow_build_seconds (the precomputation, apart from seconds; 0 from the cache), shadow_bytes,
+ * shadow_queries, shadow_cache_hit. */
+void stats_add_shadows(cJSON *j, const shadow_stats *st);
 double peak_rss_bytes(void);
 
 /* The provenance every image a command writes carries (EXR header attributes): the build, the

@@ -66,6 +66,7 @@ cJSON *stats_render(const scene *s, const vx_model *m, const bake_options *bo, c
         stats_add_backend(j, b->name, bcnt);
     cJSON_AddNumberToObject(j, "rays", (double)rc->rays);
     cJSON_AddNumberToObject(j, "shadow_rays", (double)rc->shadow_rays);
+    stats_add_shadows(j, &rc->shadows);
     cJSON_AddNumberToObject(j, "voxel_visits", (double)rc->voxel_visits);
     cJSON_AddNumberToObject(j, "model_evals", (double)rc->model_evals);
     cJSON_AddNumberToObject(j, "cache_hits", (double)rc->cache_hits);

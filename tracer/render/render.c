@@ -18,6 +18,7 @@ void render_default_options(render_options *o)
     o->cache = 1;
     o->shadow_skip = 1;
     o->stop_opacity = 1.0f - 0.001f;
+    o->shadow_method = -1;
 }
 
 int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const void *records,
@@ -29,8 +30,17 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
     if (image_alloc(out, o->width, o->height, 3, e))
         return -1;
     int threads = parallel_threads(o->threads);
+    /* The precomputed shadows (when the method asks for them), built or taken from the cache before
+     * the render's clock starts: their time is reported apart (counts->shadows). */
+    shadow_request sr = {o->shadow_method, o->shadow_res, o->threads, slicemap_fill_model};
+    const shadow_set *maps = NULL;
+    shadow_stats sst;
+    if (shadow_prepare(s, g, m, records, &sr, &maps, &sst, e)) {
+        image_free(out);
+        return -1;
+    }
     render_job j = {s, g, m, records, o, out, calloc((size_t)threads, sizeof(thread_counts)),
-                    camera_pixel_spread(&s->camera, o->height), NULL};
+                    camera_pixel_spread(&s->camera, o->height), NULL, maps};
     if (!j.tc || marcher->prepare(&j, e)) {
         if (!j.tc)
             vx_fail(e, "out of memory for the render");
@@ -38,6 +48,7 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
             marcher->release(&j);
         free(j.tc);
         image_free(out);
+        shadow_release(maps);
         return -1;
     }
     /* The image's pages touched here, not by the render threads (see render_voxel.c's prepare). */
@@ -46,6 +57,7 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
     parallel_for(o->height, threads, marcher->row, &j, o->progress ? "render" : NULL);
     memset(counts, 0, sizeof *counts);
     counts->seconds = now_seconds() - t0;
+    counts->shadows = sst;
     uint64_t model_cycles = 0, total_cycles = 0;
     for (int t = 0; t < threads; t++) {
         counts->rays += j.tc[t].rays;
@@ -53,6 +65,7 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
         counts->voxel_visits += j.tc[t].voxel_visits;
         counts->model_evals += j.tc[t].model_evals;
         counts->cache_hits += j.tc[t].cache_hits;
+        counts->shadows.queries += j.tc[t].shadow_queries;
         model_cycles += j.tc[t].model_cycles;
         total_cycles += j.tc[t].total_cycles;
     }
@@ -61,5 +74,6 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
     counts->traversal_seconds = counts->seconds - counts->model_seconds;
     free(j.tc);
     marcher->release(&j);
+    shadow_release(maps);
     return 0;
 }

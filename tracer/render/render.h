@@ -11,6 +11,7 @@
 #include "image.h"
 #include "model.h"
 #include "scene.h"
+#include "shadow_set.h"
 
 typedef struct {
     int spp; /* jittered rays per pixel, box filter (default 4) */
@@ -21,6 +22,8 @@ typedef struct {
     int cache;           /* cache each voxel's shading and opacity for the direction voxel -> camera */
     int shadow_skip;     /* shadow rays ignore voxels closer than 1.5 voxel sizes (Brito et al. §4) */
     float stop_opacity;  /* stop marching at this accumulated opacity (default 1 - 0.001) */
+    int shadow_method;   /* SHADOW_* (shadow_maps_core.h), or -1 (default): the scene's */
+    int shadow_res;      /* columns per side of the precomputed shadow maps (0: the method's default) */
 } render_options;
 
 typedef struct {
@@ -28,6 +31,7 @@ typedef struct {
     double traversal_seconds; /* marching and compositing (seconds - model_seconds) */
     double model_seconds;     /* inside the model's opacity and shade calls */
     uint64_t rays, shadow_rays, voxel_visits, model_evals, cache_hits;
+    shadow_stats shadows;     /* the shadow method, its precomputation (outside `seconds`), its queries */
 } render_counts;
 
 void render_default_options(render_options *o);

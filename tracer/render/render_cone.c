@@ -40,7 +40,8 @@ static int cone_prepare(render_job *j, vx_err *e)
         return vx_fail(e, "out of memory for the render");
     size_t table_bytes = 0;
     st->table = j->m->cone->table ? j->m->cone->table(&table_bytes) : NULL;
-    st->use_lc = j->o->cache && (s->effects & EFFECT_SHADOWS) && s->light_count > 0;
+    /* (Not with precomputed shadow maps: they replace the light cones.) */
+    st->use_lc = j->o->cache && (s->effects & EFFECT_SHADOWS) && s->light_count > 0 && !j->shadows;
     if (st->use_lc) {
         /* Sized as the OpenCL backend's (tracer/backends/opencl/opencl_cone.c). */
         size_t cells = cone_light_cache_cells(grid_count(j->g, 0), (size_t)j->o->width * (size_t)j->o->height);
@@ -87,12 +88,14 @@ static void cone_row(void *p, int64_t row, int thread)
             x.lights[li] = s->lights[li];
         x.effects = s->effects;
         x.m = j->m;
+        shadow_set_view(j->shadows, &x.shadows);
         vec3 c = cone_trace(&x, org, dir, j->spread, dof ? s->camera.aperture_radius : 0.0f, s->camera.focus_distance,
                             s->camera.forward, s->background);
         tc->voxel_visits += x.counts.elements;
         tc->shadow_rays += x.counts.shadow_rays;
         tc->model_evals += x.counts.evals;
         tc->cache_hits += x.counts.cache_hits;
+        tc->shadow_queries += x.shadows.queries;
         tc->model_cycles += x.model_cycles;
         float *dst = &j->out->data[3 * ((size_t)py * (size_t)o->width + (size_t)px)];
         dst[0] = c.x, dst[1] = c.y, dst[2] = c.z;

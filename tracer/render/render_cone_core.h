@@ -24,6 +24,7 @@
 #include "light.h"
 #include "model.h"
 #include "portable_hints.h"
+#include "shadow_maps_core.h"
 
 #ifndef CONE_ELEMENT
 #error "define CONE_ELEMENT(ctx, q, a) before including render_cone_core.h"
@@ -48,6 +49,7 @@ typedef struct cone_ctx {
     light lights[VX_MAX_LIGHTS];
     int light_count;
     unsigned effects;               /* VX_EFFECT_* */
+    shadow_maps shadows;            /* precomputed shadows (shadow_maps_core.h); p NULL: light cones */
     cone_counts counts;
 #ifndef __OPENCL_VERSION__
     const struct vx_model *m;       /* for CONE_ELEMENT in C */
@@ -465,7 +467,10 @@ VX_INLINE void cone_march_shaded(cone_ctx *x, const cone *c, float t, float t_en
                  * element (it adds coverage) but not before it (the previous one did not), so the
                  * entry is outside the surface and the light cone does not start inside it. */
                 vec3 entry = v3_madd(c->org, c->dir, tc_ - r);
-                if (x->lcache)
+                if (shadow_maps_active(&x->shadows))
+                    for (int li = 0; li < q.light_count; li++) /* skip 3 r, as the light cone's start */
+                        T[li] = shadow_maps_transmittance(&x->shadows, li, entry, 3.0f * r);
+                else if (x->lcache)
                     cone_cached_transmittance(x, entry, level, q.light_count, T);
                 else
                     for (int li = 0; li < q.light_count; li++)

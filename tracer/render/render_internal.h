@@ -17,6 +17,7 @@ static inline uint64_t cycles(void) { return (uint64_t)(now_seconds() * 1e9); }
 /* One thread's counters, on its own cache line. */
 typedef struct {
     uint64_t rays, shadow_rays, voxel_visits, model_evals, cache_hits, model_cycles, total_cycles;
+    uint64_t shadow_queries;
     char pad[64];
 } thread_counts;
 
@@ -30,6 +31,7 @@ typedef struct render_job {
     thread_counts *tc;
     float spread; /* footprint radius per unit distance */
     void *state;  /* the marcher's own (its caches) */
+    const shadow_set *shadows; /* precomputed shadow maps, or NULL: shadows are marched */
 } render_job;
 
 /* A way of marching the pixels of a model's protocol. prepare allocates the marcher's state before

@@ -128,7 +128,7 @@ static int voxel_prepare(render_job *j, vx_err *e)
     int directional = 0;
     for (int li = 0; li < s->light_count && li < VX_MAX_LIGHTS; li++)
         directional |= s->lights[li].type == LIGHT_DIRECTIONAL;
-    if ((s->effects & EFFECT_SHADOWS) && directional && j->m->voxel->opacity_by_direction) {
+    if ((s->effects & EFFECT_SHADOWS) && directional && j->m->voxel->opacity_by_direction && !j->shadows) {
         st->lights = s->light_count < VX_MAX_LIGHTS ? s->light_count : VX_MAX_LIGHTS;
         size_t slots = (n ? n : 1) * (size_t)st->lights;
         st->memo = malloc(slots * sizeof *st->memo);
@@ -167,6 +167,7 @@ static void voxel_row(void *p, int64_t row, int thread)
     x.memo = st->memo;
     x.memo_lights = st->lights;
     x.opacity_by_direction = st->memo != NULL;
+    shadow_set_view(j->shadows, &x.shadows);
     int sx, sy;
     truth_strata(o->spp, &sx, &sy);
     int py = (int)row;
@@ -179,6 +180,7 @@ static void voxel_row(void *p, int64_t row, int thread)
     tc->voxel_visits += x.counts.visits;
     tc->model_evals += x.counts.evals;
     tc->cache_hits += x.counts.cache_hits;
+    tc->shadow_queries += x.shadows.queries;
     tc->model_cycles += x.model_cycles;
     tc->total_cycles += cycles() - c0;
 }

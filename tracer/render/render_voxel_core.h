@@ -39,6 +39,7 @@
 #include "light.h"
 #include "model.h"
 #include "rng.h"
+#include "shadow_maps_core.h"
 #include "strata.h"
 
 #if !defined(VOXEL_OPACITY) || !defined(VOXEL_SHADE) || !defined(VOXEL_COMPOSITING) || !defined(VOXEL_CACHE_GET) || \
@@ -73,6 +74,7 @@ typedef struct voxel_ctx {
     int shadow_skip;
     int cache;
     int opacity_by_direction; /* the model's vx_voxel_eval.opacity_by_direction */
+    shadow_maps shadows;      /* precomputed shadows (shadow_maps_core.h); p NULL: march */
     voxel_counts counts;
     VOXEL_CTX_BACKEND_FIELDS
 } voxel_ctx;
@@ -136,7 +138,10 @@ VX_INLINE void voxel_gather_lights(voxel_ctx *x, vx_query *q, int64_t self, vec3
         vec3 dir, irr;
         float dist;
         light_at(&x->lights[li], c, &dir, &irr, &dist);
-        if (x->effects & VX_EFFECT_SHADOWS)
+        if ((x->effects & VX_EFFECT_SHADOWS) && shadow_maps_active(&x->shadows))
+            irr = v3_scale(irr, shadow_maps_transmittance(&x->shadows, li, c, shadow_maps_voxel_skip(x->g->voxel_size,
+                                                                                                     x->shadow_skip)));
+        else if (x->effects & VX_EFFECT_SHADOWS)
             irr = v3_scale(irr, voxel_shadow_transmittance(x, q, self, c, dir, dist, li,
                                                            x->opacity_by_direction && !(dist < INFINITY)));
         q->to_light[li] = dir;

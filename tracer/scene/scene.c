@@ -101,12 +101,16 @@ static int parse_materials(scene *s, const cJSON *root, vx_err *e)
     int n = cJSON_GetArraySize(mats);
     s->materials = calloc((size_t)n, sizeof(material));
     s->material_names = calloc((size_t)n, sizeof(char *));
+    s->shadow_sigma = calloc((size_t)n, sizeof(float));
+    if (!s->materials || !s->material_names || !s->shadow_sigma)
+        return vx_fail(e, "%s.materials: out of memory", s->path);
     const cJSON *m;
     cJSON_ArrayForEach(m, mats)
     {
         char where[512];
         snprintf(where, sizeof where, "%s: materials.%s", s->path, m->string);
-        static const char *const known[] = {"color", "specular", "roughness", "double_sided", "texture", NULL};
+        static const char *const known[] = {"color",   "specular",     "roughness", "double_sided",
+                                            "texture", "shadow_sigma", NULL};
         if (!cJSON_IsObject(m))
             return vx_fail(e, "%s: expected an object", where);
         material mat = {v3(0.8f, 0.8f, 0.8f), 0.04f, 0.3f, 0, -1};
@@ -116,6 +120,14 @@ static int parse_materials(scene *s, const cJSON *root, vx_err *e)
             json_number_in(m, "roughness", where, 1e-3, 2, &rough, e) ||
             json_bool(m, "double_sided", where, &mat.double_sided, e))
             return -1;
+        /* Slicemap shadows only (Eisemann & Decoret §3.1): the fraction of light one light-grid cell
+         * of this material absorbs (foliage); absent, the material is opaque. Kept out of the
+         * material (and so out of the scene's identity, which .vox files are checked against): it
+         * changes no bake. */
+        double sigma = 0.0;
+        if (json_number_in(m, "shadow_sigma", where, 1e-6, 1.0, &sigma, e))
+            return -1;
+        s->shadow_sigma[s->material_count] = (float)sigma;
         mat.specular = (float)spec;
         mat.roughness = (float)rough;
         const cJSON *tex = cJSON_GetObjectItemCaseSensitive(m, "texture");
@@ -128,19 +140,23 @@ static int parse_materials(scene *s, const cJSON *root, vx_err *e)
 }
 
 /* Appends a material named `name` (copied) and returns its index, or -1 when out of memory. */
-static int add_material(scene *s, material mat, const char *name, vx_err *e)
+static int add_material(scene *s, material mat, float shadow_sigma, const char *name, vx_err *e)
 {
     material *m = realloc(s->materials, sizeof *m * (size_t)(s->material_count + 1));
     if (m)
         s->materials = m;
+    float *sg = realloc(s->shadow_sigma, sizeof *sg * (size_t)(s->material_count + 1));
+    if (sg)
+        s->shadow_sigma = sg;
     char **n = realloc(s->material_names, sizeof *n * (size_t)(s->material_count + 1));
     if (n)
         s->material_names = n;
     char *copy = strdup(name);
-    if (!m || !n || !copy) {
+    if (!m || !sg || !n || !copy) {
         free(copy);
         return vx_fail(e, "out of memory for material %s", name);
     }
+    s->shadow_sigma[s->material_count] = shadow_sigma;
     s->materials[s->material_count] = mat;
     s->material_names[s->material_count] = copy;
     return s->material_count++;
@@ -181,7 +197,7 @@ static int make_gltf_material(void *p, int index, const gltf_material_desc *d, u
         snprintf(name, sizeof name, "%s#%s", at ? at + 2 : g->where, d->name);
     else
         snprintf(name, sizeof name, "%s#material %d", at ? at + 2 : g->where, index);
-    int i = add_material(s, mat, name, e);
+    int i = add_material(s, mat, s->shadow_sigma[g->base], name, e);
     if (i < 0)
         return -1;
     *out = (uint32_t)i;
@@ -213,6 +229,39 @@ static int parse_effects(scene *s, const cJSON *root, vx_err *e)
                            s->path, i, cJSON_IsString(f) ? f->valuestring : "(not a string)");
         s->effects |= bit;
         i++;
+    }
+    return 0;
+}
+
+/* "shadows": {"method": "march" | "slicemap" | "slicemap-model", "resolution": N}: how the declared
+ * shadows effect is computed (voxlab's --shadows and --shadow-res override it). Only with the
+ * effect: a method for shadows the scene does not have is a contradiction, refused. */
+static int parse_shadows(scene *s, const cJSON *root, vx_err *e)
+{
+    const cJSON *sh = cJSON_GetObjectItemCaseSensitive(root, "shadows");
+    if (!sh)
+        return 0;
+    char where[512];
+    snprintf(where, sizeof where, "%s: shadows", s->path);
+    static const char *const known[] = {"method", "resolution", NULL};
+    if (!cJSON_IsObject(sh))
+        return vx_fail(e, "%s: expected an object {\"method\": ..., \"resolution\": N}", where);
+    if (!(s->effects & EFFECT_SHADOWS))
+        return vx_fail(e, "%s: the scene does not declare the \"shadows\" effect (add it to \"effects\")", where);
+    const char *method = NULL;
+    if (json_only_fields(sh, where, known, e) || json_string(sh, "method", where, &method, e) ||
+        json_int_in(sh, "resolution", where, 1, SCENE_MAX_SHADOW_RES, &s->shadow_res, e))
+        return -1;
+    if (method) {
+        static const char *const names[] = {"march", "slicemap", "slicemap-model"};
+        s->shadow_method = -1;
+        for (int i = 0; i < 3; i++)
+            if (strcmp(method, names[i]) == 0)
+                s->shadow_method = i;
+        if (s->shadow_method < 0)
+            return vx_fail(e, "%s.method: unknown shadow method \"%s\" (expected one of march, slicemap, "
+                              "slicemap-model)",
+                           where, method);
     }
     return 0;
 }
@@ -512,7 +561,7 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
                 const char *at = strrchr(where, ':');
                 char name[512];
                 snprintf(name, sizeof name, "%s#default", at ? at + 2 : where);
-                mat = add_material(s, white, name, e);
+                mat = add_material(s, white, 0.0f, name, e);
             } else if (!matname) {
                 return vx_fail(e, "%s: missing field \"material\"", where);
             } else {
@@ -622,8 +671,8 @@ int scene_load_text(const char *text, const char *path, scene *s, vx_err *e)
         return vx_fail(e, "%s: malformed JSON near line %d", path, line);
     }
     int rc = -1;
-    static const char *const known[] = {"name", "size", "background", "effects", "camera", "lights",
-                                        "materials", "objects", "description", NULL};
+    static const char *const known[] = {"name",      "size",    "background",  "effects", "camera", "lights",
+                                        "materials", "objects", "description", "shadows", NULL};
     const char *name = NULL;
     s->width = s->height = 256;
     s->background = v3(0, 0, 0);
@@ -633,7 +682,7 @@ int scene_load_text(const char *text, const char *path, scene *s, vx_err *e)
     }
     if (json_only_fields(root, path, known, e) || json_string(root, "name", path, &name, e) ||
         parse_size(root, path, &s->width, &s->height, e) || parse_color(root, "background", path, &s->background, e) ||
-        parse_effects(s, root, e) || parse_camera(s, root, e) || parse_lights(s, root, e) ||
+        parse_effects(s, root, e) || parse_shadows(s, root, e) || parse_camera(s, root, e) || parse_lights(s, root, e) ||
         parse_materials(s, root, e) || parse_objects(s, root, e))
         goto done;
     if (name)
@@ -669,6 +718,7 @@ void scene_free(scene *s)
         texture_free(&s->textures[i]);
     free(s->material_names);
     free(s->materials);
+    free(s->shadow_sigma);
     free(s->textures);
     free(s->lights);
     free(s->path);

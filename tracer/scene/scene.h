@@ -12,6 +12,8 @@
 #include "texture.h"
 #include "vec.h"
 
+#define SCENE_MAX_SHADOW_RES 2048 /* "shadows": {"resolution"} (shadow_set.h's SHADOW_MAX_RES) */
+
 /* Effects a scene may declare; nothing undeclared is computed anywhere. */
 enum {
     EFFECT_SHADOWS = 1u << 0,
@@ -33,6 +35,7 @@ typedef struct {
     char *name;
     mesh mesh;
     material *materials;
+    float *shadow_sigma; /* per material: σ of slicemap shadows (Eisemann & Decoret §3.1), 0 = opaque */
     char **material_names;
     int material_count;
     texture *textures;
@@ -43,6 +46,8 @@ typedef struct {
     vec3 background;
     int width, height;
     unsigned effects;
+    int shadow_method; /* "shadows": {"method"}: shadow_maps_core.h's SHADOW_* (0, march, by default) */
+    int shadow_res;    /* "shadows": {"resolution"}: columns per side of the shadow maps (0: the default) */
     size_t degenerate_triangles; /* zero-area triangles dropped at load time */
     vec3 bounds_lo, bounds_hi;
     uint64_t identity; /* hash of geometry and materials: baked files name the scene they belong to */

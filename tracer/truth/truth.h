@@ -7,6 +7,7 @@
 
 #include "image.h"
 #include "rt.h"
+#include "shadow_set.h"
 
 typedef struct {
     int spp; /* samples per pixel, default 1024 */
@@ -14,11 +15,14 @@ typedef struct {
     uint64_t seed;
     int threads; /* 0 = every core */
     int progress; /* show progress on stderr when it is a terminal */
+    int shadow_method; /* SHADOW_MARCH (Embree shadow rays) or SHADOW_SLICEMAP; -1: the scene's */
+    int shadow_res;    /* slicemap columns per side (0: the default) */
 } truth_options;
 
 typedef struct {
     double seconds;
     uint64_t primary_rays, shadow_rays;
+    shadow_stats shadows; /* the shadow method, its precomputation (outside `seconds`), its queries */
 } truth_counts;
 
 int truth_render(const rt_scene *rt, const truth_options *o, image *out, truth_counts *counts, vx_err *e);

@@ -16,11 +16,11 @@
 #include "parallel.h"
 
 /* vx_render_cone's buffer arguments, in order (render_cone.cl), then the pixel count. */
-enum { C_PARAMS, C_COLS, C_BITS, C_PREFIX, C_RECORDS, C_TABLE, C_DILATED, C_LC_KEYS, C_LC_STATE, C_LC_T, C_IMAGE,
-       C_COUNTS, C_NEXT_TILE, C_N };
+enum { C_PARAMS, C_COLS, C_BITS, C_PREFIX, C_RECORDS, C_TABLE, C_DILATED, C_LC_KEYS, C_LC_STATE, C_LC_T, C_SHADOWS,
+       C_IMAGE, C_COUNTS, C_NEXT_TILE, C_N };
 
 static void fill_params(vx_cl_cone_params *p, const scene *s, const voxel_grid *g, const dilated_grid *d,
-                        const render_options *o, size_t lc_slots)
+                        const render_options *o, size_t lc_slots, const shadow_set *maps)
 {
     memset(p, 0, sizeof *p);
     vx_cl_grid_params_fill(&p->grid, g);
@@ -40,9 +40,11 @@ static void fill_params(vx_cl_cone_params *p, const scene *s, const voxel_grid *
     p->width = o->width;
     p->height = o->height;
     p->effects = s->effects;
-    /* The same rule as the C backend (render.c): shadows declared, lights, the cache on. */
-    p->use_light_cache = o->cache && (s->effects & EFFECT_SHADOWS) && p->light_count > 0;
+    /* The same rule as the C backend (render_cone.c): shadows declared, lights, the cache on, no
+     * precomputed shadow maps. */
+    p->use_light_cache = o->cache && (s->effects & EFFECT_SHADOWS) && p->light_count > 0 && !maps;
     p->light_cache_mask = lc_slots - 1;
+    vx_cl_shadow_params_fill(&p->shadows, maps);
 }
 
 /* The dilated bitmaps, level after level (offsets in the parameters), queued without blocking. */
@@ -66,8 +68,8 @@ static int upload_dilated(opencl_launch *L, const dilated_grid *skip, int levels
 }
 
 static int render(opencl_launch *L, dilated_grid *skip, const opencl_runtime *rt, const scene *s, const voxel_grid *g,
-                  const vx_model *m, const void *records, const render_options *o, image *out, render_counts *counts,
-                  backend_counts *bc, const char *build_dir, vx_err *e)
+                  const vx_model *m, const void *records, const render_options *o, const shadow_set *maps, image *out,
+                  render_counts *counts, backend_counts *bc, const char *build_dir, vx_err *e)
 {
     size_t pixels = (size_t)o->width * (size_t)o->height;
     /* Built before the clock starts, as the C backend (render_cone.c) builds its own: a like-for-like
@@ -86,7 +88,7 @@ static int render(opencl_launch *L, dilated_grid *skip, const opencl_runtime *rt
     c.compiled = now_seconds();
     size_t lc_slots = cone_light_cache_slots(cone_light_cache_cells(grid_count(g, 0), pixels));
     vx_cl_cone_params params;
-    fill_params(&params, s, g, skip, o, lc_slots);
+    fill_params(&params, s, g, skip, o, lc_slots, maps);
     size_t lc = params.use_light_cache ? lc_slots : 0, lights = params.light_count > 0 ? (size_t)params.light_count : 1;
     size_t record_count = 0;
     for (int l = 0; l < g->levels; l++)
@@ -102,6 +104,8 @@ static int render(opencl_launch *L, dilated_grid *skip, const opencl_runtime *rt
         opencl_launch_buffer(L, C_LC_KEYS, RW, lc * sizeof(uint64_t), NULL, e) ||
         opencl_launch_buffer(L, C_LC_STATE, RW, lc * sizeof(cl_int), NULL, e) ||
         opencl_launch_buffer(L, C_LC_T, RW, lc * lights * sizeof(float), NULL, e) ||
+        opencl_launch_buffer(L, C_SHADOWS, RO | CL_MEM_USE_HOST_PTR, maps ? maps->bytes : 0, maps ? maps->block : NULL,
+                             e) ||
         opencl_launch_buffer(L, C_IMAGE, CL_MEM_WRITE_ONLY, pixels * 3 * sizeof(float), NULL, e) ||
         opencl_launch_counters(L, C_COUNTS, e) || opencl_launch_buffer(L, C_NEXT_TILE, RW, sizeof(cl_int), NULL, e) ||
         opencl_launch_zero(L, C_LC_KEYS, lc * sizeof(uint64_t), e) ||
@@ -122,12 +126,24 @@ int opencl_render_cone(const opencl_runtime *rt, const scene *s, const voxel_gri
                        const void *records, const render_options *o, image *out, render_counts *counts,
                        backend_counts *bc, const char *build_dir, vx_err *e)
 {
+    /* The precomputed shadows, as the C backend builds them, before the render's clock. */
+    shadow_request sr = {o->shadow_method, o->shadow_res, o->threads, slicemap_fill_model};
+    const shadow_set *maps = NULL;
+    shadow_stats sst;
+    if (shadow_prepare(s, g, m, records, &sr, &maps, &sst, e))
+        return -1;
     opencl_launch L;
     dilated_grid skip;
     memset(&L, 0, sizeof L);
     memset(&skip, 0, sizeof skip);
-    int rc = render(&L, &skip, rt, s, g, m, records, o, out, counts, bc, build_dir, e);
+    int rc = render(&L, &skip, rt, s, g, m, records, o, maps, out, counts, bc, build_dir, e);
     opencl_launch_release(&L);
     dilated_free(&skip);
+    shadow_release(maps);
+    if (!rc) {
+        uint64_t queries = counts->shadows.queries;
+        counts->shadows = sst;
+        counts->shadows.queries = queries;
+    }
     return rc;
 }

@@ -157,6 +157,7 @@ int opencl_launch_results(opencl_launch *L, int image_which, float *out, size_t 
     counts->voxel_visits = sums[VX_CL_VISITS];
     counts->model_evals = sums[VX_CL_EVALS];
     counts->cache_hits = sums[VX_CL_CACHE_HITS];
+    counts->shadows.queries = sums[VX_CL_SHADOW_QUERIES];
     return 0;
 }
 

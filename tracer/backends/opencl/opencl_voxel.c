@@ -13,9 +13,10 @@
 #include "strata.h"
 
 /* vx_render's buffer arguments, in order (render.cl), then the pixel count. */
-enum { B_PARAMS, B_COLS, B_BITS, B_PREFIX, B_RECORDS, B_CACHE, B_STATE, B_IMAGE, B_COUNTS, B_NEXT_TILE, B_N };
+enum { B_PARAMS, B_COLS, B_BITS, B_PREFIX, B_RECORDS, B_CACHE, B_STATE, B_SHADOWS, B_IMAGE, B_COUNTS, B_NEXT_TILE, B_N };
 
-static void fill_params(vx_cl_params *p, const scene *s, const voxel_grid *g, const render_options *o)
+static void fill_params(vx_cl_params *p, const scene *s, const voxel_grid *g, const render_options *o,
+                        const shadow_set *maps)
 {
     memset(p, 0, sizeof *p);
     vx_cl_grid_params_fill(&p->grid, g);
@@ -35,11 +36,12 @@ static void fill_params(vx_cl_params *p, const scene *s, const voxel_grid *g, co
     p->shadow_skip = o->shadow_skip;
     p->cache = o->cache;
     p->voxel_count = (int)grid_count(g, 0);
+    vx_cl_shadow_params_fill(&p->shadows, maps);
 }
 
 static int render(opencl_launch *L, const opencl_runtime *rt, const scene *s, const voxel_grid *g, const vx_model *m,
-                  const void *records, const render_options *o, image *out, render_counts *counts,
-                  backend_counts *bc, const char *build_dir, vx_err *e)
+                  const void *records, const render_options *o, const shadow_set *maps, image *out,
+                  render_counts *counts, backend_counts *bc, const char *build_dir, vx_err *e)
 {
     size_t voxels = grid_count(g, 0), pixels = (size_t)o->width * (size_t)o->height;
     opencl_clock c = {.start = now_seconds()};
@@ -57,7 +59,7 @@ static int render(opencl_launch *L, const opencl_runtime *rt, const scene *s, co
         return -1;
     c.compiled = now_seconds();
     vx_cl_params params;
-    fill_params(&params, s, g, o);
+    fill_params(&params, s, g, o, maps);
     size_t cached = o->cache ? voxels : 0;
     const cl_mem_flags RO = CL_MEM_READ_ONLY, RW = CL_MEM_READ_WRITE;
     /* The kernel only reads the records and only writes the image: both used in place. */
@@ -65,6 +67,8 @@ static int render(opencl_launch *L, const opencl_runtime *rt, const scene *s, co
         opencl_launch_buffer(L, B_RECORDS, RO | CL_MEM_USE_HOST_PTR, voxels * m->record.bytes, records, e) ||
         opencl_launch_buffer(L, B_CACHE, RW, cached * sizeof(vx_cl_cache), NULL, e) ||
         opencl_launch_buffer(L, B_STATE, RW, cached * sizeof(cl_int), NULL, e) ||
+        opencl_launch_buffer(L, B_SHADOWS, RO | CL_MEM_USE_HOST_PTR, maps ? maps->bytes : 0, maps ? maps->block : NULL,
+                             e) ||
         opencl_launch_buffer(L, B_IMAGE, CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR, pixels * 3 * sizeof(float), out->data,
                              e) ||
         opencl_launch_counters(L, B_COUNTS, e) || opencl_launch_buffer(L, B_NEXT_TILE, RW, sizeof(cl_int), NULL, e) ||
@@ -86,9 +90,22 @@ int opencl_render_voxels(const opencl_runtime *rt, const scene *s, const voxel_g
                          const void *records, const render_options *o, image *out, render_counts *counts,
                          backend_counts *bc, const char *build_dir, vx_err *e)
 {
+    /* The precomputed shadows, as the C backend builds them (the same maps: the same image), before
+     * the render's clock; uploaded in place. */
+    shadow_request sr = {o->shadow_method, o->shadow_res, o->threads, slicemap_fill_model};
+    const shadow_set *maps = NULL;
+    shadow_stats sst;
+    if (shadow_prepare(s, g, m, records, &sr, &maps, &sst, e))
+        return -1;
     opencl_launch L;
     memset(&L, 0, sizeof L);
-    int rc = render(&L, rt, s, g, m, records, o, out, counts, bc, build_dir, e);
+    int rc = render(&L, rt, s, g, m, records, o, maps, out, counts, bc, build_dir, e);
     opencl_launch_release(&L);
+    shadow_release(maps);
+    if (!rc) {
+        uint64_t queries = counts->shadows.queries;
+        counts->shadows = sst;
+        counts->shadows.queries = queries;
+    }
     return rc;
 }

@@ -71,7 +71,8 @@ static void cl_cache_put(voxel_ctx *x, long index, const vx_answer *a)
  * counts: one slot per work-group (flush_counts.h). */
 __kernel void vx_render(__global const vx_cl_params *P, __global ulong *cols, __global ulong *bits,
                         __global uint *prefix, __global const uchar *records, __global vx_cl_cache *cache,
-                        __global int *state, __global float *image, __global uint *counts,
+                        __global int *state, __global const uchar *shadow_block, __global float *image,
+                        __global uint *counts,
                         volatile __global int *next_tile, int pixels)
 {
     voxel_grid g;
@@ -92,6 +93,7 @@ __kernel void vx_render(__global const vx_cl_params *P, __global ulong *cols, __
     x.cache = P->cache;
     x.cache_entries = cache;
     x.cache_state = state;
+    vx_cl_shadow_maps(&x.shadows, &P->shadows, shadow_block);
     int tiles = (pixels + VX_CL_TILE_PIXELS - 1) / VX_CL_TILE_PIXELS;
     for (int tile = atomic_inc(next_tile); tile < tiles; tile = atomic_inc(next_tile)) {
         int end = min(pixels, (tile + 1) * VX_CL_TILE_PIXELS);
@@ -104,4 +106,5 @@ __kernel void vx_render(__global const vx_cl_params *P, __global ulong *cols, __
     vx_cl_flush_count(counts, VX_CL_COUNTERS, VX_CL_VISITS, x.counts.visits);
     vx_cl_flush_count(counts, VX_CL_COUNTERS, VX_CL_EVALS, x.counts.evals);
     vx_cl_flush_count(counts, VX_CL_COUNTERS, VX_CL_CACHE_HITS, x.counts.cache_hits);
+    vx_cl_flush_count(counts, VX_CL_COUNTERS, VX_CL_SHADOW_QUERIES, x.shadows.queries);
 }

@@ -27,7 +27,8 @@ typedef char vx_cl_cone_params_size_matches_host[sizeof(vx_cl_cone_params) == VX
 __kernel void vx_render_cone(__global const vx_cl_cone_params *P, __global ulong *cols, __global ulong *bits,
                              __global uint *prefix, __global const uchar *records, __global const uint *table,
                              __global ulong *dilated, __global ulong *lc_keys, __global int *lc_state,
-                             __global float *lc_T, __global float *image, __global uint *counts,
+                             __global float *lc_T, __global const uchar *shadow_block, __global float *image,
+                             __global uint *counts,
                              volatile __global int *next_tile, int pixels)
 {
     voxel_grid g;
@@ -55,6 +56,7 @@ __kernel void vx_render_cone(__global const vx_cl_cone_params *P, __global ulong
     for (int li = 0; li < x.light_count; li++)
         x.lights[li] = P->lights[li];
     x.effects = P->effects;
+    vx_cl_shadow_maps(&x.shadows, &P->shadows, shadow_block);
     x.counts.elements = x.counts.shadow_rays = x.counts.evals = x.counts.cache_hits = 0;
     int width = P->width, height = P->height;
     camera cam = P->cam; /* camera_ray takes a private pointer */
@@ -84,4 +86,5 @@ __kernel void vx_render_cone(__global const vx_cl_cone_params *P, __global ulong
     vx_cl_flush_count(counts, VX_CL_COUNTERS, VX_CL_VISITS, x.counts.elements);
     vx_cl_flush_count(counts, VX_CL_COUNTERS, VX_CL_EVALS, x.counts.evals);
     vx_cl_flush_count(counts, VX_CL_COUNTERS, VX_CL_CACHE_HITS, x.counts.cache_hits);
+    vx_cl_flush_count(counts, VX_CL_COUNTERS, VX_CL_SHADOW_QUERIES, x.shadows.queries);
 }

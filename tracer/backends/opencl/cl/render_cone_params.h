@@ -10,6 +10,7 @@
 #include "grid_params.h"
 #include "light.h"
 #include "model.h"
+#include "shadow_params.h"
 
 typedef struct {
     vx_cl_grid_params grid;
@@ -25,6 +26,7 @@ typedef struct {
     int light_count;
     unsigned effects;                       /* VX_EFFECT_* */
     int use_light_cache;
+    vx_cl_shadow_params shadows;            /* precomputed shadows (none: method march) */
 } vx_cl_cone_params;
 
 /* Pixels a work-item takes at a time from the shared tile counter (see vx_render_cone): small

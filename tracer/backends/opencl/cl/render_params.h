@@ -11,6 +11,7 @@
 #include "grid_params.h"
 #include "light.h"
 #include "model.h"
+#include "shadow_params.h"
 
 typedef struct {
     vx_cl_grid_params grid;
@@ -26,6 +27,7 @@ typedef struct {
     unsigned effects;         /* VX_EFFECT_* */
     int shadow_skip, cache;
     int voxel_count;          /* non-empty level-0 voxels */
+    vx_cl_shadow_params shadows; /* precomputed shadows (none: method march) */
 } vx_cl_params;
 
 /* Pixels a work-item takes at a time from the shared tile counter (see vx_render): small enough

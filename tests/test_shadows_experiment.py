@@ -1,0 +1,78 @@
+"""`make shadows` (experiments/shadows.py, issue 18) on a tiny declaration: spheres at 16^3, 32x32,
+every model x the three shadow methods, a 16-spp truth, one timed run each.
+
+1. It exits 0 and writes shadows.csv/.md and the crop figure (PNG, PDF, SVG); one row per model and
+   method plus the truth's slicemap, every one ok, with the MSE over the truth's shadowed pixels;
+   precomputation time and map memory only where a method precomputes.
+2. The runs' "shadows" dimension leaves march's cache keys as they were: the same declaration
+   without it (sweep.py) runs no render job again.
+3. A bad method in a declaration is refused (exit 2) naming the field.
+"""
+import csv
+import json
+import math
+import os
+import subprocess
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from testlib import REPO, TMP, VOXLAB, finish, report, voxlab  # noqa: E402
+
+PY = "/usr/bin/python3"
+RESULTS = os.path.join(TMP, "results")
+
+
+def declaration(name, shadows=True, methods=("march", "slicemap", "slicemap-model")):
+    d = {"name": name, "description": "tiny shadows", "seed": 1, "truth_spp": 16, "repeats": 1,
+         "scenes": ["spheres"], "runs": [{"models": "all", "res": [16], "size": 32}],
+         "figure": {"crop_scene": "spheres", "crop_res": 16, "crop_fraction": 0.5}}
+    if shadows:
+        d["runs"][0]["shadows"] = list(methods)
+    path = os.path.join(TMP, name + ".json")
+    with open(path, "w") as f:
+        json.dump(d, f)
+    return path
+
+
+def run(*args):
+    return subprocess.run([PY, *args], capture_output=True, text=True, cwd=REPO)
+
+
+models = [line.split()[0] for line in voxlab("models").stdout.splitlines() if line.strip()]
+p = run("experiments/shadows.py", "--experiment", declaration("shadows-tiny"), "--results", RESULTS, "--voxlab",
+        VOXLAB, "--jobs", "2")
+out = os.path.join(RESULTS, "shadows-tiny")
+report("shadows.py exits 0", p.returncode == 0, p.stderr[-800:])
+rows = []
+if os.path.isfile(os.path.join(out, "shadows.csv")):
+    with open(os.path.join(out, "shadows.csv"), newline="") as f:
+        rows = list(csv.DictReader(f))
+report("a row per model and method, and the truth's slicemap", len(rows) == 3 * len(models) + 1 and
+       {(r["model"], r["shadows"]) for r in rows} ==
+       {(m, s) for m in models for s in ("march", "slicemap", "slicemap-model")} | {("truth", "slicemap")},
+       str([(r["model"], r["shadows"]) for r in rows]))
+report("every row ok, with the MSE over the truth's shadowed pixels",
+       rows and all(r["status"] == "ok" and r["mse_shadow"] and math.isfinite(float(r["mse_shadow"])) and
+                    int(r["shadow_pixels"]) > 0 for r in rows), str([(r["model"], r["status"], r["error"]) for r in rows]))
+pre = [r for r in rows if r["shadows"] != "march"]
+report("precomputation time and map memory where a method precomputes, none for march",
+       pre and all(float(r["shadow_build_ms"]) > 0 and float(r["shadow_mb"]) > 0 for r in pre) and
+       all(float(r["shadow_build_ms"] or 0) == 0 and float(r["shadow_mb"] or 0) == 0 for r in rows
+           if r["shadows"] == "march"), str([(r["model"], r["shadows"], r["shadow_build_ms"], r["shadow_mb"])
+                                             for r in rows]))
+report("the table and the crop figure are written",
+       all(os.path.isfile(os.path.join(out, f)) for f in ("shadows.md", "shadows_crops.png", "shadows_crops.pdf",
+                                                          "shadows_crops.svg")), str(os.listdir(out)) if
+       os.path.isdir(out) else "no output folder")
+
+# 2. march's keys unchanged: the declaration without "shadows" finds its renders cached.
+p = run("experiments/sweep.py", declaration("shadows-tiny-plain", shadows=False), "--results", RESULTS,
+        "--voxlab", VOXLAB)
+report("march's cache keys are those of a declaration without shadows (nothing reruns)",
+       p.returncode == 0 and " 0 job(s) ran" in p.stderr, p.stderr[-600:])
+
+# 3. a bad method
+p = run("experiments/sweep.py", declaration("shadows-bad", methods=("march", "deep")), "--check")
+report("a bad shadow method in a declaration is refused naming the field",
+       p.returncode == 2 and "runs[0].shadows[1]" in p.stderr, p.stderr[-300:])
+finish()
