@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "animation.h"
 #include "generator.h"
 #include "json_util.h"
 #include "mesh_load.h"
@@ -487,7 +488,7 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
         char where[512];
         snprintf(where, sizeof where, "%s: objects[%d]", s->path, i++);
         static const char *const known[] = {"generator", "seed", "params", "materials", "material",
-                                            "ply", "gltf", "obj", "transform", "uris_outside_folder", NULL};
+                                            "ply", "gltf", "obj", "transform", "uris_outside_folder", "animation", NULL};
         if (!cJSON_IsObject(o))
             return vx_fail(e, "%s: expected an object", where);
         if (json_only_fields(o, where, known, e))
@@ -535,7 +536,8 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
                 return vx_wrap(e, "%s.%s", where, kind);
             warn_unused_texture(s, v0, t0, where);
         }
-        if (apply_transform(&s->mesh, v0, t0, cJSON_GetObjectItemCaseSensitive(o, "transform"), where, e))
+        if (apply_transform(&s->mesh, v0, t0, cJSON_GetObjectItemCaseSensitive(o, "transform"), where, e) ||
+            anim_parse_object(s, o, where, i - 1, v0, e))
             return -1;
         for (size_t v = v0; v < s->mesh.vertex_count; v++)
             for (int k = 0; k < 3; k++)
@@ -597,6 +599,10 @@ static void compute_bounds_and_identity(scene *s)
     s->identity = h;
 }
 
+/* After an animation moved the mesh (animation.c). */
+void scene_update_geometry(scene *s);
+void scene_update_geometry(scene *s) { compute_bounds_and_identity(s); }
+
 int scene_load(const char *path, scene *s, vx_err *e)
 {
     memset(s, 0, sizeof *s);
@@ -623,7 +629,7 @@ int scene_load_text(const char *text, const char *path, scene *s, vx_err *e)
     }
     int rc = -1;
     static const char *const known[] = {"name", "size", "background", "effects", "camera", "lights",
-                                        "materials", "objects", "description", NULL};
+                                        "materials", "objects", "description", "frames", NULL};
     const char *name = NULL;
     s->width = s->height = 256;
     s->background = v3(0, 0, 0);
@@ -651,6 +657,8 @@ int scene_load_text(const char *text, const char *path, scene *s, vx_err *e)
                 s->degenerate_triangles);
         goto done;
     }
+    if (anim_parse_frames(s, root, e))
+        goto done;
     compute_bounds_and_identity(s);
     rc = 0;
 done:
@@ -673,5 +681,6 @@ void scene_free(scene *s)
     free(s->lights);
     free(s->path);
     free(s->name);
+    anim_free(s->anim);
     memset(s, 0, sizeof *s);
 }

@@ -46,6 +46,7 @@ typedef struct {
     size_t degenerate_triangles; /* zero-area triangles dropped at load time */
     vec3 bounds_lo, bounds_hi;
     uint64_t identity; /* hash of geometry and materials: baked files name the scene they belong to */
+    struct scene_animation *anim; /* "frames" and moving objects (animation.h), NULL when none */
 } scene;
 
 #ifdef __cplusplus
