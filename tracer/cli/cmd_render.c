@@ -45,7 +45,7 @@ const cli_command cmd_render_help = {
         {"--no-cache", NULL, NULL, "evaluate every voxel per ray (default: cache each voxel's answer toward the camera)"},
         {"--no-shadow-skip", NULL, NULL, "shadow rays test the voxels next to the shaded one too (default: skip 1.5 voxels)"},
         {"--frame", "F", "the scene's first", "animated scenes: the frame to render"},
-        {"--frames", "A:B", NULL, "animated scenes: frames A to B, written as OUT_000A.exr ... (and S_000A.json)"},
+        {"--frames", "A:B", "none", "animated scenes: frames A to B, written as OUT_000A.exr ... (and S_000A.json)"},
         {"--filter", "NAME", "rebake", "moving objects: rebake (the posed scene baked whole), nearest or split8 "
                                       "(baked once, records transformed; models without transform re-bake, and say so)"},
         {"--dry-run", NULL, NULL, "print the memory and time estimate and stop"},

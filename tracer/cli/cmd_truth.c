@@ -30,7 +30,7 @@ const cli_command cmd_truth_help = {
         {"--seed", "S", "1", "random seed"},
         {"--threads", "T", "every core", "threads"},
         {"--frame", "F", "the scene's first", "animated scenes: the frame to render"},
-        {"--frames", "A:B", NULL, "animated scenes: frames A to B, written as OUT_000A.exr ... (and S_000A.json)"},
+        {"--frames", "A:B", "none", "animated scenes: frames A to B, written as OUT_000A.exr ... (and S_000A.json)"},
         {"--dry-run", NULL, NULL, "print the memory and time estimate and stop"},
         {"--stats", "S.json", "none", "write statistics (times, rays) as JSON"},
         {0}}};

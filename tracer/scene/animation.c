@@ -11,8 +11,6 @@
 
 #include "json_util.h"
 
-void scene_update_geometry(scene *s); /* scene.c: bounds and identity after the mesh moved */
-
 /* Rotation about x, then y, then z (degrees): the same order as an object's "transform". */
 static void euler_to_quat(const double deg[3], double q[4])
 {
@@ -224,19 +222,11 @@ int anim_parse_frames(scene *s, const cJSON *root, vx_err *e)
     return 0;
 }
 
-int scene_set_frame(scene *s, int frame, vx_err *e)
+void anim_pose_all(scene_animation *a, mesh *m, int frame)
 {
-    int first = s->anim ? s->anim->first : 0, last = s->anim ? s->anim->last : 0;
-    if (frame < first || frame > last)
-        return vx_fail(e, "%s: frame %d is outside the scene's frames [%d, %d]%s", s->path, frame, first, last,
-                       s->anim ? "" : " (the scene has no \"frames\")");
-    if (!s->anim || s->anim->count == 0 || s->anim->frame == frame)
-        return 0;
-    for (int i = 0; i < s->anim->count; i++)
-        pose_object(&s->mesh, &s->anim->objects[i], frame);
-    s->anim->frame = frame;
-    scene_update_geometry(s);
-    return 0;
+    for (int i = 0; i < a->count; i++)
+        pose_object(m, &a->objects[i], frame);
+    a->frame = frame;
 }
 
 int anim_triangle_owner(const scene *s, size_t t)

@@ -44,9 +44,8 @@ void anim_free(scene_animation *a);
 
 /* The pose of object o at `frame`: p' = A p + t, A row-major 3x3 (rotation times scale). */
 void anim_pose(const anim_object *o, double frame, double A[9], double t[3]);
-/* Poses every animated object of s at `frame` and updates the scene's bounds and identity. The
- * frame must lie in the scene's "frames" [A, B] ([0, 0] for a scene without them). */
-int scene_set_frame(scene *s, int frame, vx_err *e);
+/* Poses every animated object at `frame` (scene_set_frame in scene.h is the caller's entry). */
+void anim_pose_all(scene_animation *a, mesh *m, int frame);
 /* The object owning triangle t (index into s->anim->objects), or -1 for a static triangle. */
 int anim_triangle_owner(const scene *s, size_t t);
 /* 1 and the bounds of the whole animation when s has moving objects (the grid is then one lattice

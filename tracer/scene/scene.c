@@ -599,9 +599,18 @@ static void compute_bounds_and_identity(scene *s)
     s->identity = h;
 }
 
-/* After an animation moved the mesh (animation.c). */
-void scene_update_geometry(scene *s);
-void scene_update_geometry(scene *s) { compute_bounds_and_identity(s); }
+int scene_set_frame(scene *s, int frame, vx_err *e)
+{
+    int first = s->anim ? s->anim->first : 0, last = s->anim ? s->anim->last : 0;
+    if (frame < first || frame > last)
+        return vx_fail(e, "%s: frame %d is outside the scene's frames [%d, %d]%s", s->path, frame, first, last,
+                       s->anim ? "" : " (the scene has no \"frames\")");
+    if (!s->anim || s->anim->count == 0 || s->anim->frame == frame)
+        return 0;
+    anim_pose_all(s->anim, &s->mesh, frame);
+    compute_bounds_and_identity(s);
+    return 0;
+}
 
 int scene_load(const char *path, scene *s, vx_err *e)
 {
