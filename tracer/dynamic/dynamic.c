@@ -383,3 +383,31 @@ int dyn_frame(const dyn_scene *d, const scene *s, int frame, int filter, voxel_g
     free(parts);
     return rc;
 }
+
+int dyn_rebake_moving(const scene *s, const vx_model *m, int res, const bake_options *o, double *seconds, vx_err *e)
+{
+    int *owners = triangle_owners(s);
+    if (!owners)
+        return vx_fail(e, "out of memory");
+    /* Every moving triangle at once: owners mapped to 0 (moving) and -1 (static). */
+    for (size_t t = 0; t < s->mesh.triangle_count; t++)
+        owners[t] = owners[t] >= 0 ? 0 : -1;
+    scene sub;
+    sub_scene(s, owners, 0, &sub);
+    free(owners);
+    bake_options po = *o;
+    po.progress = 0;
+    voxel_grid g;
+    void *records = NULL;
+    bake_counts bc;
+    double gs, t0 = now_seconds();
+    int rc = sub.mesh.triangle_count ? bake_scene(&sub, m, res, &po, &g, &records, &bc, &gs, e)
+                                     : vx_fail(e, "the scene has no moving object");
+    *seconds = now_seconds() - t0;
+    mesh_free(&sub.mesh);
+    if (!rc) {
+        free(records);
+        grid_free(&g);
+    }
+    return rc;
+}

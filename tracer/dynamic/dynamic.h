@@ -55,5 +55,8 @@ int dyn_frame(const dyn_scene *d, const scene *s, int frame, int filter, voxel_g
 int dyn_frame_parts(const dyn_scene *d, const scene *s, int frame, int filter, const int *parts, int part_count,
                     voxel_grid *g, void **records, dyn_counts *c, vx_err *e);
 void dyn_free(dyn_scene *d);
+/* The paper's "standard voxelization" of the moving objects alone, as posed now: their grid and
+ * bake from scratch (what the transformation replaces), for benchmarks; *seconds its time. */
+int dyn_rebake_moving(const scene *s, const vx_model *m, int res, const bake_options *o, double *seconds, vx_err *e);
 
 #endif
