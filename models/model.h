@@ -251,7 +251,8 @@ typedef struct vx_model {
     /* Optional, both or neither (ABI 4; models with record.levels 0 only): moving records, for
      * animated scenes whose objects are baked once and transformed every frame instead of re-baked
      * (tracer/dynamic/, the dynamic-SVO paper's voxel transformation). Without them a moving object
-     * is re-baked every frame, and the render says so.
+     * is re-baked every frame, and the render says so. Moved records are not passed through
+     * bake_finish again (a model whose grid pass matters should not declare these).
      * transform: `out` (record.bytes) is `in` seen after the rotation R (row-major 3x3, proper
      * orthogonal): normals, directional distributions and the like rotated. R exactly the identity
      * must give `in` bit for bit.
