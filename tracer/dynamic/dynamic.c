@@ -120,8 +120,29 @@ int dyn_prepare(dyn_scene *d, const scene *s, const vx_model *m, int res, const 
             return vx_wrap(e, "baking %s", p ? "a moving object" : "the static part");
         }
     }
-    d->bake_seconds = now_seconds() - t0;
     free(owners);
+    bake_counts bc;
+    double gs;
+    if (bake_scene(s, m, res, &po, &d->full, &d->full_records, &bc, &gs, e)) {
+        dyn_free(d);
+        return vx_wrap(e, "baking the whole scene");
+    }
+    /* A voxel only one part touches: the whole bake's record (the same samples as the static
+     * render's; a part baked alone draws others, the streams following the voxel's index). */
+    size_t bytes = m->record.bytes;
+    for (int p = 0; p < d->parts; p++) {
+        dyn_part *P = &d->part[p];
+        for (size_t i = 0; i < grid_count(&P->grid, 0); i++) {
+            int x, y, z, shared = 0;
+            grid_coords(&P->grid, 0, i, &x, &y, &z);
+            for (int q = 0; q < d->parts && !shared; q++)
+                shared = q != p && d->part[q].grid.levels && grid_index(&d->part[q].grid, 0, x, y, z) >= 0;
+            int64_t j = grid_index(&d->full, 0, x, y, z);
+            if (!shared && j >= 0)
+                memcpy((char *)P->records + i * bytes, (const char *)d->full_records + (size_t)j * bytes, bytes);
+        }
+    }
+    d->bake_seconds = now_seconds() - t0;
     return 0;
 }
 
@@ -133,6 +154,9 @@ void dyn_free(dyn_scene *d)
         free(d->part[p].records);
     }
     free(d->part);
+    if (d->full.levels)
+        grid_free(&d->full);
+    free(d->full_records);
     memset(d, 0, sizeof *d);
 }
 
@@ -288,6 +312,32 @@ int dyn_frame_parts(const dyn_scene *d, const scene *s, int frame, int filter, c
     if (!world)
         return vx_fail(e, "the scene has no baked part");
     double t0 = now_seconds();
+    /* Nothing moved (every part asked for, each at its bake pose): the whole scene's bake. */
+    int still = part_count == d->parts && d->full.levels;
+    for (int i = 0; i < part_count && still; i++) {
+        double A[9], t[3];
+        if (parts[i] == 0)
+            continue;
+        anim_pose(&s->anim->objects[parts[i] - 1], frame, A, t);
+        still = memcmp(A, d->part[parts[i]].A, sizeof A) == 0 && memcmp(t, d->part[parts[i]].t, sizeof t) == 0;
+    }
+    if (still) {
+        size_t n = grid_count(&d->full, 0);
+        char *out = malloc(n * bytes + 1);
+        if (!out)
+            return vx_fail(e, "out of memory for %zu records", n);
+        double tg = now_seconds();
+        if (grid_build_cells(g, &d->full, d->full.level[0].coords, n, e)) {
+            free(out);
+            return -1;
+        }
+        c->grid_seconds = now_seconds() - tg;
+        memcpy(out, d->full_records, n * bytes);
+        *records = out;
+        c->parts_in = c->voxels = n;
+        c->transform_seconds = now_seconds() - t0 - c->grid_seconds;
+        return 0;
+    }
     pieces ps = {0};
     void **turned = calloc((size_t)part_count + 1, sizeof *turned);
     int rc = turned ? 0 : -1;

@@ -9,7 +9,9 @@
  * the record's directional content turned by the motion's rotation (vx_model.transform), and every
  * cell's parts (static records with weight 1 included) merged by vx_model.combine. Scale moves the
  * centres only: a record keeps the footprint of one cell (holes open above scale 1).
- * rebake: the baseline, the scene posed at the frame and baked whole. */
+ * rebake: the baseline, the scene posed at the frame and baked whole.
+ * The parts' records are the whole scene's bake (at the first frame) wherever one part alone touches
+ * a voxel; where several do, each part's own bake. */
 #ifndef VX_DYNAMIC_H
 #define VX_DYNAMIC_H
 
@@ -34,6 +36,11 @@ typedef struct {
     dyn_part *part;
     int ref_frame;
     double bake_seconds; /* baking every part once */
+    /* The whole scene baked at the reference frame: a voxel only one part touches takes its record
+     * from here, and a frame where nothing moved is this bake, so that the reference frame of every
+     * filter is the static render bit for bit. */
+    voxel_grid full;
+    void *full_records;
 } dyn_scene;
 
 typedef struct {
