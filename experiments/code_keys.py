@@ -38,7 +38,8 @@ EMBREE_HEADER = "/usr/include/embree3/rtcore_config.h"
 VOXEL_ONLY = ["tracer/bake/*.c", "tracer/grid/*.c", "tracer/render/*.c", "tracer/backends/*.c",
               "tracer/backends/opencl/*.c", "tracer/backends/opencl/cl/*", "tracer/cli/cmd_bake.c",
               "tracer/cli/cmd_render.c", "tracer/cli/cmd_compare.c", "tracer/cli/stats_bake.c",
-              "tracer/image/metrics.c", "tracer/shadows/slicemap_model.c"]
+              "tracer/image/metrics.c", "tracer/shadows/slicemap_model.c", "tracer/cli/render_frames.c",
+              "tracer/dynamic/*.c"]
 # Translation units only the truth runs: never part of a model job's key.
 TRUTH_ONLY = ["tracer/truth/truth.c", "tracer/truth/truth.h", "tracer/cli/cmd_truth.c"]
 SOURCE_EXT = (".c", ".h", ".cpp", ".cl")

@@ -4,6 +4,8 @@
 #   make pareto      error against render time and memory, Pareto fronts            results/pareto/
 #   make figures     image grids, view-angle colour, silhouette coverage, DoF       results/figures/
 #   make shadows     shadow methods (march, slicemap, slicemap-model) x every model  results/shadows/
+#   make dynamic     moving objects: transform (nearest/split8) vs re-bake per model  results/dynamic/
+#                    (DYNAMIC_ARGS="--quick" for a CI-sized run; experiments/dynamic.py --help)
 #   make regress     the CI subset against results/baseline.json; fails on a regression
 #   make dashboard   all of the above, then results/dashboard/index.html (+ screenshot.png)
 #   make dashboard-page  only the page, from whatever results exist (seconds)
@@ -42,7 +44,7 @@ DEPS += libjs-jquery libjs-jquery-tablesorter libjs-chart.js
 # daemons and clients, and munge for their authentication.
 SLURM_DEPS = slurm-wlm munge
 
-.PHONY: table1 pareto figures shadows regress regress-run dashboard dashboard-page baseline experiments-clean-cache test-slurm
+.PHONY: dynamic table1 pareto figures shadows regress regress-run dashboard dashboard-page baseline experiments-clean-cache test-slurm
 
 # Every target first makes sure the packages and the binary are there (as `make test` does).
 define exp_prepare
@@ -53,6 +55,12 @@ endef
 table1:
 	$(exp_prepare)
 	$(EXP_PY) experiments/table1.py $(EXP_ARGS)
+
+# Issue 17: per-frame sequences, run by a focused script (no sweep-engine cache).
+DYNAMIC_ARGS ?=
+dynamic:
+	$(exp_prepare)
+	$(EXP_PY) experiments/dynamic.py --voxlab $(EXP_VOXLAB) $(DYNAMIC_ARGS)
 
 pareto:
 	$(exp_prepare)

@@ -144,7 +144,7 @@ typedef struct {
 /* The interface version a model was written against: the registry refuses a model built for
  * another (tests/unit_models.c checks every registered model). Bump it when a field's meaning
  * changes, so that an out-of-tree model fails loudly instead of rendering garbage. */
-#define VX_MODEL_ABI_VERSION 3
+#define VX_MODEL_ABI_VERSION 4
 
 /* A portable evaluation function as both backends see it: the C function and its name in the
  * model's portable source, which the OpenCL program calls (OpenCL C has no function pointers).
@@ -248,6 +248,20 @@ typedef struct vx_model {
     /* Exactly one evaluation protocol; the other is NULL. */
     const vx_voxel_eval *voxel;
     const vx_cone_eval *cone;
+    /* Optional, both or neither (ABI 4; models with record.levels 0 only): moving records, for
+     * animated scenes whose objects are baked once and transformed every frame instead of re-baked
+     * (tracer/dynamic/, the dynamic-SVO paper's voxel transformation). Without them a moving object
+     * is re-baked every frame, and the render says so. Moved records are not passed through
+     * bake_finish again (a model whose grid pass matters should not declare these).
+     * transform: `out` (record.bytes) is `in` seen after the rotation R (row-major 3x3, proper
+     * orthogonal): normals, directional distributions and the like rotated. R exactly the identity
+     * must give `in` bit for bit.
+     * combine: one record `out` standing for n >= 1 records put into one voxel, records[i] covering
+     * the fraction weights[i] > 0 of it (a record split over 8 neighbours covers a fraction of each;
+     * static and moving records meeting in one voxel have weight 1 each). n == 1 with weight 1 must
+     * give records[0] bit for bit. */
+    void (*transform)(const void *in, const float R[9], void *out);
+    void (*combine)(const void *const *records, const float *weights, int n, void *out);
 } vx_model;
 
 /* The compositing rule the tracer applies to model m's answers (VX_COMPOSITE_*). */

@@ -69,6 +69,10 @@ int model_check(const vx_model *m, char *why, size_t why_size)
         if (!m->record.levels)
             return BROKEN("cone evaluation reads MIP levels: record.levels must be 1");
     }
+    if (!m->transform != !m->combine)
+        return BROKEN("transform and combine come together (a split record needs combining)");
+    if (m->transform && m->record.levels)
+        return BROKEN("transform moves level-0 records only: record.levels must be 0");
     int n = 0;
     for (const vx_param *p = m->params; p && p->name; p++, n++) {
         if (n >= VX_MAX_PARAMS)

@@ -629,6 +629,31 @@ static void run_geometry(const vx_model *m, const bake_case *c, const geometry *
         query_all(m, c, &sum, rec, geo, NULL, NULL, vp);
     if (memcmp(copy, rec, m->record.bytes) != 0)
         fail(vp, "opacity/shade modified the record");
+    /* Moving records (issue 17): the identity leaves the record bit for bit, and a record turned by
+     * a quarter turn, by an oblique rotation, or merged from two halves of itself answers every
+     * query within the same bounds as a baked one. */
+    if (m->transform && m->voxel) {
+        static const float I[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, Rz[9] = {0, -1, 0, 1, 0, 0, 0, 0, 1};
+        const float co = 0.8f, s6 = 0.6f, Ro[9] = {co, 0, s6, 0, 1, 0, -s6, 0, co}; /* about y, 36.87 degrees */
+        unsigned char *moved = calloc(1, m->record.bytes), *merged = calloc(1, m->record.bytes);
+        m->transform(rec, I, moved);
+        if (memcmp(moved, rec, m->record.bytes) != 0)
+            fail(vp, "transform by the identity changed the record");
+        const float *turns[2] = {Rz, Ro};
+        for (int k = 0; k < 2; k++) {
+            m->transform(rec, turns[k], moved);
+            query_all(m, c, &sum, moved, geo, NULL, NULL, vp);
+        }
+        const void *halves[2] = {rec, rec};
+        const float w1[1] = {1.0f}, w2[2] = {0.5f, 0.5f};
+        m->combine(halves, w1, 1, merged);
+        if (memcmp(merged, rec, m->record.bytes) != 0)
+            fail(vp, "combine of one record with weight 1 changed it");
+        m->combine(halves, w2, 2, merged);
+        query_all(m, c, &sum, merged, geo, NULL, NULL, vp);
+        free(moved);
+        free(merged);
+    }
     /* Models with a grid pass or cone marching: the same samples in every voxel of a small grid,
      * answers looked up after bake_finish (only once per case: the grid has its own geometry). */
     if ((m->bake_finish || m->cone != NULL) && geo == &geometries[0]) {

@@ -5,6 +5,7 @@
  * means over the front-facing hits; front-to-back alpha blending. */
 #include "alpha_eval.h" /* the record and its evaluation (portable C, shared with OpenCL) */
 #include "average_bake.h"
+#include "average_move.h"
 #include "average_validate.h"
 
 static void alpha_bake(const vx_voxel *v, const vx_sample *samples, int n, void *out)
@@ -30,6 +31,41 @@ static int alpha_validate(const void *record, const vx_record_context *c, char *
     return average_validate_fields(r->color, r->normal, r->specular, r->roughness, r->double_sided, why, why_size);
 }
 
+static void alpha_transform(const void *in, const float R[9], void *out)
+{
+    alpha_record r = *(const alpha_record *)in;
+    if (!average_is_identity(R))
+        average_rotate(R, r.normal, r.normal);
+    *(alpha_record *)out = r;
+}
+
+/* Opacity is the covered fraction times each part's opacity, summed (clamped at 1): a record split
+ * over 8 neighbours keeps its total opacity-weighted coverage. Colours and normals are the means
+ * weighted by that contribution. */
+static void alpha_combine(const void *const *records, const float *weights, int n, void *out)
+{
+    if (n == 1 && weights[0] == 1.0f) {
+        *(alpha_record *)out = *(const alpha_record *)records[0];
+        return;
+    }
+    alpha_record r;
+    memset(&r, 0, sizeof r);
+    average_view v[n > 0 ? n : 1];
+    double opacity = 0;
+    for (int i = 0; i < n; i++) {
+        const alpha_record *a = records[i];
+        v[i] = (average_view){a->color, a->normal, a->specular, a->roughness, a->double_sided,
+                              weights[i] * a->opacity};
+        opacity += v[i].weight;
+    }
+    if (!(opacity > 0)) /* transparent parts only: their plain mean (colour matters to nothing) */
+        for (int i = 0; i < n; i++)
+            v[i].weight = weights[i];
+    r.opacity = (float)(opacity < 1.0 ? opacity : 1.0);
+    average_combine_fields(v, n, r.color, r.normal, &r.specular, &r.roughness, &r.double_sided);
+    *(alpha_record *)out = r;
+}
+
 static const vx_voxel_eval alpha_eval = {
     .compositing = VX_COMPOSITE_ALPHA,
     .source = "alpha_eval.h",
@@ -46,4 +82,6 @@ const vx_model model_alpha = {
     .bake_voxel = alpha_bake,
     .validate_record = alpha_validate,
     .voxel = &alpha_eval,
+    .transform = alpha_transform,
+    .combine = alpha_combine,
 };

@@ -3,6 +3,7 @@
  * lookup, first-hit compositing. */
 #include "binary_eval.h" /* the record and its evaluation (portable C, shared with OpenCL) */
 #include "average_bake.h"
+#include "average_move.h"
 #include "average_validate.h"
 
 static void binary_bake(const vx_voxel *v, const vx_sample *samples, int n, void *out)
@@ -23,6 +24,39 @@ static int binary_validate(const void *record, const vx_record_context *c, char 
     return average_validate_fields(r->color, r->normal, r->specular, r->roughness, r->double_sided, why, why_size);
 }
 
+static void binary_transform(const void *in, const float R[9], void *out)
+{
+    binary_record r = *(const binary_record *)in;
+    if (!average_is_identity(R))
+        average_rotate(R, r.normal, r.normal);
+    *(binary_record *)out = r;
+}
+
+/* Opaque when opaque parts cover at least half the voxel: a surface split over two layers by a
+ * half-voxel offset stays one layer thick on average (each layer gets half), and two records put
+ * whole into one voxel (a moving object over a static one) stay opaque. */
+static void binary_combine(const void *const *records, const float *weights, int n, void *out)
+{
+    if (n == 1 && weights[0] == 1.0f) {
+        *(binary_record *)out = *(const binary_record *)records[0];
+        return;
+    }
+    binary_record r;
+    memset(&r, 0, sizeof r);
+    average_view v[n > 0 ? n : 1];
+    double cover = 0;
+    for (int i = 0; i < n; i++) {
+        const binary_record *a = records[i];
+        v[i] = (average_view){a->color, a->normal, a->specular, a->roughness, a->double_sided,
+                              a->opaque ? weights[i] : 0.0f};
+        cover += v[i].weight;
+    }
+    r.opaque = cover >= 0.5;
+    if (r.opaque)
+        average_combine_fields(v, n, r.color, r.normal, &r.specular, &r.roughness, &r.double_sided);
+    *(binary_record *)out = r;
+}
+
 static const vx_voxel_eval binary_eval = {
     .compositing = VX_COMPOSITE_FIRST_HIT,
     .source = "binary_eval.h",
@@ -39,4 +73,6 @@ const vx_model model_binary = {
     .bake_voxel = binary_bake,
     .validate_record = binary_validate,
     .voxel = &binary_eval,
+    .transform = binary_transform,
+    .combine = binary_combine,
 };

@@ -7,6 +7,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "average_bake.h"
 #include "sggx_fit.h"
@@ -35,17 +36,10 @@ static unsigned char unorm8(float x)
     return (unsigned char)lroundf(fminf(x, 1.0f) * 255.0f);
 }
 
-/* S = R diag(area^2) R^T, written as Heitz et al.'s six bytes. */
-static void encode_sggx(const sggx_frame *fr, vicini_record *r)
+/* A symmetric S written as Heitz et al.'s six bytes (sqrt of the diagonal over its largest value,
+ * and the three correlations). */
+static void encode_sggx_matrix(const double S[3][3], vicini_record *r)
 {
-    double S[3][3] = {{0}};
-    for (int k = 0; k < 3; k++) {
-        double a2 = (double)fr->area[k] * (double)fr->area[k];
-        double v[3] = {fr->axis[k].x, fr->axis[k].y, fr->axis[k].z};
-        for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 3; j++)
-                S[i][j] += a2 * v[i] * v[j];
-    }
     double s[3], smax = 0.0;
     for (int k = 0; k < 3; k++) {
         s[k] = sqrt(fmax(S[k][k], 0.0));
@@ -59,6 +53,20 @@ static void encode_sggx(const sggx_frame *fr, vicini_record *r)
         double c = d > 0.0 ? S[pair[k][0]][pair[k][1]] / d : 0.0;
         r->corr[k] = (unsigned char)lround(fmin(fmax(c, -1.0), 1.0) * 127.0 + 127.0);
     }
+}
+
+/* S = R diag(area^2) R^T, written as Heitz et al.'s six bytes. */
+static void encode_sggx(const sggx_frame *fr, vicini_record *r)
+{
+    double S[3][3] = {{0}};
+    for (int k = 0; k < 3; k++) {
+        double a2 = (double)fr->area[k] * (double)fr->area[k];
+        double v[3] = {fr->axis[k].x, fr->axis[k].y, fr->axis[k].z};
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                S[i][j] += a2 * v[i] * v[j];
+    }
+    encode_sggx_matrix(S, r);
 }
 
 static unsigned char encode_density(double rho)
@@ -169,6 +177,93 @@ static int vicini_validate(const void *record, const vx_record_context *c, char 
     return 0;
 }
 
+/* The record's S without the decoder's positivity floor (what encode_sggx_matrix wrote), scaled
+ * so that its largest diagonal is 1. */
+static void decode_sggx_raw(const vicini_record *r, double S[3][3])
+{
+    float f[9];
+    vicini_decode_sggx(r, f);
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            S[i][j] = (double)f[3 * i + j] - (i == j ? 1e-4 : 0.0);
+}
+
+static int is_identity(const float R[9])
+{
+    static const float I[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    return memcmp(R, I, sizeof I) == 0;
+}
+
+/* Rotating the microflakes: S' = R S R^T, re-encoded (the quantisation of the six bytes is the
+ * transform's only loss; density, mix and colour do not depend on the direction). */
+static void vicini_transform(const void *in, const float R[9], void *out)
+{
+    vicini_record r = *(const vicini_record *)in;
+    if (!is_identity(R)) {
+        double S[3][3], T[3][3] = {{0}}, U[3][3] = {{0}};
+        decode_sggx_raw(&r, S);
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                for (int k = 0; k < 3; k++)
+                    T[i][j] += (double)R[3 * i + k] * S[k][j];
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                for (int k = 0; k < 3; k++)
+                    U[i][j] += T[i][k] * (double)R[3 * j + k];
+        encode_sggx_matrix(U, &r);
+    }
+    *(vicini_record *)out = r;
+}
+
+/* Parts put into one voxel: the density is the covered fraction times each part's density, summed
+ * (optical mass is conserved through a split), and the distribution, mix, colour and specular bit
+ * are the parts' means weighted by that mass (each S normalised to unit trace first, so that a
+ * record's encoding scale does not weigh in). */
+static void vicini_combine(const void *const *records, const float *weights, int n, void *out)
+{
+    if (n == 1 && weights[0] == 1.0f) {
+        *(vicini_record *)out = *(const vicini_record *)records[0];
+        return;
+    }
+    double mass = 0, plain = 0, S[3][3] = {{0}}, gamma = 0, color[3] = {0, 0, 0}, shiny = 0;
+    for (int pass = 0; pass < 2 && !(mass > 0); pass++) /* pass 1: empty parts only, plain weights */
+        for (int i = 0; i < n; i++) {
+            const vicini_record *a = records[i];
+            double w = weights[i] * (pass == 0 ? (double)vicini_decode_density(a->density) : 1.0);
+            if (pass == 0)
+                plain += weights[i] * (double)vicini_decode_density(a->density);
+            if (!(w > 0))
+                continue;
+            double Si[3][3];
+            decode_sggx_raw(a, Si);
+            double tr = Si[0][0] + Si[1][1] + Si[2][2];
+            for (int p = 0; p < 3; p++)
+                for (int q = 0; q < 3; q++)
+                    S[p][q] += w * Si[p][q] / (tr > 0 ? tr : 1.0);
+            gamma += w * vicini_decode_gamma(a->mix);
+            for (int k = 0; k < 3; k++) {
+                double c = a->color[k] / 255.0;
+                color[k] += w * c * c;
+            }
+            shiny += (a->mix & VICINI_SPECULAR_BIT) ? w : 0.0;
+            mass += w;
+        }
+    vicini_record r;
+    memset(&r, 0, sizeof r);
+    if (mass > 0) {
+        encode_sggx_matrix(S, &r);
+        for (int k = 0; k < 3; k++)
+            r.color[k] = unorm8((float)sqrt(color[k] / mass));
+        r.mix = (unsigned char)(lround(fmin(fmax(gamma / mass, 0.0), 1.0) * VICINI_GAMMA_MAX_CODE) |
+                                (2.0 * shiny > mass ? VICINI_SPECULAR_BIT : 0u));
+    } else {
+        r.sigma[0] = r.sigma[1] = r.sigma[2] = 255; /* an isotropic nothing: valid, never seen */
+        r.corr[0] = r.corr[1] = r.corr[2] = 127;
+    }
+    r.density = encode_density(plain);
+    *(vicini_record *)out = r;
+}
+
 static const vx_param vicini_params[] = {
     {"extended", 0.0, 0.0, 1.0,
      "1: Vicini et al.'s extended rays (hits on the voxel's triangles outside it end the flight at its side); "
@@ -197,4 +292,6 @@ const vx_model model_vicini = {
     .bake_voxel = vicini_bake,
     .validate_record = vicini_validate,
     .voxel = &vicini_eval,
+    .transform = vicini_transform,
+    .combine = vicini_combine,
 };

@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "animation.h"
 #include "bake_params.h"
 #include "parallel.h"
 #include "rng.h"
@@ -299,7 +300,8 @@ int bake_scene(const scene *s, const vx_model *m, int res, const bake_options *o
                bake_counts *counts, double *grid_seconds, vx_err *e)
 {
     double t0 = now_seconds();
-    if (grid_build(g, &s->mesh, res, e))
+    double lo[3], hi[3]; /* an animated scene: one lattice for every frame */
+    if (anim_grid_bounds(s, lo, hi) ? grid_build_bounds(g, &s->mesh, res, lo, hi, e) : grid_build(g, &s->mesh, res, e))
         return -1;
     *grid_seconds = now_seconds() - t0;
     rt_scene rt;

@@ -1,6 +1,7 @@
 /* voxlab render SCENE --model M (--res N [--rays K] [--param NAME=VALUE]... | --vox FILE) [--spp N]
  *               [--size WxH] [--seed S] [--threads T] [--no-cache] [--no-shadow-skip] [--backend NAME]
- *               [--shadows METHOD] [--shadow-res N] -o OUT [--stats S.json] */
+ *               [--shadows METHOD] [--shadow-res N] [--frame F | --frames A:B]
+ *               [--filter rebake|nearest|split8] -o OUT [--stats S.json] */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -14,15 +15,18 @@
 #include "backend.h"
 #include "bake_params.h"
 #include "parallel.h"
+#include "dynamic.h"
 #include "render.h"
+#include "render_frames.h"
 #include "vox_load.h"
 #include "voxfile.h"
 
 #define RENDER_SYNOPSIS                                                                                      \
     "voxlab render SCENE --model M (--res N [--rays K] [--param NAME=VALUE]... | --vox FILE) [--spp N]\n"         \
     "                     [--size WxH] [--seed S] [--threads T] [--no-cache] [--no-shadow-skip] [--backend c|opencl]\n" \
-    "                     [--shadows march|slicemap|slicemap-model] [--shadow-res N] [--dry-run] -o OUT.exr|OUT.png\n" \
-    "                     [--stats S.json]"
+    "                     [--shadows march|slicemap|slicemap-model] [--shadow-res N]\n"                  \
+    "                     [--frame F | --frames A:B] [--filter rebake|nearest|split8]\n"                          \
+    "                     [--dry-run] -o OUT.exr|OUT.png [--stats S.json]"
 static const char usage[] = "usage: " RENDER_SYNOPSIS "\n";
 
 const cli_command cmd_render_help = {
@@ -47,6 +51,10 @@ const cli_command cmd_render_help = {
          "triangles' light-space slicemap, per-material shadow_sigma), slicemap-model (the model's opacity "
          "precomputed per light)"},
         {"--shadow-res", "N", "512; slicemap-model: 1.5 x the grid's N", "columns per side of the precomputed shadow maps"},
+        {"--frame", "F", "the scene's first", "animated scenes: the frame to render"},
+        {"--frames", "A:B", "none", "animated scenes: frames A to B, written as OUT_000A.exr ... (and S_000A.json)"},
+        {"--filter", "NAME", "rebake", "moving objects: rebake (the posed scene baked whole), nearest or split8 "
+                                      "(baked once, records transformed; models without transform re-bake, and say so)"},
         {"--dry-run", NULL, NULL, "print the memory and time estimate and stop"},
         {"--stats", "S.json", "none", "write statistics (times, rays, cache hits) as JSON"},
         {0}}};
@@ -65,7 +73,8 @@ int cmd_render(int argc, char **argv)
     render_options o;
     render_default_options(&o);
     bake_options bo = {.rays = 150, .seed = 1, .progress = 1};
-    int res = 0;
+    int res = 0, filter = -1;
+    frame_range fr = {0};
     long long v;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *val = NULL;
@@ -91,6 +100,15 @@ int cmd_render(int argc, char **argv)
             out_path = val;
         else if (strcmp(a, "--stats") == 0)
             stats_path = val;
+        else if (strcmp(a, "--frame") == 0 || strcmp(a, "--frames") == 0) {
+            if (frames_parse("render", a, val, &fr))
+                return 1;
+        } else if (strcmp(a, "--filter") == 0) {
+            if ((filter = dyn_filter_from_name(val)) < 0) {
+                fprintf(stderr, "voxlab render: --filter %s: expected rebake, nearest or split8\n", val);
+                return 1;
+            }
+        }
         else if (strcmp(a, "--size") == 0)
             size = val;
         else if (strcmp(a, "--shadows") == 0) {
@@ -212,6 +230,17 @@ int cmd_render(int argc, char **argv)
     }
     if (estimate_check(&est, &e))
         goto fail;
+    if (fr.given || filter >= 0) { /* an animated scene's frames (render_frames.c) */
+        if (vox) {
+            vx_fail(&e, "--frame, --frames and --filter bake the scene per frame: they do not take --vox");
+            goto fail;
+        }
+        if (render_frames(&s, m, res, &bo, &o, backend, out_path, stats_path, &fr, filter < 0 ? DYN_REBAKE : filter,
+                          argc, argv, &e))
+            goto fail;
+        rc = 0;
+        goto done;
+    }
     if (vox) {
         if (vox_load(&s, vox, model_name, &m, &g, &records, &h, &grid_seconds, &e))
             goto fail;

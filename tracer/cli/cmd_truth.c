@@ -1,5 +1,5 @@
 /* voxlab truth SCENE [--spp N] [--size WxH] [--seed S] [--threads T] [--shadows METHOD] [--shadow-res N]
- *              -o OUT [--stats S.json] */
+ *              [--frame F | --frames A:B] -o OUT [--stats S.json] */
 #include <cjson/cJSON.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -9,13 +9,16 @@
 #include "commands.h"
 #include "stats.h"
 #include "estimate.h"
+#include "animation.h"
 #include "fileio.h"
+#include "frames.h"
 #include "parallel.h"
 #include "truth.h"
 
 #define TRUTH_SYNOPSIS                                                                                       \
     "voxlab truth SCENE [--spp N] [--size WxH] [--seed S] [--threads T] [--shadows march|slicemap]\n"             \
-    "                    [--shadow-res N] [--dry-run] -o OUT.exr|OUT.png [--stats S.json]"
+    "                    [--shadow-res N] [--frame F | --frames A:B] [--dry-run] -o OUT.exr|OUT.png\n"         \
+    "                    [--stats S.json]"
 static const char usage[] = "usage: " TRUTH_SYNOPSIS "\n";
 
 const cli_command cmd_truth_help = {
@@ -31,6 +34,8 @@ const cli_command cmd_truth_help = {
          "how declared shadows are computed: march (Embree shadow rays) or slicemap (the triangles' light-space "
          "slicemap, per-material shadow_sigma: a comparison of shadow techniques)"},
         {"--shadow-res", "N", "512", "columns per side of the slicemap"},
+        {"--frame", "F", "the scene's first", "animated scenes: the frame to render"},
+        {"--frames", "A:B", "none", "animated scenes: frames A to B, written as OUT_000A.exr ... (and S_000A.json)"},
         {"--dry-run", NULL, NULL, "print the memory and time estimate and stop"},
         {"--stats", "S.json", "none", "write statistics (times, rays) as JSON"},
         {0}}};
@@ -44,6 +49,7 @@ int cmd_truth(int argc, char **argv)
     const char *scene_path = NULL, *out_path = NULL, *stats_path = NULL, *size = NULL;
     truth_options o = {.spp = 1024, .seed = 1, .progress = 1, .shadow_method = -1};
     int dry_run = 0;
+    frame_range fr = {0};
     long long v;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *val;
@@ -61,6 +67,9 @@ int cmd_truth(int argc, char **argv)
                 o.seed = (uint64_t)v;
             else
                 o.threads = (int)v;
+        } else if (strcmp(a, "--frame") == 0 || strcmp(a, "--frames") == 0) {
+            if (!(val = cli_value("truth", argc, argv, &i)) || frames_parse("truth", a, val, &fr))
+                return 1;
         } else if (strcmp(a, "--size") == 0) {
             if (!(size = cli_value("truth", argc, argv, &i)))
                 return 1;
@@ -116,20 +125,41 @@ int cmd_truth(int argc, char **argv)
         rc = estimate_check(&est, &e) ? (fprintf(stdout, "  refused: %s\n", e.msg), 1) : 0;
         goto done;
     }
-    if (estimate_check(&est, &e) || rt_build(&rt, &s, &e))
+    if (estimate_check(&est, &e))
         goto fail;
-    truth_counts counts;
-    image_meta meta;
-    provenance_common(&meta, argc, argv, &s, o.width, o.height, o.spp, o.seed);
-    image_meta_add(&meta, "renderer", "truth (Embree)");
-    if (truth_render(&rt, &o, &img, &counts, &e))
+    if (!fr.given)
+        fr.first = fr.last = s.anim ? s.anim->first : 0;
+    if (scene_set_frame(&s, fr.first, &e) || scene_set_frame(&s, fr.last, &e))
         goto fail;
-    img.meta = &meta;
-    if (image_write(&img, out_path, &e))
-        goto fail;
-    if (stats_path) {
-        if (stats_finish(stats_truth(&s, &o, &counts), stats_path, "truth", out_path))
-            goto done;
+    for (int f = fr.first; f <= fr.last; f++) {
+        char out_f[4096], stats_f[4096];
+        frames_path(out_path, f, out_f, sizeof out_f);
+        if (stats_path)
+            frames_path(stats_path, f, stats_f, sizeof stats_f);
+        const char *out = fr.sequence ? out_f : out_path, *stats = !stats_path ? NULL : fr.sequence ? stats_f : stats_path;
+        if (scene_set_frame(&s, f, &e) || rt_build(&rt, &s, &e))
+            goto fail;
+        truth_counts counts;
+        image_meta meta;
+        provenance_common(&meta, argc, argv, &s, o.width, o.height, o.spp, o.seed);
+        image_meta_add(&meta, "renderer", "truth (Embree)");
+        if (fr.given)
+            image_meta_add(&meta, "frame", "%d", f);
+        if (truth_render(&rt, &o, &img, &counts, &e))
+            goto fail;
+        img.meta = &meta;
+        if (image_write(&img, out, &e))
+            goto fail;
+        if (stats) {
+            cJSON *j = stats_truth(&s, &o, &counts);
+            if (fr.given)
+                cJSON_AddNumberToObject(j, "frame", f);
+            if (stats_finish(j, stats, "truth", out))
+                goto done;
+        }
+        image_free(&img);
+        rt_free(&rt);
+        memset(&rt, 0, sizeof rt);
     }
     rc = 0;
     goto done;

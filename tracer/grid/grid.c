@@ -333,19 +333,10 @@ static int mesh_bounds(const mesh *m, double lo[3], double hi[3], vx_err *e)
     return 0;
 }
 
-int grid_build_threads(voxel_grid *g, const mesh *m, int n, int threads, vx_err *e)
+/* The mapping documented in grid.h from bounds lo/hi, in double so that scenes far from the origin
+ * (1e6) or smaller than a float ulp there keep exact cell boundaries. */
+static void grid_set_mapping(voxel_grid *g, int n, const double lo[3], const double hi[3])
 {
-    memset(g, 0, sizeof *g);
-    if (n < 1 || n > GRID_MAX_N)
-        return vx_fail(e, "grid_build: resolution %d is outside 1..%d", n, GRID_MAX_N);
-    if (!m || m->triangle_count == 0)
-        return vx_fail(e, "grid_build: the mesh has no triangles");
-    double lo[3], hi[3];
-    if (mesh_bounds(m, lo, hi, e))
-        return -1;
-
-    /* The mapping documented in grid.h, in double so that scenes far from the origin (1e6) or
-     * smaller than a float ulp there keep exact cell boundaries. */
     double extent = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
     if (!(extent > 0.0)) {
         /* Every vertex at one point: only zero-area triangles, nothing to mark, but the mapping
@@ -363,6 +354,52 @@ int grid_build_threads(voxel_grid *g, const mesh *m, int n, int threads, vx_err 
     g->levels = 1;
     for (int s = n; s > 1; s = (s + 1) / 2)
         g->levels++;
+}
+
+/* Level by level: compact the dense bits, derive the next level's, drop the finer ones. Takes
+ * ownership of `dense`; on failure g is freed. */
+static int build_levels(voxel_grid *g, dense_bits dense, vx_err *e)
+{
+    for (int l = 0; l < g->levels; l++) {
+        if (compact_level(&g->level[l], &dense, e)) {
+            dense_free(&dense);
+            grid_free(g);
+            return -1;
+        }
+        if (l + 1 == g->levels)
+            break;
+        dense_bits coarse;
+        if (dense_alloc(&coarse, (dense.n + 1) / 2)) {
+            dense_free(&dense);
+            grid_free(g);
+            return vx_fail(e, "grid_build: out of memory for MIP level %d", l + 1);
+        }
+        downsample(&dense, &coarse);
+        dense_free(&dense);
+        dense = coarse;
+    }
+    dense_free(&dense);
+    return 0;
+}
+
+static int grid_build_impl(voxel_grid *g, const mesh *m, int n, const double *blo, const double *bhi, int threads,
+                           vx_err *e)
+{
+    memset(g, 0, sizeof *g);
+    if (n < 1 || n > GRID_MAX_N)
+        return vx_fail(e, "grid_build: resolution %d is outside 1..%d", n, GRID_MAX_N);
+    if (!m || m->triangle_count == 0)
+        return vx_fail(e, "grid_build: the mesh has no triangles");
+    double lo[3], hi[3];
+    if (mesh_bounds(m, lo, hi, e))
+        return -1;
+    if (blo) /* the caller's lattice (an animation's): the mesh must lie inside it */
+        for (int a = 0; a < 3; a++) {
+            if (lo[a] < blo[a] || hi[a] > bhi[a])
+                return vx_fail(e, "grid_build: the mesh leaves the given bounds on axis %d", a);
+            lo[a] = blo[a], hi[a] = bhi[a];
+        }
+    grid_set_mapping(g, n, lo, hi);
 
     dense_bits dense;
     if (dense_alloc(&dense, n)) {
@@ -385,28 +422,43 @@ int grid_build_threads(voxel_grid *g, const mesh *m, int n, int threads, vx_err 
     build_worker(&job);
     for (int i = 0; i < started; i++)
         pthread_join(tid[i], NULL);
+    return build_levels(g, dense, e);
+}
 
-    /* Level by level: compact the dense bits, derive the next level's, drop the finer ones. */
-    for (int l = 0; l < g->levels; l++) {
-        if (compact_level(&g->level[l], &dense, e)) {
-            dense_free(&dense);
-            grid_free(g);
-            return -1;
-        }
-        if (l + 1 == g->levels)
-            break;
-        dense_bits coarse;
-        if (dense_alloc(&coarse, (dense.n + 1) / 2)) {
-            dense_free(&dense);
-            grid_free(g);
-            return vx_fail(e, "grid_build: out of memory for MIP level %d", l + 1);
-        }
-        downsample(&dense, &coarse);
-        dense_free(&dense);
-        dense = coarse;
+int grid_build_threads(voxel_grid *g, const mesh *m, int n, int threads, vx_err *e)
+{
+    return grid_build_impl(g, m, n, NULL, NULL, threads, e);
+}
+
+int grid_build_bounds(voxel_grid *g, const mesh *m, int n, const double lo[3], const double hi[3], vx_err *e)
+{
+    return grid_build_impl(g, m, n, lo, hi, 2, e);
+}
+
+int grid_build_cells(voxel_grid *g, const voxel_grid *like, const uint32_t *cells, size_t count, vx_err *e)
+{
+    memset(g, 0, sizeof *g);
+    g->n = like->n;
+    memcpy(g->origin_d, like->origin_d, sizeof g->origin_d);
+    g->voxel_size_d = like->voxel_size_d;
+    g->origin = like->origin;
+    g->voxel_size = like->voxel_size;
+    g->levels = like->levels;
+    dense_bits dense;
+    if (dense_alloc(&dense, g->n)) {
+        memset(g, 0, sizeof *g);
+        return vx_fail(e, "grid_build: out of memory for the %d^3 occupancy bits", g->n);
     }
-    dense_free(&dense);
-    return 0;
+    for (size_t i = 0; i < count; i++) {
+        int x = (int)(cells[i] >> 20), y = (int)((cells[i] >> 10) & 1023u), z = (int)(cells[i] & 1023u);
+        if (x >= g->n || y >= g->n || z >= g->n) {
+            dense_free(&dense);
+            memset(g, 0, sizeof *g);
+            return vx_fail(e, "grid_build: cell (%d, %d, %d) outside the %d^3 grid", x, y, z, g->n);
+        }
+        dense.w[dense_word(&dense, x, y, z >> 6)] |= UINT64_C(1) << (z & 63);
+    }
+    return build_levels(g, dense, e);
 }
 
 int grid_build(voxel_grid *g, const mesh *m, int n, vx_err *e) { return grid_build_threads(g, m, n, 2, e); }

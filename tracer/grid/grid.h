@@ -48,6 +48,13 @@ extern "C" {
 int grid_build(voxel_grid *g, const mesh *m, int n, vx_err *e);
 /* Same with an explicit thread count (>= 1), for benchmarks and determinism tests. */
 int grid_build_threads(voxel_grid *g, const mesh *m, int n, int threads, vx_err *e);
+/* Same over the lattice of explicit bounds lo/hi (containing the mesh) instead of the mesh's own:
+ * an animated scene's frames share the lattice of the whole animation's bounds. */
+int grid_build_bounds(voxel_grid *g, const mesh *m, int n, const double lo[3], const double hi[3], vx_err *e);
+/* A grid with the mapping of `like` whose level-0 cells are the `count` packed coordinates
+ * (x << 20 | y << 10 | z, as grid_coords reads them), MIP levels as grid_build: moving objects'
+ * records put into the world lattice (tracer/dynamic/). */
+int grid_build_cells(voxel_grid *g, const voxel_grid *like, const uint32_t *cells, size_t count, vx_err *e);
 void grid_free(voxel_grid *g);
 
 /* Bytes allocated by the grid (all levels, tables, coordinates). */

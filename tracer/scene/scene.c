@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "animation.h"
 #include "generator.h"
 #include "json_util.h"
 #include "mesh_load.h"
@@ -536,7 +537,7 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
         char where[512];
         snprintf(where, sizeof where, "%s: objects[%d]", s->path, i++);
         static const char *const known[] = {"generator", "seed", "params", "materials", "material",
-                                            "ply", "gltf", "obj", "transform", "uris_outside_folder", NULL};
+                                            "ply", "gltf", "obj", "transform", "uris_outside_folder", "animation", NULL};
         if (!cJSON_IsObject(o))
             return vx_fail(e, "%s: expected an object", where);
         if (json_only_fields(o, where, known, e))
@@ -584,7 +585,8 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
                 return vx_wrap(e, "%s.%s", where, kind);
             warn_unused_texture(s, v0, t0, where);
         }
-        if (apply_transform(&s->mesh, v0, t0, cJSON_GetObjectItemCaseSensitive(o, "transform"), where, e))
+        if (apply_transform(&s->mesh, v0, t0, cJSON_GetObjectItemCaseSensitive(o, "transform"), where, e) ||
+            anim_parse_object(s, o, where, i - 1, v0, e))
             return -1;
         for (size_t v = v0; v < s->mesh.vertex_count; v++)
             for (int k = 0; k < 3; k++)
@@ -646,6 +648,19 @@ static void compute_bounds_and_identity(scene *s)
     s->identity = h;
 }
 
+int scene_set_frame(scene *s, int frame, vx_err *e)
+{
+    int first = s->anim ? s->anim->first : 0, last = s->anim ? s->anim->last : 0;
+    if (frame < first || frame > last)
+        return vx_fail(e, "%s: frame %d is outside the scene's frames [%d, %d]%s", s->path, frame, first, last,
+                       s->anim ? "" : " (the scene has no \"frames\")");
+    if (!s->anim || s->anim->count == 0 || s->anim->frame == frame)
+        return 0;
+    anim_pose_all(s->anim, &s->mesh, frame);
+    compute_bounds_and_identity(s);
+    return 0;
+}
+
 int scene_load(const char *path, scene *s, vx_err *e)
 {
     memset(s, 0, sizeof *s);
@@ -672,7 +687,7 @@ int scene_load_text(const char *text, const char *path, scene *s, vx_err *e)
     }
     int rc = -1;
     static const char *const known[] = {"name",      "size",    "background",  "effects", "camera", "lights",
-                                        "materials", "objects", "description", "shadows", NULL};
+                                        "materials", "objects", "description", "shadows", "frames", NULL};
     const char *name = NULL;
     s->width = s->height = 256;
     s->background = v3(0, 0, 0);
@@ -700,6 +715,8 @@ int scene_load_text(const char *text, const char *path, scene *s, vx_err *e)
                 s->degenerate_triangles);
         goto done;
     }
+    if (anim_parse_frames(s, root, e))
+        goto done;
     compute_bounds_and_identity(s);
     rc = 0;
 done:
@@ -723,5 +740,6 @@ void scene_free(scene *s)
     free(s->lights);
     free(s->path);
     free(s->name);
+    anim_free(s->anim);
     memset(s, 0, sizeof *s);
 }

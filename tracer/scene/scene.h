@@ -51,6 +51,7 @@ typedef struct {
     size_t degenerate_triangles; /* zero-area triangles dropped at load time */
     vec3 bounds_lo, bounds_hi;
     uint64_t identity; /* hash of geometry and materials: baked files name the scene they belong to */
+    struct scene_animation *anim; /* "frames" and moving objects (animation.h), NULL when none */
 } scene;
 
 #ifdef __cplusplus
@@ -63,6 +64,9 @@ int scene_load(const char *path, scene *s, vx_err *e);
  * against its directory, as for a file at that path. */
 int scene_load_text(const char *text, const char *path, scene *s, vx_err *e);
 void scene_free(scene *s);
+/* Poses an animated scene's moving objects at `frame` (animation.h) and updates its bounds and
+ * identity. The frame must lie in the scene's "frames" [A, B] ([0, 0] for a scene without them). */
+int scene_set_frame(scene *s, int frame, vx_err *e);
 /* Parses "shadows", "specular", "dof", "textures"; returns 0 for an unknown name. */
 unsigned effect_from_name(const char *name);
 const char *effect_name(unsigned effect);

@@ -1,0 +1,19 @@
+/* Frames of an animated scene on the command line (issue 17): --frame F and --frames A:B parsed,
+ * and the numbered file names of a sequence (out.exr -> out_0003.exr). */
+#ifndef VX_FRAMES_H
+#define VX_FRAMES_H
+
+#include <stddef.h>
+
+typedef struct {
+    int given;       /* --frame or --frames was given */
+    int sequence;    /* --frames: numbered outputs */
+    int first, last;
+} frame_range;
+
+/* Parses option `option` (--frame or --frames) of command cmd into r; errors on stderr, -1. */
+int frames_parse(const char *cmd, const char *option, const char *text, frame_range *r);
+/* path with _NNNN (the frame, 4 digits at least) before its extension. */
+void frames_path(const char *path, int frame, char *out, size_t size);
+
+#endif

@@ -1,0 +1,463 @@
+/* Voxel transformation of moving objects (dynamic.h): one bake per part, then per frame the parts'
+ * records placed into the world lattice (nearest or split8), sorted by cell and merged. */
+#include "dynamic.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "animation.h"
+#include "parallel.h"
+
+int dyn_filter_from_name(const char *name)
+{
+    static const char *const names[] = {"rebake", "nearest", "split8"};
+    for (int i = 0; i < 3; i++)
+        if (strcmp(name, names[i]) == 0)
+            return i;
+    return -1;
+}
+
+const char *dyn_filter_name(int filter)
+{
+    return filter == DYN_NEAREST ? "nearest" : filter == DYN_SPLIT8 ? "split8" : "rebake";
+}
+
+/* Owner of every triangle (-1 static, else the moving object): objects' vertex ranges are disjoint
+ * and in load order, so a binary search per triangle. */
+static int *triangle_owners(const scene *s)
+{
+    int *own = malloc((s->mesh.triangle_count + 1) * sizeof *own);
+    if (!own)
+        return NULL;
+    const scene_animation *a = s->anim;
+    for (size_t t = 0; t < s->mesh.triangle_count; t++) {
+        size_t v = s->mesh.indices[3 * t];
+        int lo = 0, hi = a ? a->count : 0, found = -1;
+        while (lo < hi) {
+            int mid = (lo + hi) / 2;
+            if (v < a->objects[mid].v0)
+                hi = mid;
+            else if (v >= a->objects[mid].v1)
+                lo = mid + 1;
+            else {
+                found = mid;
+                break;
+            }
+        }
+        own[t] = found;
+    }
+    return own;
+}
+
+/* A scene sharing s's materials, camera and lights, holding only the triangles of `owner`. Its
+ * bounds stay s's, so that the sampler's rays start where a whole bake's start. Free with
+ * mesh_free(&out->mesh) only. */
+static void sub_scene(const scene *s, const int *owners, int owner, scene *out)
+{
+    *out = *s;
+    memset(&out->mesh, 0, sizeof out->mesh);
+    uint32_t *map = malloc((s->mesh.vertex_count + 1) * sizeof *map);
+    if (!map)
+        return; /* an empty part: the caller's bake reports it */
+    memset(map, 0xff, (s->mesh.vertex_count + 1) * sizeof *map);
+    const mesh *m = &s->mesh;
+    for (size_t t = 0; t < m->triangle_count; t++) {
+        if (owners[t] != owner)
+            continue;
+        uint32_t idx[3];
+        for (int k = 0; k < 3; k++) {
+            uint32_t v = m->indices[3 * t + (size_t)k];
+            if (map[v] == UINT32_MAX) {
+                const float *p = m->positions + 3 * (size_t)v, *n = m->normals + 3 * (size_t)v;
+                map[v] = mesh_add_vertex(&out->mesh, v3(p[0], p[1], p[2]), v3(n[0], n[1], n[2]), m->uvs[2 * (size_t)v],
+                                         m->uvs[2 * (size_t)v + 1]);
+                const float *c = m->colors + 3 * (size_t)v;
+                mesh_set_vertex_color(&out->mesh, map[v], v3(c[0], c[1], c[2]));
+            }
+            idx[k] = map[v];
+        }
+        mesh_add_triangle(&out->mesh, idx[0], idx[1], idx[2], m->materials[t]);
+    }
+    free(map);
+}
+
+int dyn_prepare(dyn_scene *d, const scene *s, const vx_model *m, int res, const bake_options *o, vx_err *e)
+{
+    memset(d, 0, sizeof *d);
+    if (!m->transform || !m->combine)
+        return vx_fail(e, "model %s has no transform/combine: moving objects are re-baked", m->name);
+    d->m = m;
+    d->ref_frame = s->anim ? (int)s->anim->frame : 0;
+    d->parts = 1 + (s->anim ? s->anim->count : 0);
+    d->part = calloc((size_t)d->parts, sizeof *d->part);
+    int *owners = triangle_owners(s);
+    if (!d->part || !owners) {
+        free(owners);
+        free(d->part);
+        return vx_fail(e, "out of memory for %d moving parts", d->parts);
+    }
+    bake_options po = *o;
+    po.progress = 0;
+    double t0 = now_seconds();
+    for (int p = 0; p < d->parts; p++) {
+        dyn_part *P = &d->part[p];
+        if (p > 0)
+            anim_pose(&s->anim->objects[p - 1], d->ref_frame, P->A, P->t);
+        scene sub;
+        sub_scene(s, owners, p - 1, &sub);
+        if (sub.mesh.triangle_count == 0) { /* e.g. no static geometry: an empty part */
+            mesh_free(&sub.mesh);
+            continue;
+        }
+        bake_counts bc;
+        double gs;
+        int rc = bake_scene(&sub, m, res, &po, &P->grid, &P->records, &bc, &gs, e);
+        mesh_free(&sub.mesh);
+        if (rc) {
+            free(owners);
+            dyn_free(d);
+            return vx_wrap(e, "baking %s", p ? "a moving object" : "the static part");
+        }
+    }
+    free(owners);
+    bake_counts bc;
+    double gs;
+    if (bake_scene(s, m, res, &po, &d->full, &d->full_records, &bc, &gs, e)) {
+        dyn_free(d);
+        return vx_wrap(e, "baking the whole scene");
+    }
+    /* A voxel only one part touches: the whole bake's record (the same samples as the static
+     * render's; a part baked alone draws others, the streams following the voxel's index). */
+    size_t bytes = m->record.bytes;
+    for (int p = 0; p < d->parts; p++) {
+        dyn_part *P = &d->part[p];
+        for (size_t i = 0; i < grid_count(&P->grid, 0); i++) {
+            int x, y, z, shared = 0;
+            grid_coords(&P->grid, 0, i, &x, &y, &z);
+            for (int q = 0; q < d->parts && !shared; q++)
+                shared = q != p && d->part[q].grid.levels && grid_index(&d->part[q].grid, 0, x, y, z) >= 0;
+            int64_t j = grid_index(&d->full, 0, x, y, z);
+            if (!shared && j >= 0)
+                memcpy((char *)P->records + i * bytes, (const char *)d->full_records + (size_t)j * bytes, bytes);
+        }
+    }
+    d->bake_seconds = now_seconds() - t0;
+    return 0;
+}
+
+void dyn_free(dyn_scene *d)
+{
+    for (int p = 0; p < d->parts && d->part; p++) {
+        if (d->part[p].grid.levels)
+            grid_free(&d->part[p].grid);
+        free(d->part[p].records);
+    }
+    free(d->part);
+    if (d->full.levels)
+        grid_free(&d->full);
+    free(d->full_records);
+    memset(d, 0, sizeof *d);
+}
+
+/* One part of a record put into one cell. */
+typedef struct {
+    uint32_t cell; /* x << 20 | y << 10 | z: sorted, the grid's dense order */
+    uint32_t seq;  /* placement order: ties keep it, so the merge is deterministic */
+    const void *rec;
+    float w;
+} piece;
+
+typedef struct {
+    piece *p;
+    size_t n, cap;
+    size_t dropped;
+} pieces;
+
+static int put(pieces *ps, int n, long long x, long long y, long long z, const void *rec, float w)
+{
+    if (x < 0 || y < 0 || z < 0 || x >= n || y >= n || z >= n) {
+        ps->dropped++;
+        return 0;
+    }
+    if (ps->n == ps->cap) {
+        size_t cap = ps->cap ? 2 * ps->cap : 4096;
+        piece *grown = realloc(ps->p, cap * sizeof *grown);
+        if (!grown)
+            return -1;
+        ps->p = grown;
+        ps->cap = cap;
+    }
+    ps->p[ps->n] = (piece){(uint32_t)x << 20 | (uint32_t)y << 10 | (uint32_t)z, (uint32_t)ps->n, rec, w};
+    ps->n++;
+    return 0;
+}
+
+static int by_cell(const void *a, const void *b)
+{
+    const piece *p = a, *q = b;
+    if (p->cell != q->cell)
+        return p->cell < q->cell ? -1 : 1;
+    return p->seq < q->seq ? -1 : p->seq > q->seq;
+}
+
+/* Inverse of a 3x3 (row-major) by its adjugate: exact for the identity. */
+static void inverse3(const double A[9], double I[9])
+{
+    double c0 = A[4] * A[8] - A[5] * A[7], c1 = A[5] * A[6] - A[3] * A[8], c2 = A[3] * A[7] - A[4] * A[6];
+    double det = A[0] * c0 + A[1] * c1 + A[2] * c2;
+    I[0] = c0 / det, I[1] = (A[2] * A[7] - A[1] * A[8]) / det, I[2] = (A[1] * A[5] - A[2] * A[4]) / det;
+    I[3] = c1 / det, I[4] = (A[0] * A[8] - A[2] * A[6]) / det, I[5] = (A[2] * A[3] - A[0] * A[5]) / det;
+    I[6] = c2 / det, I[7] = (A[1] * A[6] - A[0] * A[7]) / det, I[8] = (A[0] * A[4] - A[1] * A[3]) / det;
+}
+
+/* Values within 1e-6 of an integer are that integer: a motion by whole cells or quarter turns
+ * then places and rotates records exactly. */
+static double snap(double v)
+{
+    double r = nearbyint(v);
+    return fabs(v - r) < 1e-6 ? r : v;
+}
+
+/* Places part P moved from its bake pose to pose (A, t): its records (turned by the rotation into
+ * *turned, malloc'ed) as pieces. */
+static int place_part(const dyn_part *P, const vx_model *m, const double A[9], const double t[3], int filter,
+                      const voxel_grid *world, pieces *ps, void **turned)
+{
+    size_t count = grid_count(&P->grid, 0), bytes = m->record.bytes;
+    *turned = NULL;
+    int still = memcmp(A, P->A, sizeof P->A) == 0 && memcmp(t, P->t, sizeof P->t) == 0;
+    double M[9], Ri[9], off[3], L[3];
+    inverse3(P->A, Ri);
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            M[3 * i + j] = A[3 * i] * Ri[j] + A[3 * i + 1] * Ri[3 + j] + A[3 * i + 2] * Ri[6 + j];
+    if (still)
+        for (int i = 0; i < 9; i++)
+            M[i] = i % 4 == 0;
+    /* World p' = M (p - t_ref) + t; in lattice units q' = M q + L. */
+    const double *o = world->origin_d, vs = world->voxel_size_d;
+    for (int i = 0; i < 3; i++) {
+        off[i] = t[i] - (M[3 * i] * P->t[0] + M[3 * i + 1] * P->t[1] + M[3 * i + 2] * P->t[2]);
+        L[i] = still ? 0.0 : snap((M[3 * i] * o[0] + M[3 * i + 1] * o[1] + M[3 * i + 2] * o[2] + off[i] - o[i]) / vs);
+    }
+    double det = M[0] * (M[4] * M[8] - M[5] * M[7]) - M[1] * (M[3] * M[8] - M[5] * M[6]) + M[2] * (M[3] * M[7] - M[4] * M[6]);
+    double sc = cbrt(det);
+    float R[9];
+    int rotated = 0;
+    for (int i = 0; i < 9; i++) {
+        R[i] = (float)snap(M[i] / sc);
+        rotated |= R[i] != (float)(i % 4 == 0);
+    }
+    const char *src = P->records;
+    if (rotated) {
+        char *tr = malloc(count * bytes + 1);
+        if (!tr)
+            return -1;
+        for (size_t i = 0; i < count; i++)
+            m->transform(src + i * bytes, R, tr + i * bytes);
+        *turned = tr;
+        src = tr;
+    }
+    int n = world->n;
+    for (size_t i = 0; i < count; i++) {
+        int x, y, z;
+        grid_coords(&P->grid, 0, i, &x, &y, &z);
+        const void *rec = src + i * bytes;
+        if (!rotated && L[0] == floor(L[0]) && L[1] == floor(L[1]) && L[2] == floor(L[2]) && sc == 1.0) {
+            if (put(ps, n, x + (long long)L[0], y + (long long)L[1], z + (long long)L[2], rec, 1.0f))
+                return -1;
+            continue;
+        }
+        double c[3] = {x + 0.5, y + 0.5, z + 0.5}, q[3];
+        for (int a = 0; a < 3; a++)
+            q[a] = M[3 * a] * c[0] + M[3 * a + 1] * c[1] + M[3 * a + 2] * c[2] + L[a];
+        if (filter == DYN_NEAREST) {
+            if (put(ps, n, (long long)floor(q[0]), (long long)floor(q[1]), (long long)floor(q[2]), rec, 1.0f))
+                return -1;
+            continue;
+        }
+        long long b[3];
+        double f[3];
+        for (int a = 0; a < 3; a++) {
+            double u = q[a] - 0.5;
+            b[a] = (long long)floor(u);
+            f[a] = u - (double)b[a];
+            if (f[a] < 1e-6)
+                f[a] = 0;
+            else if (f[a] > 1 - 1e-6)
+                b[a]++, f[a] = 0;
+        }
+        for (int k = 0; k < 8; k++) {
+            double w = 1;
+            for (int a = 0; a < 3; a++)
+                w *= (k >> a) & 1 ? f[a] : 1 - f[a];
+            if (w > 0 && put(ps, n, b[0] + (k & 1), b[1] + ((k >> 1) & 1), b[2] + ((k >> 2) & 1), rec, (float)w))
+                return -1;
+        }
+    }
+    return 0;
+}
+
+int dyn_frame_parts(const dyn_scene *d, const scene *s, int frame, int filter, const int *parts, int part_count,
+                    voxel_grid *g, void **records, dyn_counts *c, vx_err *e)
+{
+    memset(c, 0, sizeof *c);
+    const vx_model *m = d->m;
+    size_t bytes = m->record.bytes;
+    const voxel_grid *world = NULL;
+    for (int p = 0; p < d->parts && !world; p++)
+        if (d->part[p].grid.levels)
+            world = &d->part[p].grid;
+    if (!world)
+        return vx_fail(e, "the scene has no baked part");
+    double t0 = now_seconds();
+    /* Nothing moved (every part asked for, each at its bake pose): the whole scene's bake. */
+    int still = part_count == d->parts && d->full.levels;
+    for (int i = 0; i < part_count && still; i++) {
+        double A[9], t[3];
+        if (parts[i] == 0)
+            continue;
+        anim_pose(&s->anim->objects[parts[i] - 1], frame, A, t);
+        still = memcmp(A, d->part[parts[i]].A, sizeof A) == 0 && memcmp(t, d->part[parts[i]].t, sizeof t) == 0;
+    }
+    if (still) {
+        size_t n = grid_count(&d->full, 0);
+        char *out = malloc(n * bytes + 1);
+        if (!out)
+            return vx_fail(e, "out of memory for %zu records", n);
+        double tg = now_seconds();
+        if (grid_build_cells(g, &d->full, d->full.level[0].coords, n, e)) {
+            free(out);
+            return -1;
+        }
+        c->grid_seconds = now_seconds() - tg;
+        memcpy(out, d->full_records, n * bytes);
+        *records = out;
+        c->parts_in = c->voxels = n;
+        c->transform_seconds = now_seconds() - t0 - c->grid_seconds;
+        return 0;
+    }
+    pieces ps = {0};
+    void **turned = calloc((size_t)part_count + 1, sizeof *turned);
+    int rc = turned ? 0 : -1;
+    for (int i = 0; i < part_count && !rc; i++) {
+        int p = parts[i];
+        const dyn_part *P = &d->part[p];
+        if (!P->grid.levels)
+            continue;
+        double A[9], t[3];
+        if (p == 0) {
+            memcpy(A, P->A, sizeof A);
+            memcpy(t, P->t, sizeof t);
+        } else {
+            anim_pose(&s->anim->objects[p - 1], frame, A, t);
+        }
+        rc = place_part(P, m, A, t, p == 0 ? DYN_NEAREST : filter, world, &ps, &turned[i]);
+    }
+    if (rc) {
+        vx_fail(e, "out of memory placing %zu record parts", ps.n);
+        goto done;
+    }
+    qsort(ps.p, ps.n, sizeof *ps.p, by_cell);
+    size_t cells = 0;
+    uint32_t *cell = malloc((ps.n + 1) * sizeof *cell);
+    size_t *first = malloc((ps.n + 2) * sizeof *first);
+    if (!cell || !first) {
+        free(cell);
+        free(first);
+        rc = vx_fail(e, "out of memory for %zu record parts", ps.n);
+        goto done;
+    }
+    for (size_t i = 0; i < ps.n; i++)
+        if (i == 0 || ps.p[i].cell != ps.p[i - 1].cell) {
+            first[cells] = i;
+            cell[cells++] = ps.p[i].cell;
+        }
+    first[cells] = ps.n;
+    double tg = now_seconds();
+    rc = grid_build_cells(g, world, cell, cells, e);
+    c->grid_seconds = now_seconds() - tg;
+    free(cell);
+    char *out = rc ? NULL : calloc(cells + 1, bytes);
+    const void **recs = NULL;
+    float *w = NULL;
+    if (!rc) {
+        size_t most = 1;
+        for (size_t i = 0; i < cells; i++)
+            most = first[i + 1] - first[i] > most ? first[i + 1] - first[i] : most;
+        recs = malloc(most * sizeof *recs);
+        w = malloc(most * sizeof *w);
+        if (!out || !recs || !w) {
+            grid_free(g);
+            rc = vx_fail(e, "out of memory for %zu records", cells);
+        }
+    }
+    for (size_t i = 0; !rc && i < cells; i++) {
+        int n = (int)(first[i + 1] - first[i]);
+        for (int k = 0; k < n; k++) {
+            recs[k] = ps.p[first[i] + (size_t)k].rec;
+            w[k] = ps.p[first[i] + (size_t)k].w;
+        }
+        m->combine(recs, w, n, out + i * bytes);
+    }
+    free(first);
+    free(recs);
+    free(w);
+    if (rc) {
+        free(out);
+    } else {
+        *records = out;
+        c->parts_in = ps.n;
+        c->voxels = cells;
+        c->dropped = ps.dropped;
+    }
+done:
+    for (int i = 0; turned && i < part_count; i++)
+        free(turned[i]);
+    free(turned);
+    free(ps.p);
+    c->transform_seconds = now_seconds() - t0 - c->grid_seconds;
+    return rc;
+}
+
+int dyn_frame(const dyn_scene *d, const scene *s, int frame, int filter, voxel_grid *g, void **records, dyn_counts *c,
+              vx_err *e)
+{
+    int *parts = malloc((size_t)d->parts * sizeof *parts);
+    if (!parts)
+        return vx_fail(e, "out of memory");
+    for (int p = 0; p < d->parts; p++)
+        parts[p] = p;
+    int rc = dyn_frame_parts(d, s, frame, filter, parts, d->parts, g, records, c, e);
+    free(parts);
+    return rc;
+}
+
+int dyn_rebake_moving(const scene *s, const vx_model *m, int res, const bake_options *o, double *seconds, vx_err *e)
+{
+    int *owners = triangle_owners(s);
+    if (!owners)
+        return vx_fail(e, "out of memory");
+    /* Every moving triangle at once: owners mapped to 0 (moving) and -1 (static). */
+    for (size_t t = 0; t < s->mesh.triangle_count; t++)
+        owners[t] = owners[t] >= 0 ? 0 : -1;
+    scene sub;
+    sub_scene(s, owners, 0, &sub);
+    free(owners);
+    bake_options po = *o;
+    po.progress = 0;
+    voxel_grid g;
+    void *records = NULL;
+    bake_counts bc;
+    double gs, t0 = now_seconds();
+    int rc = sub.mesh.triangle_count ? bake_scene(&sub, m, res, &po, &g, &records, &bc, &gs, e)
+                                     : vx_fail(e, "the scene has no moving object");
+    *seconds = now_seconds() - t0;
+    mesh_free(&sub.mesh);
+    if (!rc) {
+        free(records);
+        grid_free(&g);
+    }
+    return rc;
+}
