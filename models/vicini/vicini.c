@@ -37,8 +37,10 @@ static unsigned char unorm8(float x)
 }
 
 /* A symmetric S written as Heitz et al.'s six bytes (sqrt of the diagonal over its largest value,
- * and the three correlations). */
-static void encode_sggx_matrix(const double S[3][3], vicini_record *r)
+ * and the three correlations). Returns that largest value: the stored S is S / smax^2, so the
+ * stored distribution's projected areas are S's over smax, and a density meant for S must be
+ * multiplied by smax to keep the same extinction. */
+static double encode_sggx_matrix(const double S[3][3], vicini_record *r)
 {
     double s[3], smax = 0.0;
     for (int k = 0; k < 3; k++) {
@@ -53,6 +55,7 @@ static void encode_sggx_matrix(const double S[3][3], vicini_record *r)
         double c = d > 0.0 ? S[pair[k][0]][pair[k][1]] / d : 0.0;
         r->corr[k] = (unsigned char)lround(fmin(fmax(c, -1.0), 1.0) * 127.0 + 127.0);
     }
+    return smax;
 }
 
 /* S = R diag(area^2) R^T, written as Heitz et al.'s six bytes. */
@@ -66,7 +69,7 @@ static void encode_sggx(const sggx_frame *fr, vicini_record *r)
             for (int j = 0; j < 3; j++)
                 S[i][j] += a2 * v[i] * v[j];
     }
-    encode_sggx_matrix(S, r);
+    encode_sggx_matrix(S, r); /* the density is fitted to the stored S afterwards */
 }
 
 static unsigned char encode_density(double rho)
@@ -194,8 +197,10 @@ static int is_identity(const float R[9])
     return memcmp(R, I, sizeof I) == 0;
 }
 
-/* Rotating the microflakes: S' = R S R^T, re-encoded (the quantisation of the six bytes is the
- * transform's only loss; density, mix and colour do not depend on the direction). */
+/* Rotating the microflakes: S' = R S R^T, re-encoded. The encoding rescales S' to a largest
+ * diagonal of 1 (a plate turned 45 degrees has two diagonals of 1/2), so the density takes the
+ * scale back: the extinction toward R w is then the record's toward w, up to the six bytes' and
+ * the density code's quantisation. Mix and colour do not depend on the direction. */
 static void vicini_transform(const void *in, const float R[9], void *out)
 {
     vicini_record r = *(const vicini_record *)in;
@@ -210,15 +215,17 @@ static void vicini_transform(const void *in, const float R[9], void *out)
             for (int j = 0; j < 3; j++)
                 for (int k = 0; k < 3; k++)
                     U[i][j] += T[i][k] * (double)R[3 * j + k];
-        encode_sggx_matrix(U, &r);
+        double smax = encode_sggx_matrix(U, &r);
+        r.density = encode_density((double)vicini_decode_density(r.density) * smax);
     }
     *(vicini_record *)out = r;
 }
 
 /* Parts put into one voxel: the density is the covered fraction times each part's density, summed
- * (optical mass is conserved through a split), and the distribution, mix, colour and specular bit
- * are the parts' means weighted by that mass (each S normalised to unit trace first, so that a
- * record's encoding scale does not weigh in). */
+ * (optical mass is conserved through a split); the distribution is the parts' S weighted by that
+ * mass (Heitz et al. 2015 mix SGGX distributions linearly, by density; every stored S has a
+ * largest diagonal of 1, the scale its density is measured in), re-encoded with the density taking
+ * the encoding's scale back; mix, colour and specular bit are the mass-weighted means. */
 static void vicini_combine(const void *const *records, const float *weights, int n, void *out)
 {
     if (n == 1 && weights[0] == 1.0f) {
@@ -236,10 +243,9 @@ static void vicini_combine(const void *const *records, const float *weights, int
                 continue;
             double Si[3][3];
             decode_sggx_raw(a, Si);
-            double tr = Si[0][0] + Si[1][1] + Si[2][2];
             for (int p = 0; p < 3; p++)
                 for (int q = 0; q < 3; q++)
-                    S[p][q] += w * Si[p][q] / (tr > 0 ? tr : 1.0);
+                    S[p][q] += w * Si[p][q];
             gamma += w * vicini_decode_gamma(a->mix);
             for (int k = 0; k < 3; k++) {
                 double c = a->color[k] / 255.0;
@@ -250,8 +256,12 @@ static void vicini_combine(const void *const *records, const float *weights, int
         }
     vicini_record r;
     memset(&r, 0, sizeof r);
+    double scale = 1.0;
     if (mass > 0) {
-        encode_sggx_matrix(S, &r);
+        for (int p = 0; p < 3; p++)
+            for (int q = 0; q < 3; q++)
+                S[p][q] /= mass;
+        scale = encode_sggx_matrix(S, &r);
         for (int k = 0; k < 3; k++)
             r.color[k] = unorm8((float)sqrt(color[k] / mass));
         r.mix = (unsigned char)(lround(fmin(fmax(gamma / mass, 0.0), 1.0) * VICINI_GAMMA_MAX_CODE) |
@@ -260,7 +270,7 @@ static void vicini_combine(const void *const *records, const float *weights, int
         r.sigma[0] = r.sigma[1] = r.sigma[2] = 255; /* an isotropic nothing: valid, never seen */
         r.corr[0] = r.corr[1] = r.corr[2] = 127;
     }
-    r.density = encode_density(plain);
+    r.density = encode_density(plain * scale);
     *(vicini_record *)out = r;
 }
 
