@@ -42,7 +42,8 @@ static int pack(map_build *b, int count, shadow_set *set, vx_err *e)
             rank += (uint32_t)__builtin_popcountll(bits[wo + k]);
         }
         for (int j = 0; j < m->res; j++) {
-            memcpy(T + to, b[li].row_T[j], b[li].row_n[j] * sizeof *T);
+            if (b[li].row_n[j]) /* an empty row has no array: memcpy from NULL is undefined even for 0 bytes */
+                memcpy(T + to, b[li].row_T[j], b[li].row_n[j] * sizeof *T);
             to += b[li].row_n[j];
         }
         if (to - m->T_off != rank)
