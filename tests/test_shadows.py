@@ -28,6 +28,13 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from testlib import REPO, TMP, VOXLAB, finish, read_image, report, voxlab  # noqa: E402
 
+# The Python API part loads build*/libvoxlab.so: under `make test-asan` it is ASan's, whose runtime
+# must come first (as tests/test_python_api.py does).
+if "asan" in os.environ.get("BUILD", "build") and "libasan" not in os.environ.get("LD_PRELOAD", ""):
+    _rt = subprocess.run(["gcc", "-print-file-name=libasan.so"], capture_output=True, text=True).stdout.strip()
+    os.execve(sys.executable, [sys.executable, *sys.argv],
+              dict(os.environ, LD_PRELOAD=_rt, ASAN_OPTIONS=os.environ.get("ASAN_OPTIONS", "") + ":detect_leaks=0"))
+
 SIZE = (96, 96)
 RES = 48
 LIGHT = [0.5, 1.0, 0.3]
