@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "average_bake.h"
+#include "average_move.h" /* average_is_identity */
 #include "sggx_fit.h"
 #include "vicini_eval.h"
 #include "vicini_fit.h"
@@ -191,12 +192,6 @@ static void decode_sggx_raw(const vicini_record *r, double S[3][3])
             S[i][j] = (double)f[3 * i + j] - (i == j ? 1e-4 : 0.0);
 }
 
-static int is_identity(const float R[9])
-{
-    static const float I[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-    return memcmp(R, I, sizeof I) == 0;
-}
-
 /* Rotating the microflakes: S' = R S R^T, re-encoded. The encoding rescales S' to a largest
  * diagonal of 1 (a plate turned 45 degrees has two diagonals of 1/2), so the density takes the
  * scale back: the extinction toward R w is then the record's toward w, up to the six bytes' and
@@ -204,7 +199,7 @@ static int is_identity(const float R[9])
 static void vicini_transform(const void *in, const float R[9], void *out)
 {
     vicini_record r = *(const vicini_record *)in;
-    if (!is_identity(R)) {
+    if (!average_is_identity(R)) {
         double S[3][3], T[3][3] = {{0}}, U[3][3] = {{0}};
         decode_sggx_raw(&r, S);
         for (int i = 0; i < 3; i++)
