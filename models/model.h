@@ -144,7 +144,7 @@ typedef struct {
 /* The interface version a model was written against: the registry refuses a model built for
  * another (tests/unit_models.c checks every registered model). Bump it when a field's meaning
  * changes, so that an out-of-tree model fails loudly instead of rendering garbage. */
-#define VX_MODEL_ABI_VERSION 4
+#define VX_MODEL_ABI_VERSION 5
 
 /* A portable evaluation function as both backends see it: the C function and its name in the
  * model's portable source, which the OpenCL program calls (OpenCL C has no function pointers).
@@ -219,6 +219,18 @@ struct vx_bake_params {
     double value[VX_MAX_PARAMS]; /* in the order of vx_model.params */
 };
 
+/* One record put into a voxel by a moving object (vx_model.combine). */
+typedef struct vx_record_part {
+    const void *record;
+    /* The fraction of the voxel it covers, > 0: 1 for a record placed whole (nearest, or a static
+     * one); split8's trilinear weight for one of the 8 neighbours of its centre. */
+    float weight;
+    /* Its centre (after the motion) minus the voxel's centre, in voxel edges (each within about
+     * [-1, 1]): the sub-voxel position a nearest or split placement rounds away. 0 for a static
+     * record. */
+    float offset[3];
+} vx_record_part;
+
 typedef struct vx_model {
     int abi_version; /* VX_MODEL_ABI_VERSION */
     const char *name;
@@ -248,20 +260,25 @@ typedef struct vx_model {
     /* Exactly one evaluation protocol; the other is NULL. */
     const vx_voxel_eval *voxel;
     const vx_cone_eval *cone;
-    /* Optional, both or neither (ABI 4; models with record.levels 0 only): moving records, for
+    /* Optional, both or neither (ABI 4, offsets and levels ABI 5): moving records, for
      * animated scenes whose objects are baked once and transformed every frame instead of re-baked
      * (tracer/dynamic/, the dynamic-SVO paper's voxel transformation). Without them a moving object
-     * is re-baked every frame, and the render says so. Moved records are not passed through
-     * bake_finish again (a model whose grid pass matters should not declare these).
+     * is re-baked every frame, and the render says so. Moved level-0 records are not passed through
+     * bake_finish again unless the model has levels (a model whose level-0 grid pass matters should
+     * not declare these).
      * transform: `out` (record.bytes) is `in` seen after the rotation R (row-major 3x3, proper
      * orthogonal): normals, directional distributions and the like rotated. R exactly the identity
      * must give `in` bit for bit.
-     * combine: one record `out` standing for n >= 1 records put into one voxel, records[i] covering
-     * the fraction weights[i] > 0 of it (a record split over 8 neighbours covers a fraction of each;
-     * static and moving records meeting in one voxel have weight 1 each). n == 1 with weight 1 must
-     * give records[0] bit for bit. */
+     * combine: one record `out` standing for the n >= 1 parts put into one voxel (vx_record_part:
+     * each a record, the fraction of the voxel it covers and where its centre lies; ABI 5 added the
+     * offset, which models with a position inside the voxel use: a plane's height, a subgrid).
+     * Static and moving records meeting in one voxel have weight 1 and offset 0 each; voxel_size
+     * is the voxel's edge (world units, for records holding lengths). One part with weight 1 and
+     * offset 0 must give its record bit for bit.
+     * Models with record.levels: the coarser levels of a frame are rebuilt by bake_finish from the
+     * moved level 0 (bake_finish must need nothing but the level-0 records). */
     void (*transform)(const void *in, const float R[9], void *out);
-    void (*combine)(const void *const *records, const float *weights, int n, void *out);
+    void (*combine)(const struct vx_record_part *parts, int n, float voxel_size, void *out);
 } vx_model;
 
 /* The compositing rule the tracer applies to model m's answers (VX_COMPOSITE_*). */

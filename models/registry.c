@@ -71,8 +71,8 @@ int model_check(const vx_model *m, char *why, size_t why_size)
     }
     if (!m->transform != !m->combine)
         return BROKEN("transform and combine come together (a split record needs combining)");
-    if (m->transform && m->record.levels)
-        return BROKEN("transform moves level-0 records only: record.levels must be 0");
+    if (m->transform && m->record.levels && !m->bake_finish)
+        return BROKEN("moved records with levels need bake_finish to rebuild the coarser levels");
     int n = 0;
     for (const vx_param *p = m->params; p && p->name; p++, n++) {
         if (n >= VX_MAX_PARAMS)

@@ -644,12 +644,11 @@ static void run_geometry(const vx_model *m, const bake_case *c, const geometry *
             m->transform(rec, turns[k], moved);
             query_all(m, c, &sum, moved, geo, NULL, NULL, vp);
         }
-        const void *halves[2] = {rec, rec};
-        const float w1[1] = {1.0f}, w2[2] = {0.5f, 0.5f};
-        m->combine(halves, w1, 1, merged);
+        const vx_record_part whole[1] = {{rec, 1.0f, {0, 0, 0}}}, halves[2] = {{rec, 0.5f, {0, 0, 0}}, {rec, 0.5f, {0, 0, 0}}};
+        m->combine(whole, 1, 1.0f, merged);
         if (memcmp(merged, rec, m->record.bytes) != 0)
             fail(vp, "combine of one record with weight 1 changed it");
-        m->combine(halves, w2, 2, merged);
+        m->combine(halves, 2, 1.0f, merged);
         query_all(m, c, &sum, merged, geo, NULL, NULL, vp);
         free(moved);
         free(merged);

@@ -381,19 +381,18 @@ static void test_moving(void)
     CHECK_NEAR("a record turned 45 degrees has toward R w the extinction it had toward w (5 directions, relative)",
                worst, 0.0, 0.06);
     /* Two halves of one record in one voxel are that record. */
-    const void *parts[2] = {&plate, &plate};
-    const float halves[2] = {0.5f, 0.5f};
+    const vx_record_part parts[2] = {{&plate, 0.5f, {0, 0, 0}}, {&plate, 0.5f, {0, 0, 0}}};
     vicini_record whole;
-    model_vicini.combine(parts, halves, 2, &whole);
+    model_vicini.combine(parts, 2, 1.0f, &whole);
     worst = 0.0;
     for (size_t i = 0; i < sizeof dirs / sizeof dirs[0]; i++)
         worst = fmax(worst, fabs((double)opacity_toward(&whole, dirs[i]) - (double)opacity_toward(&plate, dirs[i])));
     CHECK_NEAR("two halves of a record combine into it (opacity, 5 directions)", worst, 0.0, 0.01);
     /* A turned record combined with an unturned one keeps the density-weighted extinction: the
      * combined density is the sum of both halves' whatever their encodings' scales. */
-    const void *mixed[2] = {&plate, &turned};
+    const vx_record_part mixed[2] = {{&plate, 0.5f, {0, 0, 0}}, {&turned, 0.5f, {0, 0, 0}}};
     vicini_record both;
-    model_vicini.combine(mixed, halves, 2, &both);
+    model_vicini.combine(mixed, 2, 1.0f, &both);
     CHECK("combining a turned and an unturned plate leaves a non-empty, valid record",
           both.density > 0 && model_vicini.validate_record(&both, &(vx_record_context){0, 1.0f, 150}, (char[64]){0}, 64) == 0);
 }

@@ -42,10 +42,11 @@ static void alpha_transform(const void *in, const float R[9], void *out)
 /* Opacity is the covered fraction times each part's opacity, summed (clamped at 1): a record split
  * over 8 neighbours keeps its total opacity-weighted coverage. Colours and normals are the means
  * weighted by that contribution. */
-static void alpha_combine(const void *const *records, const float *weights, int n, void *out)
+static void alpha_combine(const vx_record_part *parts, int n, float voxel_size, void *out)
 {
-    if (n == 1 && weights[0] == 1.0f) {
-        *(alpha_record *)out = *(const alpha_record *)records[0];
+    (void)voxel_size; /* nothing in the record is a length */
+    if (n == 1 && parts[0].weight == 1.0f) {
+        *(alpha_record *)out = *(const alpha_record *)parts[0].record;
         return;
     }
     alpha_record r;
@@ -53,14 +54,14 @@ static void alpha_combine(const void *const *records, const float *weights, int 
     average_view v[n > 0 ? n : 1];
     double opacity = 0;
     for (int i = 0; i < n; i++) {
-        const alpha_record *a = records[i];
+        const alpha_record *a = parts[i].record;
         v[i] = (average_view){a->color, a->normal, a->specular, a->roughness, a->double_sided,
-                              weights[i] * a->opacity};
+                              parts[i].weight * a->opacity};
         opacity += v[i].weight;
     }
     if (!(opacity > 0)) /* transparent parts only: their plain mean (colour matters to nothing) */
         for (int i = 0; i < n; i++)
-            v[i].weight = weights[i];
+            v[i].weight = parts[i].weight;
     r.opacity = (float)(opacity < 1.0 ? opacity : 1.0);
     average_combine_fields(v, n, r.color, r.normal, &r.specular, &r.roughness, &r.double_sided);
     *(alpha_record *)out = r;

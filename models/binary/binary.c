@@ -35,10 +35,11 @@ static void binary_transform(const void *in, const float R[9], void *out)
 /* Opaque when opaque parts cover at least half the voxel: a surface split over two layers by a
  * half-voxel offset stays one layer thick on average (each layer gets half), and two records put
  * whole into one voxel (a moving object over a static one) stay opaque. */
-static void binary_combine(const void *const *records, const float *weights, int n, void *out)
+static void binary_combine(const vx_record_part *parts, int n, float voxel_size, void *out)
 {
-    if (n == 1 && weights[0] == 1.0f) {
-        *(binary_record *)out = *(const binary_record *)records[0];
+    (void)voxel_size; /* nothing in the record is a length */
+    if (n == 1 && parts[0].weight == 1.0f) {
+        *(binary_record *)out = *(const binary_record *)parts[0].record;
         return;
     }
     binary_record r;
@@ -46,9 +47,9 @@ static void binary_combine(const void *const *records, const float *weights, int
     average_view v[n > 0 ? n : 1];
     double cover = 0;
     for (int i = 0; i < n; i++) {
-        const binary_record *a = records[i];
+        const binary_record *a = parts[i].record;
         v[i] = (average_view){a->color, a->normal, a->specular, a->roughness, a->double_sided,
-                              a->opaque ? weights[i] : 0.0f};
+                              a->opaque ? parts[i].weight : 0.0f};
         cover += v[i].weight;
     }
     r.opaque = cover >= 0.5;

@@ -639,6 +639,60 @@ static int hn_bake_finish(const voxel_grid *g, void *records, const struct vx_ba
     return 0;
 }
 
+/* ---- Moving records (issue 17; vx_model.transform and .combine) -------------------------------- */
+
+/* Rotation about the cell's centre: the mean normal turns; h (a distance along it from the centre),
+ * the variances, the area, psi (an in-plane distance) and the colour statistics are invariant. */
+static void hn_transform(const void *in, const float R[9], void *out)
+{
+    hn_record r = *(const hn_record *)in;
+    static const float I[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    if (memcmp(R, I, sizeof I) != 0) {
+        float n[3] = {(float)r.n[0] / 32767.0f, (float)r.n[1] / 32767.0f, (float)r.n[2] / 32767.0f};
+        for (int i = 0; i < 3; i++)
+            r.n[i] = hn_snorm16(R[3 * i] * n[0] + R[3 * i + 1] * n[1] + R[3 * i + 2] * n[2]);
+    }
+    *(hn_record *)out = r;
+}
+
+/* Parts in one cell: the same sums of moments the coarser levels are built from (hn_bake_finish),
+ * each part's moments taken about its own (moved) centre, shifted to the cell's centre by its
+ * offset and scaled by the fraction it covers; so a plane keeps its position when nearest
+ * rounds its record into a neighbouring cell, and split8's pieces each hold the plane where it
+ * lies. psi (where the patch ends) does not survive the sums (moments_of_record centres each
+ * patch): it is the parts' area-weighted mean. */
+static void hn_combine(const vx_record_part *parts, int n, float voxel_size, void *out)
+{
+    const vx_record_part *p0 = &parts[0];
+    if (n == 1 && p0->weight == 1.0f && p0->offset[0] == 0.0f && p0->offset[1] == 0.0f && p0->offset[2] == 0.0f) {
+        *(hn_record *)out = *(const hn_record *)p0->record;
+        return;
+    }
+    moments sum;
+    memset(&sum, 0, sizeof sum);
+    double psi = 0.0, psi_w = 0.0;
+    for (int i = 0; i < n; i++) {
+        hn_data d;
+        hn_decode(parts[i].record, voxel_size, &d);
+        moments m;
+        moments_of_record(&d, voxel_size, &m);
+        double shift[3] = {(double)parts[i].offset[0] * voxel_size, (double)parts[i].offset[1] * voxel_size,
+                           (double)parts[i].offset[2] * voxel_size};
+        moments_shift(&m, shift);
+        double *v = (double *)&m;
+        for (size_t k = 0; k < sizeof(moments) / sizeof(double); k++)
+            v[k] *= parts[i].weight;
+        moments_add(&sum, &m);
+        psi += m.w * d.psi;
+        psi_w += m.w;
+    }
+    hn_data d;
+    derive(&sum, voxel_size, &d);
+    if (psi_w > 0.0)
+        d.psi = (float)(psi / psi_w);
+    hn_encode(&d, voxel_size, (hn_record *)out);
+}
+
 /* ---- The model ---------------------------------------------------------------------------------- */
 
 static const void *hn_table(size_t *bytes)
@@ -670,4 +724,6 @@ const vx_model model_heitz_neyret = {
     .bake_finish = hn_bake_finish,
     .validate_record = hn_validate_record,
     .cone = &hn_eval,
+    .transform = hn_transform,
+    .combine = hn_combine,
 };

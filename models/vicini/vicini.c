@@ -221,19 +221,20 @@ static void vicini_transform(const void *in, const float R[9], void *out)
  * mass (Heitz et al. 2015 mix SGGX distributions linearly, by density; every stored S has a
  * largest diagonal of 1, the scale its density is measured in), re-encoded with the density taking
  * the encoding's scale back; mix, colour and specular bit are the mass-weighted means. */
-static void vicini_combine(const void *const *records, const float *weights, int n, void *out)
+static void vicini_combine(const vx_record_part *parts, int n, float voxel_size, void *out)
 {
-    if (n == 1 && weights[0] == 1.0f) {
-        *(vicini_record *)out = *(const vicini_record *)records[0];
+    (void)voxel_size; /* nothing in the record is a length */
+    if (n == 1 && parts[0].weight == 1.0f) {
+        *(vicini_record *)out = *(const vicini_record *)parts[0].record;
         return;
     }
     double mass = 0, plain = 0, S[3][3] = {{0}}, gamma = 0, color[3] = {0, 0, 0}, shiny = 0;
     for (int pass = 0; pass < 2 && !(mass > 0); pass++) /* pass 1: empty parts only, plain weights */
         for (int i = 0; i < n; i++) {
-            const vicini_record *a = records[i];
-            double w = weights[i] * (pass == 0 ? (double)vicini_decode_density(a->density) : 1.0);
+            const vicini_record *a = parts[i].record;
+            double w = parts[i].weight * (pass == 0 ? (double)vicini_decode_density(a->density) : 1.0);
             if (pass == 0)
-                plain += weights[i] * (double)vicini_decode_density(a->density);
+                plain += parts[i].weight * (double)vicini_decode_density(a->density);
             if (!(w > 0))
                 continue;
             double Si[3][3];

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "animation.h"
+#include "bake_params.h"
 #include "parallel.h"
 
 int dyn_filter_from_name(const char *name)
@@ -99,6 +100,10 @@ int dyn_prepare(dyn_scene *d, const scene *s, const vx_model *m, int res, const 
     }
     bake_options po = *o;
     po.progress = 0;
+    if (o->params_set)
+        d->params = o->params;
+    else
+        bake_params_defaults(m, &d->params);
     double t0 = now_seconds();
     for (int p = 0; p < d->parts; p++) {
         dyn_part *P = &d->part[p];
@@ -166,6 +171,7 @@ typedef struct {
     uint32_t seq;  /* placement order: ties keep it, so the merge is deterministic */
     const void *rec;
     float w;
+    float off[3]; /* the record's centre minus the cell's, in cells (vx_record_part.offset) */
 } piece;
 
 typedef struct {
@@ -174,7 +180,9 @@ typedef struct {
     size_t dropped;
 } pieces;
 
-static int put(pieces *ps, int n, long long x, long long y, long long z, const void *rec, float w)
+/* Puts rec into cell (x, y, z) with weight w, its centre at q (lattice units, cells' centres at
+ * + 0.5; NULL: exactly the cell's centre). */
+static int put(pieces *ps, int n, long long x, long long y, long long z, const void *rec, float w, const double *q)
 {
     if (x < 0 || y < 0 || z < 0 || x >= n || y >= n || z >= n) {
         ps->dropped++;
@@ -188,7 +196,13 @@ static int put(pieces *ps, int n, long long x, long long y, long long z, const v
         ps->p = grown;
         ps->cap = cap;
     }
-    ps->p[ps->n] = (piece){(uint32_t)x << 20 | (uint32_t)y << 10 | (uint32_t)z, (uint32_t)ps->n, rec, w};
+    piece *p = &ps->p[ps->n];
+    *p = (piece){(uint32_t)x << 20 | (uint32_t)y << 10 | (uint32_t)z, (uint32_t)ps->n, rec, w, {0, 0, 0}};
+    if (q) {
+        p->off[0] = (float)(q[0] - ((double)x + 0.5));
+        p->off[1] = (float)(q[1] - ((double)y + 0.5));
+        p->off[2] = (float)(q[2] - ((double)z + 0.5));
+    }
     ps->n++;
     return 0;
 }
@@ -265,7 +279,7 @@ static int place_part(const dyn_part *P, const vx_model *m, const double A[9], c
         grid_coords(&P->grid, 0, i, &x, &y, &z);
         const void *rec = src + i * bytes;
         if (!rotated && L[0] == floor(L[0]) && L[1] == floor(L[1]) && L[2] == floor(L[2]) && sc == 1.0) {
-            if (put(ps, n, x + (long long)L[0], y + (long long)L[1], z + (long long)L[2], rec, 1.0f))
+            if (put(ps, n, x + (long long)L[0], y + (long long)L[1], z + (long long)L[2], rec, 1.0f, NULL))
                 return -1;
             continue;
         }
@@ -273,7 +287,7 @@ static int place_part(const dyn_part *P, const vx_model *m, const double A[9], c
         for (int a = 0; a < 3; a++)
             q[a] = M[3 * a] * c[0] + M[3 * a + 1] * c[1] + M[3 * a + 2] * c[2] + L[a];
         if (filter == DYN_NEAREST) {
-            if (put(ps, n, (long long)floor(q[0]), (long long)floor(q[1]), (long long)floor(q[2]), rec, 1.0f))
+            if (put(ps, n, (long long)floor(q[0]), (long long)floor(q[1]), (long long)floor(q[2]), rec, 1.0f, q))
                 return -1;
             continue;
         }
@@ -292,7 +306,7 @@ static int place_part(const dyn_part *P, const vx_model *m, const double A[9], c
             double w = 1;
             for (int a = 0; a < 3; a++)
                 w *= (k >> a) & 1 ? f[a] : 1 - f[a];
-            if (w > 0 && put(ps, n, b[0] + (k & 1), b[1] + ((k >> 1) & 1), b[2] + ((k >> 2) & 1), rec, (float)w))
+            if (w > 0 && put(ps, n, b[0] + (k & 1), b[1] + ((k >> 1) & 1), b[2] + ((k >> 2) & 1), rec, (float)w, q))
                 return -1;
         }
     }
@@ -322,8 +336,8 @@ int dyn_frame_parts(const dyn_scene *d, const scene *s, int frame, int filter, c
         still = memcmp(A, d->part[parts[i]].A, sizeof A) == 0 && memcmp(t, d->part[parts[i]].t, sizeof t) == 0;
     }
     if (still) {
-        size_t n = grid_count(&d->full, 0);
-        char *out = malloc(n * bytes + 1);
+        size_t n = grid_count(&d->full, 0), nrec = bake_record_count(m, &d->full);
+        char *out = malloc(nrec * bytes + 1);
         if (!out)
             return vx_fail(e, "out of memory for %zu records", n);
         double tg = now_seconds();
@@ -332,7 +346,7 @@ int dyn_frame_parts(const dyn_scene *d, const scene *s, int frame, int filter, c
             return -1;
         }
         c->grid_seconds = now_seconds() - tg;
-        memcpy(out, d->full_records, n * bytes);
+        memcpy(out, d->full_records, nrec * bytes);
         *records = out;
         c->parts_in = c->voxels = n;
         c->transform_seconds = now_seconds() - t0 - c->grid_seconds;
@@ -379,16 +393,14 @@ int dyn_frame_parts(const dyn_scene *d, const scene *s, int frame, int filter, c
     rc = grid_build_cells(g, world, cell, cells, e);
     c->grid_seconds = now_seconds() - tg;
     free(cell);
-    char *out = rc ? NULL : calloc(cells + 1, bytes);
-    const void **recs = NULL;
-    float *w = NULL;
+    char *out = rc ? NULL : calloc(bake_record_count(m, g) + 1, bytes);
+    vx_record_part *parts_of_cell = NULL;
     if (!rc) {
         size_t most = 1;
         for (size_t i = 0; i < cells; i++)
             most = first[i + 1] - first[i] > most ? first[i + 1] - first[i] : most;
-        recs = malloc(most * sizeof *recs);
-        w = malloc(most * sizeof *w);
-        if (!out || !recs || !w) {
+        parts_of_cell = malloc(most * sizeof *parts_of_cell);
+        if (!out || !parts_of_cell) {
             grid_free(g);
             rc = vx_fail(e, "out of memory for %zu records", cells);
         }
@@ -396,14 +408,18 @@ int dyn_frame_parts(const dyn_scene *d, const scene *s, int frame, int filter, c
     for (size_t i = 0; !rc && i < cells; i++) {
         int n = (int)(first[i + 1] - first[i]);
         for (int k = 0; k < n; k++) {
-            recs[k] = ps.p[first[i] + (size_t)k].rec;
-            w[k] = ps.p[first[i] + (size_t)k].w;
+            const piece *p = &ps.p[first[i] + (size_t)k];
+            parts_of_cell[k] = (vx_record_part){p->rec, p->w, {p->off[0], p->off[1], p->off[2]}};
         }
-        m->combine(recs, w, n, out + i * bytes);
+        m->combine(parts_of_cell, n, g->voxel_size, out + i * bytes);
     }
     free(first);
-    free(recs);
-    free(w);
+    free(parts_of_cell);
+    /* A model with levels: the coarser levels from the moved level 0, as its bake builds them. */
+    if (!rc && m->record.levels && m->bake_finish(g, out, &d->params)) {
+        grid_free(g);
+        rc = vx_fail(e, "model %s: bake_finish failed on the moved records", m->name);
+    }
     if (rc) {
         free(out);
     } else {

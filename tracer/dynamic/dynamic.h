@@ -35,6 +35,7 @@ typedef struct {
     int parts;          /* parts[0]: static; parts[1 + i]: moving object i */
     dyn_part *part;
     int ref_frame;
+    struct vx_bake_params params; /* the bake's model parameters (bake_finish rebuilds levels with them) */
     double bake_seconds; /* baking every part once */
     /* The whole scene baked at the reference frame: a voxel only one part touches takes its record
      * from here, and a frame where nothing moved is this bake, so that the reference frame of every
