@@ -212,13 +212,14 @@ typedef struct {
     scene s;
     scene_animation an;
     anim_object obj;
-    anim_key keys[4];
+    anim_key keys[5];
     dyn_scene d;
     dyn_part parts[2];
 } world;
 
 /* Static ground layer y = 2; a 5^3 block of object records at 10..14; keys: frame 0 rest, 1 moved
- * by whole cells, 2 by fractions of a cell, 3 a quarter turn about y through a cell centre. */
+ * by whole cells, 2 by fractions of a cell, 3 a quarter turn about y through a cell centre, 4
+ * scaled by 2 about the block's centre. */
 static void make_world(world *w, const vx_model *m, void (*fill)(void *, size_t))
 {
     memset(w, 0, sizeof *w);
@@ -234,7 +235,7 @@ static void make_world(world *w, const vx_model *m, void (*fill)(void *, size_t)
     make_part(&w->parts[0], m, ground, ng, m == model_find("alpha") ? fill_ground : fill);
     make_part(&w->parts[1], m, block, nb, fill);
     memset(w->parts[0].A, 0, sizeof w->parts[0].A); /* the static part has no pose */
-    for (int k = 0; k < 4; k++) {
+    for (int k = 0; k < 5; k++) {
         w->keys[k].frame = k;
         w->keys[k].scale = 1;
         w->keys[k].q[0] = 1;
@@ -246,11 +247,15 @@ static void make_world(world *w, const vx_model *m, void (*fill)(void *, size_t)
     w->keys[3].q[0] = cos(h), w->keys[3].q[2] = sin(h);
     double c = 12.5 * VS; /* p' = R (p - c) + c; R maps x -> -z, z -> x about y */
     w->keys[3].t[0] = c - c, w->keys[3].t[2] = c + c;
+    /* Frame 4: scaled by 2 about the block's centre (12.5 cells): p' = 2 p - c. */
+    w->keys[4].scale = 2;
+    for (int a = 0; a < 3; a++)
+        w->keys[4].t[a] = -c;
     w->obj.keys = w->keys;
-    w->obj.key_count = 4;
+    w->obj.key_count = 5;
     w->an.objects = &w->obj;
     w->an.count = 1;
-    w->an.last = 3;
+    w->an.last = 4;
     w->s.anim = &w->an;
     w->d.m = m;
     w->d.parts = 2;
@@ -355,6 +360,41 @@ static void check_lattice(const char *model, void (*fill)(void *, size_t))
         grid_free(&gs), free(rsp);
     } else {
         CHECK("split8 by a fraction of a cell", 0);
+    }
+    /* Frame 4: scaled by 2. No holes: the block's 5^3 cells fill 10^3 (nearest) and the cube's
+     * 11^3 overlapped cells (split8); the opacity-weighted coverage grows as the surface, by 4. */
+    if (!strcmp(model, "alpha")) {
+        double in = 0;
+        for (size_t i = 0; i < grid_count(&w.parts[1].grid, 0); i++)
+            in += ((const alpha_record *)w.parts[1].records)[i].opacity;
+        for (int filter = DYN_NEAREST; filter <= DYN_SPLIT8; filter++) {
+            if (frame_of(&w, 4, filter, &gs, &rsp)) {
+                CHECK("scale 2: the frame is built", 0);
+                continue;
+            }
+            /* Record x's centre goes to 2 (x + 0.5) - 12.5 = 8.5 .. 16.5, its cube +-1 around it:
+             * cells 7..16 by centres, 7..17 by overlap. */
+            int lo = 7, hi = filter == DYN_NEAREST ? 16 : 17;
+            size_t inside = 0, moved = 0;
+            double out = 0;
+            for (size_t i = 0; i < grid_count(&gs, 0); i++) {
+                int x, y, z;
+                grid_coords(&gs, 0, i, &x, &y, &z);
+                if (y < 5)
+                    continue;
+                moved++;
+                inside += x >= lo && x <= hi && y >= lo && y <= hi && z >= lo && z <= hi;
+                out += ((const alpha_record *)rsp)[i].opacity;
+            }
+            size_t want = (size_t)(hi - lo + 1) * (size_t)(hi - lo + 1) * (size_t)(hi - lo + 1);
+            snprintf(name, sizeof name, "alpha: scale 2 (%s) fills every cell of the grown block, no holes (%zu of %zu)",
+                     dyn_filter_name(filter), inside, want);
+            CHECK(name, inside == want && moved == want);
+            snprintf(name, sizeof name, "alpha: scale 2 (%s): opacity-weighted coverage x4 within 1 %%",
+                     dyn_filter_name(filter));
+            CHECK_NEAR(name, out / in, 4.0, 0.04);
+            grid_free(&gs), free(rsp);
+        }
     }
     free_world(&w);
 }

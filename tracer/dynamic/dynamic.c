@@ -233,6 +233,36 @@ static double snap(double v)
     return fabs(v - r) < 1e-6 ? r : v;
 }
 
+/* A record scaled by sc (its cube's edge, in cells) centred at q: spread over the cells its
+ * (axis-aligned) cube overlaps, so that a grown object keeps no holes. split8: each cell by the
+ * overlapped volume; nearest: the cells whose centres the cube holds, whole. Either way over sc
+ * (a record's surface grows by sc^2 while its cube grows by sc^3: sc layers of cells share what
+ * one layer held, and an alpha record keeps its opacity along a ray). Content is not rescaled. */
+static int place_scaled(pieces *ps, int n, const double q[3], double sc, int filter, const void *rec)
+{
+    double h = 0.5 * sc;
+    long long lo[3], hi[3];
+    for (int a = 0; a < 3; a++) {
+        lo[a] = (long long)floor(q[a] - h);
+        hi[a] = (long long)floor(q[a] + h);
+    }
+    for (long long x = lo[0]; x <= hi[0]; x++)
+        for (long long y = lo[1]; y <= hi[1]; y++)
+            for (long long z = lo[2]; z <= hi[2]; z++) {
+                long long c[3] = {x, y, z};
+                double w = 1.0;
+                for (int a = 0; a < 3 && w > 0; a++) {
+                    if (filter == DYN_NEAREST) /* half-open: neighbours never both claim a cell */
+                        w *= (double)c[a] + 0.5 - q[a] >= -h && (double)c[a] + 0.5 - q[a] < h;
+                    else
+                        w *= fmax(0.0, fmin((double)c[a] + 1.0, q[a] + h) - fmax((double)c[a], q[a] - h));
+                }
+                if (w > 1e-9 && put(ps, n, x, y, z, rec, (float)(w / sc), q))
+                    return -1;
+            }
+    return 0;
+}
+
 /* Places part P moved from its bake pose to pose (A, t): its records (turned by the rotation into
  * *turned, malloc'ed) as pieces. */
 static int place_part(const dyn_part *P, const vx_model *m, const double A[9], const double t[3], int filter,
@@ -257,6 +287,8 @@ static int place_part(const dyn_part *P, const vx_model *m, const double A[9], c
     }
     double det = M[0] * (M[4] * M[8] - M[5] * M[7]) - M[1] * (M[3] * M[8] - M[5] * M[6]) + M[2] * (M[3] * M[7] - M[4] * M[6]);
     double sc = cbrt(det);
+    if (fabs(sc - 1.0) < 1e-6)
+        sc = 1.0;
     float R[9];
     int rotated = 0;
     for (int i = 0; i < 9; i++) {
@@ -286,6 +318,11 @@ static int place_part(const dyn_part *P, const vx_model *m, const double A[9], c
         double c[3] = {x + 0.5, y + 0.5, z + 0.5}, q[3];
         for (int a = 0; a < 3; a++)
             q[a] = M[3 * a] * c[0] + M[3 * a + 1] * c[1] + M[3 * a + 2] * c[2] + L[a];
+        if (sc != 1.0 && (filter == DYN_SPLIT8 || sc > 1.0)) {
+            if (place_scaled(ps, n, q, sc, filter, rec))
+                return -1;
+            continue;
+        }
         if (filter == DYN_NEAREST) {
             if (put(ps, n, (long long)floor(q[0]), (long long)floor(q[1]), (long long)floor(q[2]), rec, 1.0f, q))
                 return -1;

@@ -7,8 +7,11 @@
  *   split8:  a record is split over the 8 cells around its transformed centre, each getting the
  *            fraction of the unit cube centred there that it overlaps (trilinear weights);
  * the record's directional content turned by the motion's rotation (vx_model.transform), and every
- * cell's parts (static records with weight 1 included) merged by vx_model.combine. Scale moves the
- * centres only: a record keeps the footprint of one cell (holes open above scale 1).
+ * cell's parts (static records with weight 1 included) merged by vx_model.combine. A scaled
+ * object's records cover its scaled footprint: split8 spreads a record over every cell its cube of
+ * edge s overlaps, nearest over the cells whose centres it holds (above s = 1), each by the
+ * covered volume over s, so that no holes open as the object grows; the records' content is not
+ * rescaled (a surface's position within the voxel, heitz-neyret's h, keeps its unscaled length).
  * rebake: the baseline, the scene posed at the frame and baked whole.
  * The parts' records are the whole scene's bake (at the first frame) wherever one part alone touches
  * a voxel; where several do, each part's own bake. */
