@@ -666,6 +666,27 @@ static void run_geometry(const vx_model *m, const bake_case *c, const geometry *
                 query_all(m, c, &sum, NULL, NULL, &g, records, vp);
             else
                 query_all(m, c, &sum, rec0, geo, NULL, NULL, vp);
+            /* Moving records of a model with levels (issue 17): every level-0 record turned
+             * obliquely and merged from two halves of itself off the cell's centre, the levels
+             * rebuilt by bake_finish, answers within the same bounds. */
+            if (m->transform && m->record.levels) {
+                static const float Ro[9] = {0.8f, 0, 0.6f, 0, 1, 0, -0.6f, 0, 0.8f};
+                size_t bytes = m->record.bytes;
+                unsigned char *turned = malloc(bytes), *moved = calloc(bake_record_count(m, &g), bytes);
+                struct vx_bake_params defaults;
+                bake_params_defaults(m, &defaults);
+                for (size_t i = 0; i < grid_count(&g, 0); i++) {
+                    m->transform((const char *)records + i * bytes, Ro, turned);
+                    const vx_record_part halves[2] = {{turned, 0.5f, {0.3f, -0.2f, 0.1f}}, {turned, 0.5f, {-0.3f, 0.2f, -0.1f}}};
+                    m->combine(halves, 2, g.voxel_size, moved + i * bytes);
+                }
+                if (m->bake_finish(&g, moved, &defaults))
+                    fail(vp, "bake_finish failed on moved records");
+                else
+                    query_all(m, c, &sum, NULL, NULL, &g, moved, vp);
+                free(turned);
+                free(moved);
+            }
             free(records);
             grid_free(&g);
         }
