@@ -59,7 +59,7 @@ FUZZ_DEPS = clang libclang-rt-14-dev
 # Debian packages voxlab needs to build and test (see README).
 DEPS = build-essential libembree-dev libopenexr-dev libopenimageio-dev libtinygltf-dev libstb-dev libtinyobjloader-dev libcjson-dev \
        ocl-icd-opencl-dev opencl-headers pocl-opencl-icd \
-       python3-numpy python3-skimage python3-matplotlib python3-openimageio python3-mpmath
+       python3-numpy python3-skimage python3-matplotlib python3-pil python3-openimageio python3-mpmath
 
 .PHONY: all deps test test-asan bench bench-build demo clean fuzz fuzz-build pylib
 all: $(BUILD)/voxlab

@@ -11,7 +11,8 @@ consecutive frames of each method next to the truth's own (flicker ratio = metho
 truth's motion, more is flicker). An object-count sweep (1 .. 256 objects) times the voxels of a
 frame per filter. Outputs in --out (default results/dynamic/): rows.csv (every frame), sweep.csv,
 summary.md (per model and filter; the models whose split8 error exceeds twice their re-baked error
-are named), strip.png (truth and each model's split8 over a few frames), time.png (sweep curve).
+are named), strip.png (truth and each model's split8 over a few frames), strip.gif (every frame),
+error.png (per-frame MSE curves), time.png (sweep curve).
 
 Voxlab is called directly (per-frame sequences do not fit the sweep engine's one-image jobs); runs
 are not cached. Defaults are the issue's (128^3, 24 frames, sweep to 256); --quick is a CI-sized
@@ -174,6 +175,24 @@ def figures(a, work, names, truth, sweep):
     fig.tight_layout()
     fig.savefig(os.path.join(a.out, "strip.png"), dpi=80)
     plt.close(fig)
+    write_gif(a, work, names, truth)
+    # Per-frame error of every model and filter (the error curves behind the summary's means).
+    rows = list(csv.DictReader(open(os.path.join(a.out, "rows.csv"))))
+    fig, ax = plt.subplots(figsize=(6, 4))
+    styles = {"nearest": ":", "split8": "-", "rebake": "--"}
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for i, m in enumerate(names):
+        for flt in FILTERS:
+            r = [x for x in rows if x["model"] == m and x["filter"] == flt]
+            ax.plot([int(x["frame"]) for x in r], [float(x["mse"]) for x in r], styles[flt],
+                    color=colours[i % len(colours)], label="%s %s" % (m, flt))
+    ax.set_xlabel("frame")
+    ax.set_ylabel("MSE against the frame's truth")
+    ax.set_yscale("log")
+    ax.legend(fontsize=6, ncol=2)
+    fig.tight_layout()
+    fig.savefig(os.path.join(a.out, "error.png"), dpi=80)
+    plt.close(fig)
     if sweep:
         fig, ax = plt.subplots(figsize=(5, 3.5))
         for flt in FILTERS:
@@ -186,6 +205,20 @@ def figures(a, work, names, truth, sweep):
         fig.tight_layout()
         fig.savefig(os.path.join(a.out, "time.png"), dpi=80)
         plt.close(fig)
+
+
+def write_gif(a, work, names, truth):
+    """strip.gif: every frame, the truth then each model's split8 side by side (sRGB, 8 bit)."""
+    from PIL import Image
+
+    def srgb(im):
+        return (np.clip(im, 0, 1) ** (1 / 2.2) * 255 + 0.5).astype(np.uint8)
+
+    pages = []
+    for f in range(a.frames):
+        row = [truth[f]] + [read(os.path.join(work, "%s_split8_%04d.exr" % (m, f))) for m in names]
+        pages.append(Image.fromarray(np.concatenate([srgb(x) for x in row], axis=1)))
+    pages[0].save(os.path.join(a.out, "strip.gif"), save_all=True, append_images=pages[1:], duration=120, loop=0)
 
 
 def write_summary(a, names, summary, sweep, fallbacks, t_flicker):
@@ -223,7 +256,9 @@ def write_summary(a, names, summary, sweep, fallbacks, t_flicker):
             L.append("| %d | %s | %.0f |" % (n, " | ".join("%.1f" % by[f]["voxels_ms"] for f in FILTERS),
                                              by["split8"]["prepare_ms"]))
         L.append("")
-    L.append("Figures: strip.png (truth and each model's split8 frames), time.png (the sweep).")
+    L.append("Figures: strip.png (truth and each model's split8 at a few frames), strip.gif (every frame: truth, "
+             "then each model's split8, in the order %s), error.png (MSE per frame, every model and filter), "
+             "time.png (the sweep)." % ", ".join(names))
     with open(os.path.join(a.out, "summary.md"), "w") as f:
         f.write("\n".join(L) + "\n")
 
