@@ -233,8 +233,14 @@ static void principal_axis(const double m[3][3], double out[3])
         len = sqrt(len);
         if (!(len > 1e-300))
             break;
-        for (int i = 0; i < 3; i++)
-            v[i] = w[i] / len;
+        int same = 1;
+        for (int i = 0; i < 3; i++) {
+            double next = w[i] / len;
+            same &= next == v[i];
+            v[i] = next;
+        }
+        if (same) /* an exact fixed point: the remaining iterations would not change a bit */
+            break;
     }
     double len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
     if (!(len > 1e-300)) {
@@ -357,7 +363,8 @@ static void derive(const moments *m, float size, hn_data *d)
         for (int i = 0; i < 3; i++)
             N[i] = nbar[i] / len;
     } else {
-        principal_axis(NN, N);
+        for (int i = 0; i < 3; i++) /* principal_axis(NN) again, already computed */
+            N[i] = axis[i];
         if (N[0] * nbar[0] + N[1] * nbar[1] + N[2] * nbar[2] < 0.0)
             for (int i = 0; i < 3; i++)
                 N[i] = -N[i];
@@ -675,7 +682,8 @@ static void hn_transform(const void *in, const float R[9], void *out)
     *(hn_record *)out = r;
 }
 
-/* Parts in one cell: the same sums of moments the coarser levels are built from (hn_bake_finish),
+/* Parts in one cell (several; one part alone keeps its statistics, below): the same sums of
+ * moments the coarser levels are built from (hn_bake_finish),
  * each part's moments taken about its own (moved) centre, shifted to the cell's centre by its
  * offset and scaled by the fraction it covers; so a plane keeps its position when nearest
  * rounds its record into a neighbouring cell, and split8's pieces each hold the plane where it
@@ -686,6 +694,18 @@ static void hn_combine(const vx_record_part *parts, int n, float voxel_size, voi
     const vx_record_part *p0 = &parts[0];
     if (n == 1 && p0->weight == 1.0f && p0->offset[0] == 0.0f && p0->offset[1] == 0.0f && p0->offset[2] == 0.0f) {
         *(hn_record *)out = *(const hn_record *)p0->record;
+        return;
+    }
+    if (n == 1) {
+        /* One part: its statistics as they are, the plane's height taken to the cell's centre and
+         * the area to the fraction covered (what the sums below give, without their round trip
+         * through a re-fit, which costs as much as the bake's own per-voxel work). */
+        hn_record r = *(const hn_record *)p0->record;
+        vec3 N = v3_normalize_or(v3((float)r.n[0], (float)r.n[1], (float)r.n[2]), v3(0.0f, 0.0f, 1.0f));
+        r.h += voxel_size * (N.x * p0->offset[0] + N.y * p0->offset[1] + N.z * p0->offset[2]);
+        if (p0->weight != 1.0f)
+            r.area = hn_float_to_half(hn_half_to_float(r.area) * p0->weight);
+        *(hn_record *)out = r;
         return;
     }
     moments sum;
