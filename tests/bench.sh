@@ -23,10 +23,10 @@ BUILD=${BUILD:-build}
 # per doubling of the grid up to 1024^3, binary's 2-thread speed-up on city (medians; ~10 min).
 "$BUILD"/tests/bench_frame scenes/bunny.json scenes/city.json 1024
 # Moving objects (issue 17): transforming the records of 1 and 256 moving tori (split8) over re-baking
-# them as posed, per object, 128^3 (medians of 5 frames; ~1 min).
+# them as posed, per object, 128^3, every model with transform/combine (medians of 5 frames; ~3 min).
 dyn_tmp=$(mktemp -d)
 for n in 1 256; do
   /usr/bin/python3 scenes/dynamic.py --objects $n -o "$dyn_tmp/dynamic_$n.json"
-  "$BUILD"/tests/bench_dynamic "$dyn_tmp/dynamic_$n.json" 128 binary alpha vicini
+  "$BUILD"/tests/bench_dynamic "$dyn_tmp/dynamic_$n.json" 128
 done
 rm -rf "$dyn_tmp"

@@ -3,7 +3,8 @@
  * (scenes/dynamic.py), each model's moving objects are baked once; then at frames spread over the
  * animation the median time of transforming their records into the world lattice (split8, which
  * costs more than nearest) is set against the median time of re-baking them as posed (grid + bake of
- * the moving triangles alone: the paper's "standard voxelization"). Goal (the issue): <= 0.05. */
+ * the moving triangles alone: the paper's "standard voxelization"). Goal (the issue): <= 0.05.
+ * Without MODEL arguments: every registered model with transform/combine. */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -16,8 +17,8 @@
 
 int main(int argc, char **argv)
 {
-    if (argc < 4) {
-        fprintf(stderr, "usage: bench_dynamic SCENE RES MODEL...\n");
+    if (argc < 3) {
+        fprintf(stderr, "usage: bench_dynamic SCENE RES [MODEL...]\n");
         return 2;
     }
     int res = atoi(argv[2]);
@@ -29,10 +30,16 @@ int main(int argc, char **argv)
     }
     int objects = s.anim->count, first = s.anim->first, last = s.anim->last;
     bake_options bo = {.rays = 150, .seed = 1};
-    for (int a = 3; a < argc; a++) {
-        const vx_model *m = model_find(argv[a]);
+    const vx_model *const *all = model_all();
+    int count = argc > 3 ? argc - 3 : 0;
+    for (const vx_model *const *p = all; argc == 3 && *p; p++)
+        count++;
+    for (int a = 0; a < count; a++) {
+        const vx_model *m = argc > 3 ? model_find(argv[3 + a]) : all[a];
+        if (argc == 3 && !m->transform)
+            continue;
         if (!m || !m->transform) {
-            fprintf(stderr, "bench_dynamic: %s: not a model with transform\n", argv[a]);
+            fprintf(stderr, "bench_dynamic: %s: not a model with transform\n", argv[3 + a]);
             return 1;
         }
         scene_set_frame(&s, first, &e);

@@ -335,6 +335,17 @@ static void check_lattice(const char *model, void (*fill)(void *, size_t))
         grid_free(&gn), free(rn), grid_free(&gs), free(rsp);
     }
 
+    /* The merge runs on several threads: one thread gives the same records bit for bit. */
+    w.d.threads = 1;
+    ok = frame_of(&w, 2, DYN_SPLIT8, &gn, &rn) == 0;
+    w.d.threads = 2;
+    ok = ok && frame_of(&w, 2, DYN_SPLIT8, &gs, &rsp) == 0;
+    snprintf(name, sizeof name, "%s: split8's merge on 1 and 2 threads gives the same records bit for bit", model);
+    CHECK(name, ok && same_frame(m, &gn, rn, &gs, rsp));
+    if (ok)
+        grid_free(&gn), free(rn), grid_free(&gs), free(rsp);
+    w.d.threads = 0;
+
     /* Frame 2: a fraction of a cell: split8 spreads each record over 8 cells and keeps the sums. */
     if (frame_of(&w, 2, DYN_SPLIT8, &gs, &rsp) == 0) {
         double in = 0, out = 0;

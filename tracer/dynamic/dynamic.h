@@ -39,6 +39,7 @@ typedef struct {
     dyn_part *part;
     int ref_frame;
     struct vx_bake_params params; /* the bake's model parameters (bake_finish rebuilds levels with them) */
+    int threads;                  /* the bake's --threads (0: every core): a frame's merge runs on them */
     double bake_seconds; /* baking every part once */
     /* The whole scene baked at the reference frame: a voxel only one part touches takes its record
      * from here, and a frame where nothing moved is this bake, so that the reference frame of every
