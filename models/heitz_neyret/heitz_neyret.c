@@ -127,8 +127,12 @@ static double sqrtpi_erfcx(double y)
 {
     if (y < 3.0)
         return sqrt(M_PI) * exp(y * y) * erfc(y);
+    /* Lentz's continued fraction; it converges faster the larger y: these term counts agree with
+     * 40 terms to the last bit or two of a double (checked against mpmath's erfc at y = 3 .. 40),
+     * and this function is most of the cost of heitz-neyret's level building. */
+    int terms = y >= 8.0 ? 12 : y >= 5.0 ? 18 : y >= 4.0 ? 24 : 40;
     double t = 0.0;
-    for (int k = 40; k >= 1; k--)
+    for (int k = terms; k >= 1; k--)
         t = (0.5 * k) / (y + t);
     return 1.0 / (y + t);
 }
