@@ -12,7 +12,8 @@ truth's motion, more is flicker). An object-count sweep (1 .. 256 objects) times
 frame per filter. Outputs in --out (default results/dynamic/): rows.csv (every frame), sweep.csv,
 summary.md (per model and filter; the models whose split8 error exceeds twice their re-baked error
 are named), strip.png (truth and each model's split8 over a few frames), strip.gif (every frame),
-error.png (per-frame MSE curves), time.png (sweep curve).
+error.png (per-frame MSE curves), flicker.png (frame-to-frame differences against the truth's),
+time.png (sweep curve, every model and filter).
 
 Voxlab is called directly (per-frame sequences do not fit the sweep engine's one-image jobs); runs
 are not cached. Defaults are the issue's (128^3, 24 frames, sweep to 256); --quick is a CI-sized
@@ -71,6 +72,7 @@ def main():
     ap.add_argument("--models", default="", help="comma-separated (default: every model)")
     ap.add_argument("--sweep", default="1,4,16,64,256", help="object counts of the time curve ('' to skip)")
     ap.add_argument("--sweep-res", type=int, default=0, help="grid of the sweep (default --res)")
+    ap.add_argument("--sweep-models", default="", help="comma-separated models of the sweep (default: --models)")
     ap.add_argument("--quick", action="store_true", help="CI size: 32^3, 4 frames, 64x64, sweep 1,4,16")
     ap.add_argument("--threads", type=int, default=0)
     a = ap.parse_args()
@@ -129,19 +131,20 @@ def main():
     # Object-count sweep: the voxels of a frame per filter (one model with transform, and re-bake).
     sweep = []
     counts = [int(x) for x in a.sweep.split(",") if x.strip()]
-    sweep_model = "alpha" if "alpha" in names else names[0]
+    sweep_models = [m for m in (a.sweep_models.split(",") if a.sweep_models else names) if m]
     for n in counts:
         sc = os.path.join(work, "sweep_%d.json" % n)
         make_scene(sc, n, max(a.frames, 3))
-        for flt in FILTERS:
-            base = os.path.join(work, "sweep_%d_%s" % (n, flt))
-            run([a.voxlab, "render", sc, "--model", sweep_model, "--res", str(a.sweep_res or a.res), "--spp", "1",
-                 "--size", "32x32", "--frames", "1:2", "--filter", flt, *thr, "-o", base + ".exr",
-                 "--stats", base + ".json"])
-            ms = [1e3 * json.load(open(base + "_%04d.json" % f))["frame_voxels_seconds"] for f in (1, 2)]
-            st = json.load(open(base + "_0001.json"))
-            sweep.append({"objects": n, "filter": flt, "model": sweep_model, "voxels_ms": float(np.median(ms)),
-                          "prepare_ms": 1e3 * st.get("prepare_bake_seconds", 0.0), "voxels": st["voxels"]})
+        for sweep_model in sweep_models:
+            for flt in FILTERS:
+                base = os.path.join(work, "sweep_%d_%s_%s" % (n, sweep_model, flt))
+                run([a.voxlab, "render", sc, "--model", sweep_model, "--res", str(a.sweep_res or a.res), "--spp", "1",
+                     "--size", "32x32", "--frames", "1:2", "--filter", flt, *thr, "-o", base + ".exr",
+                     "--stats", base + ".json"])
+                ms = [1e3 * json.load(open(base + "_%04d.json" % f))["frame_voxels_seconds"] for f in (1, 2)]
+                st = json.load(open(base + "_0001.json"))
+                sweep.append({"objects": n, "filter": flt, "model": sweep_model, "voxels_ms": float(np.median(ms)),
+                              "prepare_ms": 1e3 * st.get("prepare_bake_seconds", 0.0), "voxels": st["voxels"]})
     if sweep:
         with open(os.path.join(a.out, "sweep.csv"), "w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=list(sweep[0]))
@@ -193,15 +196,34 @@ def figures(a, work, names, truth, sweep):
     fig.tight_layout()
     fig.savefig(os.path.join(a.out, "error.png"), dpi=80)
     plt.close(fig)
+    # Temporal stability: mean |frame f+1 - frame f| per consecutive pair, the truth's own beside
+    # each model's (a method that flickers sits above the truth's curve; one that lags, below).
+    if a.frames > 1:
+        fig, ax = plt.subplots(figsize=(6, 4))
+        pairs = list(range(a.frames - 1))
+        ax.plot(pairs, [np.mean(np.abs(truth[f + 1] - truth[f])) for f in pairs], "k-", lw=2, label="truth")
+        for i, m in enumerate(names):
+            for flt in FILTERS:
+                ims = [read(os.path.join(work, "%s_%s_%04d.exr" % (m, flt, f))) for f in range(a.frames)]
+                ax.plot(pairs, [np.mean(np.abs(ims[f + 1] - ims[f])) for f in pairs], styles[flt],
+                        color=colours[i % len(colours)], label="%s %s" % (m, flt))
+        ax.set_xlabel("frame f (difference to f + 1)")
+        ax.set_ylabel("mean |frame-to-frame difference|")
+        ax.legend(fontsize=6, ncol=2)
+        fig.tight_layout()
+        fig.savefig(os.path.join(a.out, "flicker.png"), dpi=80)
+        plt.close(fig)
     if sweep:
-        fig, ax = plt.subplots(figsize=(5, 3.5))
-        for flt in FILTERS:
-            pts = [(s["objects"], s["voxels_ms"]) for s in sweep if s["filter"] == flt]
-            ax.loglog([p[0] for p in pts], [p[1] for p in pts], "o-", label=flt)
+        fig, ax = plt.subplots(figsize=(6, 4))
+        for i, m in enumerate(sorted(set(s["model"] for s in sweep), key=[s["model"] for s in sweep].index)):
+            for flt in FILTERS:
+                pts = [(s["objects"], s["voxels_ms"]) for s in sweep if s["filter"] == flt and s["model"] == m]
+                ax.loglog([p[0] for p in pts], [p[1] for p in pts], "o" + styles[flt], color=colours[i % len(colours)],
+                          label="%s %s" % (m, flt))
         ax.set_xlabel("moving objects")
         ax.set_ylabel("ms per frame (the frame's voxels)")
-        ax.set_title("%s, %d^3" % (sweep[0]["model"], a.sweep_res or a.res), fontsize=9)
-        ax.legend()
+        ax.set_title("%d^3" % (a.sweep_res or a.res), fontsize=9)
+        ax.legend(fontsize=6, ncol=2)
         fig.tight_layout()
         fig.savefig(os.path.join(a.out, "time.png"), dpi=80)
         plt.close(fig)
@@ -249,16 +271,19 @@ def write_summary(a, names, summary, sweep, fallbacks, t_flicker):
                  " (their nearest/split8 rows are re-bakes).")
         L.append("")
     if sweep:
-        L += ["## Time per frame against the number of moving objects (%s)" % sweep[0]["model"], "",
-              "| objects | " + " | ".join("%s ms" % f for f in FILTERS) + " | one-time bake ms |", "|---|---|---|---|---|"]
-        for n in sorted(set(s["objects"] for s in sweep)):
-            by = {s["filter"]: s for s in sweep if s["objects"] == n}
-            L.append("| %d | %s | %.0f |" % (n, " | ".join("%.1f" % by[f]["voxels_ms"] for f in FILTERS),
-                                             by["split8"]["prepare_ms"]))
+        L += ["## Time per frame against the number of moving objects", "",
+              "| model | objects | " + " | ".join("%s ms" % f for f in FILTERS) +
+              " | split8 / rebake | one-time bake ms |", "|---|---|---|---|---|---|---|"]
+        for m in sorted(set(s["model"] for s in sweep), key=[s["model"] for s in sweep].index):
+            for n in sorted(set(s["objects"] for s in sweep)):
+                by = {s["filter"]: s for s in sweep if s["objects"] == n and s["model"] == m}
+                L.append("| %s | %d | %s | %.3f | %.0f |" % (
+                    m, n, " | ".join("%.1f" % by[f]["voxels_ms"] for f in FILTERS),
+                    by["split8"]["voxels_ms"] / by["rebake"]["voxels_ms"], by["split8"]["prepare_ms"]))
         L.append("")
     L.append("Figures: strip.png (truth and each model's split8 at a few frames), strip.gif (every frame: truth, "
              "then each model's split8, in the order %s), error.png (MSE per frame, every model and filter), "
-             "time.png (the sweep)." % ", ".join(names))
+             "flicker.png (frame-to-frame difference per frame, the truth's and each method's), time.png (the sweep)." % ", ".join(names))
     with open(os.path.join(a.out, "summary.md"), "w") as f:
         f.write("\n".join(L) + "\n")
 
