@@ -6,6 +6,8 @@
 #   make shadows     shadow methods (march, slicemap, slicemap-model) x every model  results/shadows/
 #   make dynamic     moving objects: transform (nearest/split8) vs re-bake per model  results/dynamic/
 #                    (DYNAMIC_ARGS="--quick" for a CI-sized run; experiments/dynamic.py --help)
+#   make crossover   where voxels pay: every model against the triangles at equal error,    results/crossover/
+#                    swept over triangle count and viewing distance (experiments/crossover.json)
 #   make regress     the CI subset against results/baseline.json; fails on a regression
 #   make dashboard   all of the above, then results/dashboard/index.html (+ screenshot.png)
 #   make dashboard-page  only the page, from whatever results exist (seconds)
@@ -44,7 +46,7 @@ DEPS += libjs-jquery libjs-jquery-tablesorter libjs-chart.js
 # daemons and clients, and munge for their authentication.
 SLURM_DEPS = slurm-wlm munge
 
-.PHONY: dynamic table1 pareto figures shadows regress regress-run dashboard dashboard-page baseline experiments-clean-cache test-slurm
+.PHONY: dynamic crossover table1 pareto figures shadows regress regress-run dashboard dashboard-page baseline experiments-clean-cache test-slurm
 
 # Every target first makes sure the packages and the binary are there (as `make test` does).
 define exp_prepare
@@ -65,6 +67,10 @@ dynamic:
 pareto:
 	$(exp_prepare)
 	$(EXP_PY) experiments/pareto.py $(EXP_ARGS)
+
+crossover:
+	$(exp_prepare)
+	$(EXP_PY) experiments/crossover.py $(EXP_ARGS)
 
 figures:
 	$(exp_prepare)

@@ -89,15 +89,30 @@ def scene_fingerprint(path, for_bake=False):
 
 
 def _set_dotted(obj, dotted, value, where):
+    """Sets obj's field at a dotted path; a number indexes a list ("objects.0.params.count")."""
     keys = dotted.split(".")
-    for k in keys[:-1]:
-        if not isinstance(obj.get(k), dict):
+    for i, k in enumerate(keys):
+        last = i == len(keys) - 1
+        if isinstance(obj, list):
+            if not k.isdigit() or int(k) >= len(obj):
+                raise VoxlabError(f"scene variant {where}: {dotted}: {k} is not an index of a list of {len(obj)}")
+            k = int(k)
+            if last:
+                obj[k] = value
+                return
+            if not isinstance(obj[k], (dict, list)):
+                obj[k] = {}
+            obj = obj[k]
+            continue
+        if last:
+            if value is None:
+                obj.pop(k, None)
+            else:
+                obj[k] = value
+            return
+        if not isinstance(obj.get(k), (dict, list)):
             obj[k] = {}
         obj = obj[k]
-    if value is None:
-        obj.pop(keys[-1], None)
-    else:
-        obj[keys[-1]] = value
 
 
 def write_variant(base_path, name, settings, out_dir):
