@@ -169,7 +169,6 @@ void dyn_free(dyn_scene *d)
 /* One part of a record put into one cell. */
 typedef struct {
     uint32_t cell; /* x << 20 | y << 10 | z: sorted, the grid's dense order */
-    uint32_t seq;  /* placement order: ties keep it, so the merge is deterministic */
     const void *rec;
     float w;
     float off[3]; /* the record's centre minus the cell's, in cells (vx_record_part.offset) */
@@ -198,7 +197,7 @@ static int put(pieces *ps, int n, long long x, long long y, long long z, const v
         ps->cap = cap;
     }
     piece *p = &ps->p[ps->n];
-    *p = (piece){(uint32_t)x << 20 | (uint32_t)y << 10 | (uint32_t)z, (uint32_t)ps->n, rec, w, {0, 0, 0}};
+    *p = (piece){(uint32_t)x << 20 | (uint32_t)y << 10 | (uint32_t)z, rec, w, {0, 0, 0}};
     if (q) {
         p->off[0] = (float)(q[0] - ((double)x + 0.5));
         p->off[1] = (float)(q[1] - ((double)y + 0.5));
