@@ -183,6 +183,24 @@ static void check_shift(void)
     CHECK_NEAR("vmesh: ... keeping their opacity (200 of 255, 2 % left behind)", s.opacity[(2 * 3 + 1) * 3 + 1], 196, 2);
 }
 
+/* A scaled object's placement (tracer/dynamic/: scale 2 spreads a record over the cells its cube
+ * of edge 2 overlaps, weight = covered volume / 2): a cell more than one cell from the record's
+ * centre still gets its content (no hole), thinned, so that two such cells give each sub-cell's
+ * coverage. */
+static void check_scaled(const vmesh_record *a)
+{
+    vx_record_part p = {a, 0.5f, {1.2f, 0.3f, -0.4f}};
+    vmesh_record s;
+    vmesh_combine(&p, 1, 1.0f, &s);
+    double worst = 0;
+    for (int c = 0; c < VMESH_SUBCELLS; c++) {
+        double t = 1.0 - s.opacity[c] / 255.0;
+        worst = fmax(worst, fabs(t * t - (1.0 - a->opacity[c] / 255.0)));
+    }
+    CHECK_NEAR("vmesh: a scale-2 placement beyond the unit cube (offset 1.2 cells, weight 1/2) keeps its sub-cells, "
+               "two cells' worth giving each sub-cell's opacity", worst, 0, 0.01);
+}
+
 /* The record's centre at q (cell units from the lower cell's centre) split over the 8 cells around
  * it by trilinear weights, each cell holding its piece alone (split8). */
 static void check_split(const vmesh_record *a)
@@ -331,6 +349,7 @@ int main(void)
     check_halves(&a);
     check_shift();
     check_split(&a);
+    check_scaled(&a);
     check_fallback();
     return unit_exit();
 }

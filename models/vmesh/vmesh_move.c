@@ -116,17 +116,22 @@ static void shift_subgrid(const unsigned char in[VMESH_SUBCELLS], const float d[
             }
 }
 
-/* The share of a part's coverage that the cell holds beyond what its shifted subgrid already says:
- * weight / (the volume its cube overlaps the cell). split8's weights are exactly that volume (1:
- * the shift did the splitting), nearest's and static parts' are 1; a weight below the overlap
- * (two halves of one record at offset 0) thins the part's coverage. */
-static float coverage_share(const vx_record_part *p)
+/* How a part enters the cell: shifted by its offset (*shift = 1) with the share of its coverage
+ * the cell holds beyond what the shifted subgrid already says, weight / (the volume its unit cube
+ * overlaps the cell): split8's weights are exactly that volume (share 1: the shift did the
+ * splitting), nearest's and static parts' are 1 (share 1); two halves of one record at offset 0
+ * have share 1/2. A scaled object's placements (tracer/dynamic/: the record's cube of edge s spread
+ * over the cells it overlaps, weight = covered volume / s) have a weight above that volume or an
+ * offset beyond the unit cube; a shift would cut their content off and open holes, so they enter
+ * unshifted, thinned by their weight (s cells along a ray then keep the record's opacity). */
+static float coverage_share(const vx_record_part *p, int *shift)
 {
     float ov = 1.0f;
     for (int a = 0; a < 3; a++)
         ov *= fmaxf(0.0f, 1.0f - fabsf(p->offset[a]));
-    if (!(ov > 0.0f))
-        return 1.0f;
+    *shift = ov > 0.0f && (p->weight == 1.0f || p->weight <= ov * 1.001f);
+    if (!*shift)
+        return fminf(fmaxf(p->weight, 0.0f), 1.0f);
     return fminf(p->weight / ov, 1.0f);
 }
 
@@ -252,9 +257,12 @@ void vmesh_combine(const vx_record_part *parts, int n, float voxel_size, void *o
     double M = 0, faced = 0;
     for (int i = 0; i < n; i++) {
         const vmesh_record *a = parts[i].record;
-        float d[3] = {3.0f * parts[i].offset[0], 3.0f * parts[i].offset[1], 3.0f * parts[i].offset[2]}, o[VMESH_SUBCELLS];
+        int shift;
+        double share = coverage_share(&parts[i], &shift);
+        float d[3] = {0, 0, 0}, o[VMESH_SUBCELLS];
+        for (int k = 0; shift && k < 3; k++)
+            d[k] = 3.0f * parts[i].offset[k];
         shift_subgrid(a->opacity, d, o);
-        double share = coverage_share(&parts[i]);
         for (int c = 0; c < VMESH_SUBCELLS; c++)
             clear[c] *= o[c] >= 1.0f ? 0.0 : pow(1.0 - (double)o[c], share);
         /* What the part adds to the look: its covered fraction times its mean opacity. */
