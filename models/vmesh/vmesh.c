@@ -2,7 +2,8 @@
  * octahedron whose eight faces hold a colour and 1-3 normals or three extremal normals of a
  * distribution, and a 3x3x3 subgrid of opacities projected as disks for a directional opacity;
  * front-to-back alpha compositing. Record: vmesh_record.h; bake: vmesh_bake.c and the files it
- * calls; per-voxel evaluation (portable C, also the OpenCL backend's source): vmesh_eval.h. */
+ * calls; per-voxel evaluation (portable C, also the OpenCL backend's source): vmesh_eval.h; moving
+ * records (transform, combine): vmesh_move.c. */
 #include "vmesh_bake.h"
 #include "vmesh_eval.h"
 
@@ -81,4 +82,6 @@ const vx_model model_vmesh = {
     .bake_voxel = vmesh_bake_voxel,
     .validate_record = vmesh_validate,
     .voxel = &vmesh_eval,
+    .transform = vmesh_transform, /* vmesh_move.c */
+    .combine = vmesh_combine,
 };

@@ -36,4 +36,30 @@ int vmesh_chord_cells(vec3 e, vec3 d, float len, int cells[8]);
 /* vx_model.bake_voxel: fills the vmesh_record `out` (zeroed by the caller). */
 void vmesh_bake_voxel(const vx_voxel *v, const vx_sample *samples, int n, void *out);
 
+/* The record's encoders (what the bake writes; the moving operations re-encode with them):
+ * [-1, 1] -> signed byte x127, [0, 1] -> unsigned byte x255 (NaN and negatives 0). */
+signed char vmesh_encode_snorm(float x);
+unsigned char vmesh_encode_unorm(float x);
+void vmesh_encode_vec(vec3 v, signed char out[3]);
+
+/* The octant face of a normal in a decoded frame (vmesh_record.h's indexing). */
+int vmesh_face_of(const vmesh_octahedron *o, vec3 n);
+
+/* The frame (axes and projected areas) into r's axis and area bytes. */
+void vmesh_encode_frame(vmesh_record *r, const sggx_frame *fit);
+
+/* The faces of r (normals, colours, faces and distribution bits) from n unit normals with their
+ * albedos and weights (NULL: 1 each), sorted into the octants of r's frame as the renderer decodes
+ * it (so the frame must be encoded first) by sort_dir (NULL: the normals themselves; vmesh_combine
+ * sorts the normals of one stored face together, by their mean) and fitted per face with
+ * vmesh_fit_face; a face's colour is the weighted mean albedo of its normals. face (n ints)
+ * receives each normal's face, sorted (n vectors) is scratch. Used by the bake and by
+ * vmesh_combine (vmesh_move.c). */
+void vmesh_build_faces(vmesh_record *r, const vec3 *normals, const vec3 *albedo, const float *weight,
+                       const vec3 *sort_dir, int n, int *face, vec3 *sorted);
+
+/* vx_model.transform and .combine (vmesh_move.c). */
+void vmesh_transform(const void *in, const float R[9], void *out);
+void vmesh_combine(const struct vx_record_part *parts, int n, float voxel_size, void *out);
+
 #endif
