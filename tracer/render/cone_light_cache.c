@@ -4,6 +4,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "prefault.h"
+
 #define LIGHT_CACHE_MAX_SLOTS ((size_t)1 << 23) /* 8 M slots: 64 MB of keys at most */
 
 size_t cone_light_cache_slots(size_t cells)
@@ -24,9 +26,11 @@ int cone_light_cache_init(cone_light_cache *c, size_t cells, int lights)
 {
     memset(c, 0, sizeof *c);
     size_t slots = cone_light_cache_slots(cells);
-    c->keys = calloc(slots, sizeof *c->keys);
-    c->state = calloc(slots, sizeof *c->state);
-    c->T = calloc(slots * (size_t)(lights > 0 ? lights : 1), sizeof *c->T);
+    /* Touched here, before the render threads start (prefault.h: calloc's pages would fault inside
+     * the render's clock). Zero keys and states: every slot free and empty. */
+    c->keys = vx_alloc_touched(slots * sizeof *c->keys, 0);
+    c->state = vx_alloc_touched(slots * sizeof *c->state, 0);
+    c->T = vx_alloc_touched(slots * (size_t)(lights > 0 ? lights : 1) * sizeof *c->T, 0);
     if (!c->keys || !c->state || !c->T) {
         cone_light_cache_free(c);
         return -1;

@@ -5,9 +5,16 @@
 
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 
 #include "camera.h"
 #include "render_internal.h"
+
+static long minor_faults(void)
+{
+    struct rusage ru;
+    return getrusage(RUSAGE_SELF, &ru) ? 0 : ru.ru_minflt;
+}
 
 void render_default_options(render_options *o)
 {
@@ -53,10 +60,13 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
     }
     /* The image's pages touched here, not by the render threads (see render_voxel.c's prepare). */
     memset(out->data, 0, (size_t)o->width * (size_t)o->height * 3 * sizeof *out->data);
+    long f0 = minor_faults();
     double t0 = now_seconds();
     parallel_for(o->height, threads, marcher->row, &j, o->progress ? "render" : NULL);
+    double t1 = now_seconds();
     memset(counts, 0, sizeof *counts);
-    counts->seconds = now_seconds() - t0;
+    counts->seconds = t1 - t0;
+    counts->page_faults = minor_faults() - f0;
     counts->shadows = sst;
     uint64_t model_cycles = 0, total_cycles = 0;
     for (int t = 0; t < threads; t++) {

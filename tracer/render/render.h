@@ -32,6 +32,8 @@ typedef struct {
     double model_seconds;     /* inside the model's opacity and shade calls */
     uint64_t rays, shadow_rays, voxel_visits, model_evals, cache_hits;
     shadow_stats shadows;     /* the shadow method, its precomputation (outside `seconds`), its queries */
+    long page_faults;         /* the process's minor page faults during `seconds` (getrusage): memory
+                               * first touched by the render threads (issue 15; tests/unit_render.c) */
 } render_counts;
 
 void render_default_options(render_options *o);

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "prefault.h"
 #include "render_internal.h"
 
 /* A voxel's cached answer for the direction voxel -> camera. state: 0 empty, 1 being computed,
@@ -110,7 +111,8 @@ static void cache_put(voxel_ctx *x, int64_t index, const vx_answer *a)
 
 /* Allocated and touched here, before the threads start and outside the render's clock: pages first
  * written by the render threads cost a zero-page fault and a TLB shootdown of the other core each
- * (issue 15: binary gained almost nothing from a second thread). */
+ * (issue 15: binary gained almost nothing from a second thread). vx_alloc_touched (prefault.h), not
+ * malloc + memset: GCC turns that pair into a calloc, whose pages stay untouched. */
 static int voxel_prepare(render_job *j, vx_err *e)
 {
     const scene *s = j->s;
@@ -120,10 +122,9 @@ static int voxel_prepare(render_job *j, vx_err *e)
         return vx_fail(e, "out of memory for the render");
     j->state = st;
     if (j->o->cache) {
-        st->entries = malloc((n ? n : 1) * sizeof(cache_entry));
+        st->entries = vx_alloc_touched(n * sizeof(cache_entry), 0); /* state 0: empty */
         if (!st->entries)
             return vx_fail(e, "out of memory for the shading cache (%zu voxels)", n);
-        memset(st->entries, 0, (n ? n : 1) * sizeof(cache_entry)); /* state 0: empty */
     }
     int directional = 0;
     for (int li = 0; li < s->light_count && li < VX_MAX_LIGHTS; li++)
@@ -131,10 +132,9 @@ static int voxel_prepare(render_job *j, vx_err *e)
     if ((s->effects & EFFECT_SHADOWS) && directional && j->m->voxel->opacity_by_direction && !j->shadows) {
         st->lights = s->light_count < VX_MAX_LIGHTS ? s->light_count : VX_MAX_LIGHTS;
         size_t slots = (n ? n : 1) * (size_t)st->lights;
-        st->memo = malloc(slots * sizeof *st->memo);
+        st->memo = vx_alloc_touched(slots * sizeof *st->memo, 0xFF); /* MEMO_EMPTY */
         if (!st->memo)
             return vx_fail(e, "out of memory for the shadow opacity memo (%zu voxels)", n);
-        memset(st->memo, 0xFF, slots * sizeof *st->memo); /* MEMO_EMPTY */
     }
     return 0;
 }
