@@ -13,6 +13,7 @@
 #include "json_util.h"
 #include "mesh_load.h"
 #include "readfile.h"
+#include "xform.h"
 
 #define MAX_IMAGE_SIDE 16384
 #define MAX_IMAGE_PIXELS (64 * 1024 * 1024)
@@ -404,55 +405,17 @@ static int parse_lights(scene *s, const cJSON *root, vx_err *e)
     return 0;
 }
 
-/* Scale, then rotate about x, y, z (degrees), then translate; normals rotate (and flip with a
- * negative scale determinant, which also reverses the winding to keep fronts outside). */
+/* The object's "transform" (xform.h: scale, rotate, translate; normals by the inverse transpose). */
 static int apply_transform(mesh *m, size_t v0, size_t t0, const cJSON *xf, const char *where, vx_err *e)
 {
     if (!xf)
         return 0;
     char w2[600];
     snprintf(w2, sizeof w2, "%s.transform", where);
-    static const char *const known[] = {"scale", "rotate_deg", "translate", NULL};
-    if (!cJSON_IsObject(xf))
-        return vx_fail(e, "%s: expected an object", w2);
-    vec3 scale = v3(1, 1, 1), rot = v3(0, 0, 0), tr = v3(0, 0, 0);
-    const cJSON *sc = cJSON_GetObjectItemCaseSensitive(xf, "scale");
-    if (json_only_fields(xf, w2, known, e))
+    xform x;
+    if (xform_parse(xf, w2, &x, e))
         return -1;
-    if (cJSON_IsNumber(sc)) {
-        double k = 1;
-        if (json_number(xf, "scale", w2, &k, e))
-            return -1;
-        scale = v3((float)k, (float)k, (float)k);
-    } else if (json_vec3(xf, "scale", w2, &scale, e)) {
-        return -1;
-    }
-    if (scale.x == 0 || scale.y == 0 || scale.z == 0)
-        return vx_fail(e, "%s.scale: must not be zero", w2);
-    if (json_vec3(xf, "rotate_deg", w2, &rot, e) || json_vec3(xf, "translate", w2, &tr, e))
-        return -1;
-    double ang[3] = {rot.x * M_PI / 180, rot.y * M_PI / 180, rot.z * M_PI / 180};
-    for (size_t i = v0; i < m->vertex_count; i++) {
-        float *p = &m->positions[3 * i], *n = &m->normals[3 * i];
-        double P[3] = {p[0] * scale.x, p[1] * scale.y, p[2] * scale.z};
-        double N[3] = {n[0] / scale.x, n[1] / scale.y, n[2] / scale.z};
-        for (int axis = 0; axis < 3; axis++) {
-            int a = (axis + 1) % 3, b = (axis + 2) % 3;
-            double c = cos(ang[axis]), s = sin(ang[axis]);
-            double pa = c * P[a] - s * P[b], pb = s * P[a] + c * P[b];
-            double na = c * N[a] - s * N[b], nb = s * N[a] + c * N[b];
-            P[a] = pa, P[b] = pb, N[a] = na, N[b] = nb;
-        }
-        vec3 nn = v3_normalize(v3((float)N[0], (float)N[1], (float)N[2]));
-        p[0] = (float)(P[0] + tr.x), p[1] = (float)(P[1] + tr.y), p[2] = (float)(P[2] + tr.z);
-        n[0] = nn.x, n[1] = nn.y, n[2] = nn.z;
-    }
-    if (scale.x * scale.y * scale.z < 0)
-        for (size_t t = t0; t < m->triangle_count; t++) {
-            uint32_t tmp = m->indices[3 * t + 1];
-            m->indices[3 * t + 1] = m->indices[3 * t + 2];
-            m->indices[3 * t + 2] = tmp;
-        }
+    xform_apply(m, v0, t0, &x);
     return 0;
 }
 
