@@ -10,6 +10,7 @@
 
 #include "animation.h"
 #include "generator.h"
+#include "instancing.h"
 #include "json_util.h"
 #include "mesh_load.h"
 #include "readfile.h"
@@ -500,7 +501,8 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
         char where[512];
         snprintf(where, sizeof where, "%s: objects[%d]", s->path, i++);
         static const char *const known[] = {"generator", "seed", "params", "materials", "material",
-                                            "ply", "gltf", "obj", "transform", "uris_outside_folder", "animation", NULL};
+                                            "ply", "gltf", "obj", "transform", "uris_outside_folder", "animation",
+                                            "name", "instances", "scatter", NULL};
         if (!cJSON_IsObject(o))
             return vx_fail(e, "%s: expected an object", where);
         if (json_only_fields(o, where, known, e))
@@ -549,7 +551,7 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
             warn_unused_texture(s, v0, t0, where);
         }
         if (apply_transform(&s->mesh, v0, t0, cJSON_GetObjectItemCaseSensitive(o, "transform"), where, e) ||
-            anim_parse_object(s, o, where, i - 1, v0, e))
+            inst_parse_object(s, o, where, v0, t0, e) || anim_parse_object(s, o, where, i - 1, v0, e))
             return -1;
         for (size_t v = v0; v < s->mesh.vertex_count; v++)
             for (int k = 0; k < 3; k++)
@@ -559,23 +561,34 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
     return 0;
 }
 
-/* Drops zero-area triangles (they have no surface to shade or voxelise) and counts them. */
-static void drop_degenerate(scene *s)
+/* Drops zero-area triangles (they have no surface to shade or voxelise) and counts them. An
+ * instanced scene then learns where each copy's triangles went (instancing.h). */
+static int drop_degenerate(scene *s, vx_err *e)
 {
     mesh *m = &s->mesh;
-    size_t kept = 0;
+    size_t kept = 0, old_count = m->triangle_count;
+    uint32_t *map = NULL;
+    if (s->inst && s->inst->count && !(map = malloc((old_count + 1) * sizeof *map)))
+        return vx_fail(e, "%s: out of memory", s->path);
     for (size_t t = 0; t < m->triangle_count; t++) {
         const uint32_t *tri = &m->indices[3 * t];
         vec3 a = mesh_position(m, tri[0]), b = mesh_position(m, tri[1]), c = mesh_position(m, tri[2]);
         vec3 n = v3_cross(v3_sub(b, a), v3_sub(c, a));
         if (!(v3_dot(n, n) > 0.0f)) {
             s->degenerate_triangles++;
+            if (map)
+                map[t] = UINT32_MAX;
             continue;
         }
+        if (map)
+            map[t] = (uint32_t)kept;
         memmove(&m->indices[3 * kept], tri, 3 * sizeof(uint32_t));
         m->materials[kept++] = m->materials[t];
     }
     m->triangle_count = kept;
+    int rc = map ? inst_finalize(s, map, old_count, e) : 0;
+    free(map);
+    return rc;
 }
 
 static uint64_t hash_bytes(uint64_t h, const void *data, size_t n)
@@ -672,7 +685,8 @@ int scene_load_text(const char *text, const char *path, scene *s, vx_err *e)
         if (dot)
             *dot = 0;
     }
-    drop_degenerate(s);
+    if (drop_degenerate(s, e))
+        goto done;
     if (s->mesh.triangle_count == 0) {
         vx_fail(e, "%s: objects: the scene has no triangles (after dropping %zu zero-area ones)", path,
                 s->degenerate_triangles);
@@ -704,5 +718,6 @@ void scene_free(scene *s)
     free(s->path);
     free(s->name);
     anim_free(s->anim);
+    inst_free(s->inst);
     memset(s, 0, sizeof *s);
 }
