@@ -104,6 +104,12 @@ prov = json.loads(p.stdout).get("provenance", {}) if p.returncode == 0 else {}
 report("the scene hash (geometry and materials) of both forms is the same",
        prov and prov["a"]["scene_hash"] == prov["b"]["scene_hash"], p.stdout + p.stderr)
 
+# The slicemap shadows' columns are Embree rays through the instances too (rtcIntersect1).
+bi, _, e1 = truth(pi, os.path.join(TMP, "inst_sm.exr"), "--shadows", "slicemap")
+be, _, e2 = truth(pe, os.path.join(TMP, "inst_exp_sm.exr"), "--shadows", "slicemap")
+ok, why = close(bi, be)
+report("truth --shadows slicemap: instanced == written out", ok, why + e1 + e2)
+
 # 2. Grid and bake: the same voxels and the same .vox bytes.
 for model in ("alpha", "binary"):
     vi, ve = os.path.join(TMP, f"inst_{model}.vox"), os.path.join(TMP, f"inst_exp_{model}.vox")

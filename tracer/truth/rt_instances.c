@@ -15,6 +15,25 @@
 
 #include "instancing.h"
 
+/* A triangle geometry over the mesh (all of it): Embree's own buffers, as it may read past the last
+ * vertex with 16-byte loads, which a shared buffer of ours would have to be padded for. */
+RTCGeometry rt_triangle_geometry(RTCDevice device, const mesh *m)
+{
+    RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    float *vb = rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                        m->vertex_count);
+    unsigned *ib = rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
+                                           m->triangle_count);
+    if (!vb || !ib) {
+        rtcReleaseGeometry(geom);
+        return NULL;
+    }
+    memcpy(vb, m->positions, m->vertex_count * 3 * sizeof(float));
+    memcpy(ib, m->indices, m->triangle_count * 3 * sizeof(unsigned));
+    rtcCommitGeometry(geom);
+    return geom;
+}
+
 /* Instance copies are attached with geomID = instance index; the other objects' triangles last. */
 static void instance_filter(const struct RTCFilterFunctionNArguments *args)
 {

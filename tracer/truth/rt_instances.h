@@ -9,7 +9,7 @@
 
 /* Attaches the instanced scene's geometry to rt->bvh (not yet committed); rt->protos filled. */
 int rt_attach_instances(rt_scene *rt, const scene *s, vx_err *e);
-/* A committed triangle geometry holding mesh m (rt.c). */
+/* A committed triangle geometry holding mesh m (every BVH of rt.c is made of these). */
 RTCGeometry rt_triangle_geometry(RTCDevice device, const mesh *m);
 
 #endif
