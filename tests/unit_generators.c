@@ -182,6 +182,7 @@ static const struct {
 } out_of_range[] = {
     {"spheres", "count", "{\"count\": 0}"},
     {"trees", "leaf_size", "{\"leaf_size\": -0.1}"},
+    {"tree", "leaves", "{\"leaves\": -1}"},
     {"island", "resolution", "{\"resolution\": 3}"},
     {"city", "street_width", "{\"street_width\": 100}"},
     {"heightfield", "sigma_h", "{\"sigma_h\": -1}"},

@@ -7,12 +7,13 @@
 /* Each defined in its own file. */
 extern const scene_generator generator_spheres;
 extern const scene_generator generator_trees;
+extern const scene_generator generator_tree;
 extern const scene_generator generator_island;
 extern const scene_generator generator_city;
 extern const scene_generator generator_heightfield;
 
 static const scene_generator *const all_generators[] = {
-    &generator_spheres, &generator_trees, &generator_island, &generator_city, &generator_heightfield, NULL,
+    &generator_spheres, &generator_trees, &generator_tree, &generator_island, &generator_city, &generator_heightfield, NULL,
 };
 
 const scene_generator *const *generator_all(void) { return all_generators; }

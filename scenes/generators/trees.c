@@ -206,3 +206,36 @@ const scene_generator generator_trees = {
     .slots = tree_slots,
     .generate = trees_generate,
 };
+
+/* "tree": one tree of the forest above at the origin (its base at y = 0), without ground: the
+ * prototype an instanced forest repeats ("instances" / "scatter", tracer/scene/instancing.h).
+ * params: leaves (per tree, default 800), leaf_size (default 0.065), size (the tree's scale, 1 =
+ * the forest's trees on its 10-unit ground). The seed picks the tree's shape. */
+static const char *const tree_slots_one[] = {"bark", "leaf", NULL};
+
+static int tree_generate(const cJSON *params, const char *where, uint64_t seed, const uint32_t *slot_materials,
+                         mesh *out, vx_err *e)
+{
+    static const char *const known[] = {"leaves", "leaf_size", "size", NULL};
+    trees_params p = {1, 800, 10.0, 0.065};
+    double size = 1.0;
+    if (!where)
+        where = "params";
+    if (params && !cJSON_IsObject(params))
+        return vx_fail(e, "%s: expected an object of parameters", where);
+    if (json_only_fields(params, where, known, e) || json_int_in(params, "leaves", where, 0, 20000, &p.leaves_per_tree, e) ||
+        json_number_in(params, "size", where, 1e-3, 1e3, &size, e) ||
+        json_number_in(params, "leaf_size", where, 1e-3 * size, 0.5 * size, &p.leaf_size, e))
+        return -1;
+    uint32_t slots[3] = {0, slot_materials[0], slot_materials[1]}; /* add_tree's ground, bark, leaf */
+    add_tree(out, &p, seed, 0, v3(0, 0, 0), (float)size, slots);
+    return 0;
+}
+
+const scene_generator generator_tree = {
+    .name = "tree",
+    .description = "one tree of the trees generator at the origin, no ground: a prototype to instance (params: "
+                   "leaves, leaf_size, size)",
+    .slots = tree_slots_one,
+    .generate = tree_generate,
+};

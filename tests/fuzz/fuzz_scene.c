@@ -5,7 +5,9 @@
  * its default resolution (512^2: 7 s a load under ASan): generators accept resolutions and counts up
  * to thousands (a 4096^2 height field is 33 M triangles, minutes and gigabytes under ASan), which
  * the fuzzer would otherwise report as timeouts and out-of-memory on inputs that are valid. Small
- * values still run every generator's code (run.sh seeds the height field at resolution 32). */
+ * values still run every generator's code (run.sh seeds the height field at resolution 32). Instancing
+ * multiplies an object: inputs with more than 64 instances over all objects ("instances" lists and
+ * "scatter" counts) are skipped too, for the same reason (a million copies are valid, and gigabytes). */
 #include <cjson/cJSON.h>
 
 #include "fuzz_common.h"
@@ -25,14 +27,20 @@ static int too_costly(const uint8_t *data, size_t size)
 {
     cJSON *root = cJSON_ParseWithLength((const char *)data, size);
     int costly = 0;
+    double copies = 0; /* instances over every object */
     const cJSON *objects = cJSON_GetObjectItemCaseSensitive(root, "objects");
     for (const cJSON *o = objects ? objects->child : NULL; o && !costly; o = o->next)
     {
         const cJSON *gen = cJSON_GetObjectItemCaseSensitive(o, "generator");
         const cJSON *params = cJSON_GetObjectItemCaseSensitive(o, "params");
-        costly = gen && (has_big_number(params) ||
+        const cJSON *list = cJSON_GetObjectItemCaseSensitive(o, "instances");
+        const cJSON *scatter = cJSON_GetObjectItemCaseSensitive(o, "scatter");
+        const cJSON *count = cJSON_GetObjectItemCaseSensitive(scatter, "count");
+        copies += cJSON_GetArraySize(list) + (cJSON_IsNumber(count) ? count->valuedouble : 0);
+        costly = has_big_number(count) || copies > 64;
+        costly = costly || (gen && (has_big_number(params) ||
                          (cJSON_IsString(gen) && strcmp(gen->valuestring, "heightfield") == 0 &&
-                          !cJSON_GetObjectItemCaseSensitive(params, "resolution")));
+                          !cJSON_GetObjectItemCaseSensitive(params, "resolution"))));
     }
     cJSON_Delete(root);
     return costly;

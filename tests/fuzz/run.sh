@@ -34,7 +34,7 @@ seed() { # name, files...
   rm -rf "$d" && mkdir -p "$d"
   for f in "$@"; do [ -f "$f" ] && cp "$f" "$d/"; done
 }
-seed scene scenes/*.json tests/fuzz/vox_scene.json experiments/*.json
+seed scene scenes/*.json tests/fuzz/vox_scene.json tests/fuzz/instances_scene.json experiments/*.json
 # fuzz_scene skips the height field at its default 512^2 (see there): seed it at 32^2 instead.
 sed 's/"generator": "heightfield",/"generator": "heightfield", "params": {"resolution": 32},/' scenes/heightfield.json \
   >"$OUT/seeds/scene/heightfield_32.json"

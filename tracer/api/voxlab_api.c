@@ -156,8 +156,12 @@ int vxapi_truth(const vxapi_scene *as, int width, int height, int spp, long long
     int rc = -1;
     if (estimate_check(&est, &e) || rt_build(&rt, s, &e) || truth_render(&rt, &o, &img, &c, &e))
         give_error(e.msg, err, err_size);
-    else if ((rc = give_json(stats_truth(s, &o, &c), stats, err, err_size)) == 0)
-        give_image(&img, pixels, out_width, out_height);
+    else {
+        cJSON *j = stats_truth(s, &o, &c);
+        cJSON_AddNumberToObject(j, "bvh_bytes", (double)rt.bvh_bytes); /* as the CLI's --stats */
+        if ((rc = give_json(j, stats, err, err_size)) == 0)
+            give_image(&img, pixels, out_width, out_height);
+    }
     image_free(&img);
     rt_free(&rt);
     return rc;

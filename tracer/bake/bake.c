@@ -305,7 +305,9 @@ int bake_scene(const scene *s, const vx_model *m, int res, const bake_options *o
         return -1;
     *grid_seconds = now_seconds() - t0;
     rt_scene rt;
-    if (rt_build(&rt, s, e)) {
+    /* Instances written out: the own-triangle lists and their order are the expanded scene's, so
+     * an instanced scene bakes bit for bit as its expanded form (instancing.h). */
+    if (rt_build_flat(&rt, s, e)) {
         grid_free(g);
         return -1;
     }

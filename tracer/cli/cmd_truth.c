@@ -152,6 +152,7 @@ int cmd_truth(int argc, char **argv)
             goto fail;
         if (stats) {
             cJSON *j = stats_truth(&s, &o, &counts);
+            cJSON_AddNumberToObject(j, "bvh_bytes", (double)rt.bvh_bytes); /* Embree's peak allocation */
             if (fr.given)
                 cJSON_AddNumberToObject(j, "frame", f);
             if (stats_finish(j, stats, "truth", out))

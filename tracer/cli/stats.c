@@ -2,6 +2,8 @@
  * the object atomically. Shared by the commands, so no command's file depends on another's. */
 #include "stats.h"
 
+#include "instancing.h"
+
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -24,6 +26,13 @@ cJSON *stats_scene_fields(const scene *s)
     cJSON_AddStringToObject(j, "scene", s->name);
     cJSON_AddNumberToObject(j, "triangles", (double)s->mesh.triangle_count);
     cJSON_AddNumberToObject(j, "degenerate_triangles", (double)s->degenerate_triangles);
+    /* Instancing (instancing.h): "triangles" counts every copy; the prototypes' own triangles are
+     * what the truth's BVH holds. */
+    size_t protos = 0;
+    for (int i = 0; s->inst && i < s->inst->proto_count; i++)
+        protos += s->inst->protos[i].triangle_count;
+    cJSON_AddNumberToObject(j, "instances", s->inst ? (double)s->inst->count : 0.0);
+    cJSON_AddNumberToObject(j, "prototype_triangles", (double)protos);
     cJSON *fx = cJSON_AddArrayToObject(j, "effects");
     for (unsigned bit = 1; bit <= EFFECT_TEXTURES; bit <<= 1)
         if (s->effects & bit)

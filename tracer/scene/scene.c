@@ -10,9 +10,11 @@
 
 #include "animation.h"
 #include "generator.h"
+#include "instancing.h"
 #include "json_util.h"
 #include "mesh_load.h"
 #include "readfile.h"
+#include "xform.h"
 
 #define MAX_IMAGE_SIDE 16384
 #define MAX_IMAGE_PIXELS (64 * 1024 * 1024)
@@ -404,55 +406,17 @@ static int parse_lights(scene *s, const cJSON *root, vx_err *e)
     return 0;
 }
 
-/* Scale, then rotate about x, y, z (degrees), then translate; normals rotate (and flip with a
- * negative scale determinant, which also reverses the winding to keep fronts outside). */
+/* The object's "transform" (xform.h: scale, rotate, translate; normals by the inverse transpose). */
 static int apply_transform(mesh *m, size_t v0, size_t t0, const cJSON *xf, const char *where, vx_err *e)
 {
     if (!xf)
         return 0;
     char w2[600];
     snprintf(w2, sizeof w2, "%s.transform", where);
-    static const char *const known[] = {"scale", "rotate_deg", "translate", NULL};
-    if (!cJSON_IsObject(xf))
-        return vx_fail(e, "%s: expected an object", w2);
-    vec3 scale = v3(1, 1, 1), rot = v3(0, 0, 0), tr = v3(0, 0, 0);
-    const cJSON *sc = cJSON_GetObjectItemCaseSensitive(xf, "scale");
-    if (json_only_fields(xf, w2, known, e))
+    xform x;
+    if (xform_parse(xf, w2, &x, e))
         return -1;
-    if (cJSON_IsNumber(sc)) {
-        double k = 1;
-        if (json_number(xf, "scale", w2, &k, e))
-            return -1;
-        scale = v3((float)k, (float)k, (float)k);
-    } else if (json_vec3(xf, "scale", w2, &scale, e)) {
-        return -1;
-    }
-    if (scale.x == 0 || scale.y == 0 || scale.z == 0)
-        return vx_fail(e, "%s.scale: must not be zero", w2);
-    if (json_vec3(xf, "rotate_deg", w2, &rot, e) || json_vec3(xf, "translate", w2, &tr, e))
-        return -1;
-    double ang[3] = {rot.x * M_PI / 180, rot.y * M_PI / 180, rot.z * M_PI / 180};
-    for (size_t i = v0; i < m->vertex_count; i++) {
-        float *p = &m->positions[3 * i], *n = &m->normals[3 * i];
-        double P[3] = {p[0] * scale.x, p[1] * scale.y, p[2] * scale.z};
-        double N[3] = {n[0] / scale.x, n[1] / scale.y, n[2] / scale.z};
-        for (int axis = 0; axis < 3; axis++) {
-            int a = (axis + 1) % 3, b = (axis + 2) % 3;
-            double c = cos(ang[axis]), s = sin(ang[axis]);
-            double pa = c * P[a] - s * P[b], pb = s * P[a] + c * P[b];
-            double na = c * N[a] - s * N[b], nb = s * N[a] + c * N[b];
-            P[a] = pa, P[b] = pb, N[a] = na, N[b] = nb;
-        }
-        vec3 nn = v3_normalize(v3((float)N[0], (float)N[1], (float)N[2]));
-        p[0] = (float)(P[0] + tr.x), p[1] = (float)(P[1] + tr.y), p[2] = (float)(P[2] + tr.z);
-        n[0] = nn.x, n[1] = nn.y, n[2] = nn.z;
-    }
-    if (scale.x * scale.y * scale.z < 0)
-        for (size_t t = t0; t < m->triangle_count; t++) {
-            uint32_t tmp = m->indices[3 * t + 1];
-            m->indices[3 * t + 1] = m->indices[3 * t + 2];
-            m->indices[3 * t + 2] = tmp;
-        }
+    xform_apply(m, v0, t0, &x);
     return 0;
 }
 
@@ -537,7 +501,8 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
         char where[512];
         snprintf(where, sizeof where, "%s: objects[%d]", s->path, i++);
         static const char *const known[] = {"generator", "seed", "params", "materials", "material",
-                                            "ply", "gltf", "obj", "transform", "uris_outside_folder", "animation", NULL};
+                                            "ply", "gltf", "obj", "transform", "uris_outside_folder", "animation",
+                                            "name", "instances", "scatter", NULL};
         if (!cJSON_IsObject(o))
             return vx_fail(e, "%s: expected an object", where);
         if (json_only_fields(o, where, known, e))
@@ -586,7 +551,7 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
             warn_unused_texture(s, v0, t0, where);
         }
         if (apply_transform(&s->mesh, v0, t0, cJSON_GetObjectItemCaseSensitive(o, "transform"), where, e) ||
-            anim_parse_object(s, o, where, i - 1, v0, e))
+            inst_parse_object(s, o, where, v0, t0, e) || anim_parse_object(s, o, where, i - 1, v0, e))
             return -1;
         for (size_t v = v0; v < s->mesh.vertex_count; v++)
             for (int k = 0; k < 3; k++)
@@ -596,23 +561,34 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
     return 0;
 }
 
-/* Drops zero-area triangles (they have no surface to shade or voxelise) and counts them. */
-static void drop_degenerate(scene *s)
+/* Drops zero-area triangles (they have no surface to shade or voxelise) and counts them. An
+ * instanced scene then learns where each copy's triangles went (instancing.h). */
+static int drop_degenerate(scene *s, vx_err *e)
 {
     mesh *m = &s->mesh;
-    size_t kept = 0;
+    size_t kept = 0, old_count = m->triangle_count;
+    uint32_t *map = NULL;
+    if (s->inst && s->inst->count && !(map = malloc((old_count + 1) * sizeof *map)))
+        return vx_fail(e, "%s: out of memory", s->path);
     for (size_t t = 0; t < m->triangle_count; t++) {
         const uint32_t *tri = &m->indices[3 * t];
         vec3 a = mesh_position(m, tri[0]), b = mesh_position(m, tri[1]), c = mesh_position(m, tri[2]);
         vec3 n = v3_cross(v3_sub(b, a), v3_sub(c, a));
         if (!(v3_dot(n, n) > 0.0f)) {
             s->degenerate_triangles++;
+            if (map)
+                map[t] = UINT32_MAX;
             continue;
         }
+        if (map)
+            map[t] = (uint32_t)kept;
         memmove(&m->indices[3 * kept], tri, 3 * sizeof(uint32_t));
         m->materials[kept++] = m->materials[t];
     }
     m->triangle_count = kept;
+    int rc = map ? inst_finalize(s, map, old_count, e) : 0;
+    free(map);
+    return rc;
 }
 
 static uint64_t hash_bytes(uint64_t h, const void *data, size_t n)
@@ -709,7 +685,8 @@ int scene_load_text(const char *text, const char *path, scene *s, vx_err *e)
         if (dot)
             *dot = 0;
     }
-    drop_degenerate(s);
+    if (drop_degenerate(s, e))
+        goto done;
     if (s->mesh.triangle_count == 0) {
         vx_fail(e, "%s: objects: the scene has no triangles (after dropping %zu zero-area ones)", path,
                 s->degenerate_triangles);
@@ -741,5 +718,6 @@ void scene_free(scene *s)
     free(s->path);
     free(s->name);
     anim_free(s->anim);
+    inst_free(s->inst);
     memset(s, 0, sizeof *s);
 }

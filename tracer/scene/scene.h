@@ -52,6 +52,7 @@ typedef struct {
     vec3 bounds_lo, bounds_hi;
     uint64_t identity; /* hash of geometry and materials: baked files name the scene they belong to */
     struct scene_animation *anim; /* "frames" and moving objects (animation.h), NULL when none */
+    struct scene_instancing *inst; /* instanced objects' prototypes and placements (instancing.h), or NULL */
 } scene;
 
 #ifdef __cplusplus

@@ -22,6 +22,14 @@ typedef struct {
     float epsilon;         /* offset for secondary rays, relative to the scene's size */
     rt_vertex *vertices;   /* per vertex */
     vec3 *face_normals;    /* per triangle: unit, toward the counter-clockwise front */
+    /* An instanced scene (instancing.h) built by rt_build: one BVH per prototype under instance
+     * geometries; Embree's filter turns every hit's primID into the scene mesh's triangle (the
+     * copy's), so rt_surface and every caller see the expanded mesh's triangle numbers. */
+    RTCScene *protos;
+    int proto_count;
+    int instanced;
+    long long bvh_live, bvh_peak; /* the memory monitor's running and peak sums */
+    size_t bvh_bytes;      /* peak bytes Embree allocated (its memory monitor): BVHs and geometry buffers */
 } rt_scene;
 
 typedef struct {
@@ -97,7 +105,11 @@ static inline void rt_surface(const rt_scene *rt, unsigned prim, float u, float 
 extern "C" {
 #endif
 
+/* Embree over the scene; an instanced scene as Embree instances (the truth, the slicemaps). */
 int rt_build(rt_scene *rt, const scene *s, vx_err *e);
+/* One BVH over the scene's mesh with every instance written out: the bake sampler's point queries
+ * walk it (the per-voxel own-triangle lists are those of the expanded scene). */
+int rt_build_flat(rt_scene *rt, const scene *s, vx_err *e);
 void rt_free(rt_scene *rt);
 
 #ifdef __cplusplus
