@@ -14,6 +14,7 @@
 #include "grid.h"
 #include "hn_record.h"
 #include "model.h"
+#include "plane_samples.h"
 #include "unit.h"
 #include "vicini_eval.h"
 
@@ -28,42 +29,6 @@ static vec3 rot(const float R[9], vec3 v)
 {
     return v3(R[0] * v.x + R[1] * v.y + R[2] * v.z, R[3] * v.x + R[4] * v.y + R[5] * v.z,
               R[6] * v.x + R[7] * v.y + R[8] * v.z);
-}
-
-/* Samples of the unit voxel [-0.5, 0.5]^3 crossed by a double-sided plane through its centre with
- * normal n0 (every ray meeting the plane occludes: inside the voxel a front hit, else OUTSIDE). */
-static void plane_samples(vec3 n0, int n, vx_sample *out)
-{
-    for (int i = 0; i < n; i++) {
-        vx_sample *s = &out[i];
-        memset(s, 0, sizeof *s);
-        double z = 2 * rnd() - 1, a = 2 * M_PI * rnd(), r = sqrt(1 - z * z);
-        vec3 d = v3((float)(r * cos(a)), (float)(r * sin(a)), (float)z);
-        vec3 p = v3((float)(rnd() - 0.5), (float)(rnd() - 0.5), (float)(rnd() - 0.5));
-        vec3 o = v3_madd(p, d, -4.0f);
-        float t0 = -INFINITY, t1 = INFINITY;
-        for (int k = 0; k < 3; k++) {
-            float u = (-0.5f - v3_get(o, k)) / v3_get(d, k), v = (0.5f - v3_get(o, k)) / v3_get(d, k);
-            t0 = fmaxf(t0, fminf(u, v));
-            t1 = fminf(t1, fmaxf(u, v));
-        }
-        s->origin = o, s->dir = d, s->t_entry = t0, s->t_exit = t1, s->t_hit = INFINITY, s->kind = VX_SAMPLE_MISS;
-        float dn = v3_dot(d, n0);
-        if (fabsf(dn) > 1e-6f) {
-            float t = -v3_dot(n0, o) / dn;
-            s->t_hit = t;
-            if (t >= t0 && t <= t1) {
-                s->kind = VX_SAMPLE_INSIDE_FRONT;
-                s->double_sided = 1;
-                s->back_side = dn > 0;
-                s->normal = dn < 0 ? n0 : v3_scale(n0, -1);
-                s->albedo = v3(0.6f, 0.4f, 0.2f);
-                s->roughness = 0.3f;
-            } else {
-                s->kind = VX_SAMPLE_OUTSIDE;
-            }
-        }
-    }
 }
 
 static float opacity_toward(const vx_model *m, const void *rec, vec3 w)
@@ -86,7 +51,7 @@ static void check_quarter_turn(const vx_model *m)
     enum { N = 600 };
     static vx_sample a[N], b[N];
     const float R[9] = {0, -1, 0, 1, 0, 0, 0, 0, 1};
-    plane_samples(v3_normalize(v3(0.3f, 0.8f, 0.52f)), N, a);
+    plane_samples(v3_normalize(v3(0.3f, 0.8f, 0.52f)), 0.0f, 0.0f, N, rnd, a);
     for (int i = 0; i < N; i++) {
         b[i] = a[i];
         b[i].origin = rot(R, a[i].origin);
@@ -419,7 +384,7 @@ static void check_hn_offsets(void)
     enum { N = 800 };
     static vx_sample a[N];
     vec3 n0 = v3_normalize(v3(0.3f, 0.8f, 0.52f));
-    plane_samples(n0, N, a);
+    plane_samples(n0, 0.0f, 0.0f, N, rnd, a);
     vx_voxel v = {.lo = v3(-0.5f, -0.5f, -0.5f), .size = 1};
     const float size = 0.25f; /* the record read in a lattice of 0.25 (h is in world units) */
     hn_record r, out;

@@ -49,4 +49,17 @@ static inline void eigen_sym3(const double a_in[3][3], double w[3], double v[3][
         w[i] = a[i][i];
 }
 
+/* The indices of w's eigenvalues in decreasing order (the dominant axis first). */
+static inline void eigen_sym3_order_desc(const double w[3], int order[3])
+{
+    order[0] = 0, order[1] = 1, order[2] = 2;
+    for (int i = 0; i < 3; i++)
+        for (int j = i + 1; j < 3; j++)
+            if (w[order[j]] > w[order[i]]) {
+                int t = order[i];
+                order[i] = order[j];
+                order[j] = t;
+            }
+}
+
 #endif

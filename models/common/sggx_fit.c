@@ -23,14 +23,8 @@ void sggx_fit(const vec3 *normals, int n, float min_area, sggx_frame *out)
     double w[3], v[3][3];
     eigen_sym3(e, w, v);
     /* Decreasing eigenvalue: axis 0 is the dominant normal direction. */
-    int order[3] = {0, 1, 2};
-    for (int i = 0; i < 3; i++)
-        for (int j = i + 1; j < 3; j++)
-            if (w[order[j]] > w[order[i]]) {
-                int t = order[i];
-                order[i] = order[j];
-                order[j] = t;
-            }
+    int order[3];
+    eigen_sym3_order_desc(w, order);
     vec3 ax[3];
     for (int k = 0; k < 3; k++)
         ax[k] = v3_normalize((vec3){(float)v[0][order[k]], (float)v[1][order[k]], (float)v[2][order[k]]});

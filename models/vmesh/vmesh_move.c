@@ -167,14 +167,8 @@ static void mix_frames(const vx_record_part *parts, const float *mass, int n, sg
         for (int q = 0; q < 3; q++)
             S[p][q] /= M;
     eigen_sym3(S, w, V);
-    int order[3] = {0, 1, 2};
-    for (int i = 0; i < 3; i++)
-        for (int j = i + 1; j < 3; j++)
-            if (w[order[j]] > w[order[i]]) {
-                int t = order[i];
-                order[i] = order[j];
-                order[j] = t;
-            }
+    int order[3];
+    eigen_sym3_order_desc(w, order);
     for (int k = 0; k < 3; k++) {
         fit->axis[k] = v3_normalize(v3((float)V[0][order[k]], (float)V[1][order[k]], (float)V[2][order[k]]));
         fit->area[k] = fminf(fmaxf((float)sqrt(fmax(w[order[k]], 0.0)), VMESH_MIN_AREA), 1.0f);
