@@ -1001,6 +1001,45 @@ static void test_dilated(void)
     mesh_free(&m);
 }
 
+/* Issue 19: at 1024^3 a grid's memory follows the surface, not the volume. A square plate of side
+ * s (a quarter, half and all of the lattice's width, the lattice fixed by explicit bounds) gives
+ * grid_bytes growing with s^2 beyond a constant (the N^2 column tables): the increments from
+ * s = 1/4 to 1/2 and from 1/2 to 1 are in the ratio of the areas' increments, 4, and the whole
+ * grid stays far below the N^3 / 8 bytes of one dense bit level. */
+static void test_plane_memory(void)
+{
+    const int n = 1024;
+    const double lo[3] = {0, 0, 0}, hi[3] = {1, 1, 1};
+    size_t bytes[3], voxels[3];
+    for (int i = 0; i < 3; i++) {
+        float side = 0.25f * (float)(1 << i);
+        mesh m;
+        memset(&m, 0, sizeof m);
+        vec3 a = v3(0, 0.5f, 0), b = v3(side, 0.5f, 0), c = v3(side, 0.5f, side), d = v3(0, 0.5f, side);
+        mesh_add_flat_triangle(&m, a, b, c, 0);
+        mesh_add_flat_triangle(&m, a, c, d, 0);
+        voxel_grid g;
+        vx_err e;
+        if (grid_build_bounds(&g, &m, n, lo, hi, &e)) {
+            printf("# %s\n", e.msg);
+            CHECK("1024^3 plate: the grid builds", 0);
+            mesh_free(&m);
+            return;
+        }
+        bytes[i] = grid_bytes(&g);
+        voxels[i] = grid_count(&g, 0);
+        printf("# 1024^3 plate of side %.2f: %zu voxels, %zu grid bytes\n", side, voxels[i], bytes[i]);
+        grid_free(&g);
+        mesh_free(&m);
+    }
+    double ratio = (double)(bytes[2] - bytes[1]) / (double)(bytes[1] - bytes[0]);
+    CHECK_NEAR("1024^3 plate: grid bytes grow with the area (increments 1/2 -> 1 over 1/4 -> 1/2: 4)", ratio, 4.0, 0.2);
+    CHECK_NEAR("1024^3 plate: level-0 voxels grow with the area (same ratio)",
+               (double)(voxels[2] - voxels[1]) / (double)(voxels[1] - voxels[0]), 4.0, 0.1);
+    CHECK("1024^3 plate: the whole grid (every level) stays below a fifth of one dense bit level (N^3 / 8 bytes)",
+          bytes[2] < (size_t)n * n * n / 8 / 5);
+}
+
 int main(void)
 {
     test_tribox();
@@ -1012,5 +1051,6 @@ int main(void)
     test_traversal();
     test_dilated();
     test_bunny();
+    test_plane_memory();
     return unit_exit();
 }
