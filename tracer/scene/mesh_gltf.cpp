@@ -478,11 +478,35 @@ bool skip_image(tinygltf::Image *, const int, std::string *, std::string *, int,
 // after reading its size from the header alone: a small file declaring a huge image is refused
 // before anything is allocated, as image_read does (IMAGE_MAX_PIXELS).
 
+// Whether a PNG's chunks (length, type, data, CRC) all lie inside its `size` bytes up to IEND:
+// Debian's stb_image copies a chunk's declared length without checking it against the buffer
+// (fuzz_gltf: an IDAT of 18 bytes at the end of a truncated image, read past the buffer).
+bool png_chunks_fit(const unsigned char *bytes, int size)
+{
+    long long at = 8;
+    while (at + 12 <= size) {
+        unsigned long long len = (unsigned long long)bytes[at] << 24 | (unsigned long long)bytes[at + 1] << 16 |
+                                 (unsigned long long)bytes[at + 2] << 8 | bytes[at + 3];
+        if ((unsigned long long)at + 12 + len > (unsigned long long)size)
+            return false;
+        if (std::memcmp(bytes + at + 4, "IEND", 4) == 0)
+            return true;
+        at += 12 + (long long)len;
+    }
+    return false;
+}
+
 bool bounded_image(tinygltf::Image *image, const int index, std::string *err, std::string *warn, int req_width,
                    int req_height, const unsigned char *bytes, int size, void *user)
 {
     int w = 0, h = 0, comp = 0;
-    if (!stbi_info_from_memory(bytes, size, &w, &h, &comp)) {
+    /* PNG and JPEG only, by their signatures (the glTF spec's two; stb_image would also sniff TGA,
+     * BMP, PSD, GIF, HDR, PIC and PNM, more decoders for a crafted file to reach), and a PNG's
+     * chunks must fit in the buffer (png_chunks_fit). */
+    static const unsigned char png[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'}, jpeg[3] = {0xff, 0xd8, 0xff};
+    bool is_png = size >= 8 && std::memcmp(bytes, png, 8) == 0;
+    bool known = (is_png && png_chunks_fit(bytes, size)) || (size >= 3 && std::memcmp(bytes, jpeg, 3) == 0);
+    if (!known || !stbi_info_from_memory(bytes, size, &w, &h, &comp)) {
         if (err)
             *err += "image " + std::to_string(index) + " is not a PNG or JPEG this loader decodes\n";
         return false;
@@ -593,6 +617,28 @@ void check_version(const char *text, size_t size, bool binary)
         throw load_error{"asset version " + version + ": glTF 1.0 is not supported (expected glTF 2.0)"};
 }
 
+// Every embedded image's bufferView lies inside its buffer's bytes (see load).
+void check_image_ranges(const tinygltf::Model &m)
+{
+    for (size_t i = 0; i < m.images.size(); i++) {
+        int v = m.images[i].bufferView;
+        if (v < 0)
+            continue; // a URI: tinygltf read the whole file and passes its true size
+        if (size_t(v) >= m.bufferViews.size())
+            fail("image " + std::to_string(i) + " names bufferView " + std::to_string(v) + " of " +
+                 std::to_string(m.bufferViews.size()));
+        const tinygltf::BufferView &bv = m.bufferViews[size_t(v)];
+        if (bv.buffer < 0 || size_t(bv.buffer) >= m.buffers.size())
+            fail("bufferView " + std::to_string(v) + " (image " + std::to_string(i) + ") names buffer " +
+                 std::to_string(bv.buffer) + " of " + std::to_string(m.buffers.size()));
+        size_t have = m.buffers[size_t(bv.buffer)].data.size();
+        if (bv.byteOffset > have || bv.byteLength > have - bv.byteOffset)
+            fail("bufferView " + std::to_string(v) + " (image " + std::to_string(i) + ") spans bytes " +
+                 std::to_string(bv.byteOffset) + ".." + std::to_string(bv.byteOffset + bv.byteLength) + " of buffer " +
+                 std::to_string(bv.buffer) + ", which holds " + std::to_string(have));
+    }
+}
+
 void load(const char *path, mesh *out, uint32_t material, bool uris_anywhere, gltf_material_fn make_material,
           void *material_ctx)
 {
@@ -638,6 +684,20 @@ void load(const char *path, mesh *out, uint32_t material, bool uris_anywhere, gl
     ctx.SetFsCallbacks(tinygltf::FsCallbacks{fs_exists, fs_expand, fs_read, fs_write, &fs});
     bool ok;
     try {
+        if (make_material) {
+            // tinygltf hands an embedded image to the decoder as its bufferView's range without
+            // checking that range against the buffer's bytes (a crafted file read past the buffer:
+            // fuzz_gltf). A first parse without decoding lets us check every image's range first.
+            tinygltf::Model plain;
+            tinygltf::TinyGLTF pre;
+            pre.SetImageLoader(skip_image, nullptr);
+            pre.SetFsCallbacks(tinygltf::FsCallbacks{fs_exists, fs_expand, fs_read, fs_write, &fs});
+            std::string e0, w0;
+            if (binary ? pre.LoadBinaryFromMemory(&plain, &e0, &w0, reinterpret_cast<unsigned char *>(text),
+                                                  unsigned(size), dir)
+                       : pre.LoadASCIIFromString(&plain, &e0, &w0, text, unsigned(size), dir))
+                check_image_ranges(plain);
+        }
         ok = binary ? ctx.LoadBinaryFromMemory(&model, &err, &warn, reinterpret_cast<unsigned char *>(text),
                                                unsigned(size), dir)
                     : ctx.LoadASCIIFromString(&model, &err, &warn, text, unsigned(size), dir);
