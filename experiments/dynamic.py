@@ -120,13 +120,15 @@ def main():
         for flt in FILTERS:
             r = [x for x in rows if x["model"] == m and x["filter"] == flt]
             imgs = [read(os.path.join(work, "%s_%s_%04d.exr" % (m, flt, f))) for f in range(a.frames)]
-            fl = np.mean([np.mean(np.abs(imgs[f + 1] - imgs[f])) for f in range(a.frames - 1)])
+            pair_diffs = [float(np.mean(np.abs(imgs[f + 1] - imgs[f]))) for f in range(a.frames - 1)]
+            fl = np.mean(pair_diffs)
             summary.append({"model": m, "filter": flt, "used": r[0]["filter_used"],
                             "mse": float(np.mean([x["mse"] for x in r])), "ssim": float(np.mean([x["ssim"] for x in r])),
                             "mse_frame0": r[0]["mse"],
                             "voxels_ms": float(np.median([x["voxels_ms"] for x in r[1:] or r])),
                             "render_ms": float(np.median([x["render_ms"] for x in r])),
-                            "flicker": float(fl), "flicker_ratio": float(fl / t_flicker) if t_flicker > 0 else 0.0})
+                            "flicker": float(fl), "flicker_ratio": float(fl / t_flicker) if t_flicker > 0 else 0.0,
+                            "pair_diffs": pair_diffs})
 
     # Object-count sweep: the voxels of a frame per filter (one model with transform, and re-bake).
     sweep = []
@@ -151,12 +153,12 @@ def main():
             w.writeheader()
             w.writerows(sweep)
 
-    figures(a, work, names, truth, sweep)
+    figures(a, work, names, truth, sweep, summary)
     write_summary(a, names, summary, sweep, fallbacks, t_flicker)
     print(open(os.path.join(a.out, "summary.md")).read())
 
 
-def figures(a, work, names, truth, sweep):
+def figures(a, work, names, truth, sweep, summary):
     import matplotlib
 
     matplotlib.use("Agg")
@@ -203,10 +205,9 @@ def figures(a, work, names, truth, sweep):
         pairs = list(range(a.frames - 1))
         ax.plot(pairs, [np.mean(np.abs(truth[f + 1] - truth[f])) for f in pairs], "k-", lw=2, label="truth")
         for i, m in enumerate(names):
-            for flt in FILTERS:
-                ims = [read(os.path.join(work, "%s_%s_%04d.exr" % (m, flt, f))) for f in range(a.frames)]
-                ax.plot(pairs, [np.mean(np.abs(ims[f + 1] - ims[f])) for f in pairs], styles[flt],
-                        color=colours[i % len(colours)], label="%s %s" % (m, flt))
+            for flt in FILTERS:  # the per-pair differences the summary's flicker was computed from
+                diffs = next(x["pair_diffs"] for x in summary if x["model"] == m and x["filter"] == flt)
+                ax.plot(pairs, diffs, styles[flt], color=colours[i % len(colours)], label="%s %s" % (m, flt))
         ax.set_xlabel("frame f (difference to f + 1)")
         ax.set_ylabel("mean |frame-to-frame difference|")
         ax.legend(fontsize=6, ncol=2)
