@@ -6,8 +6,11 @@
 
 #include "animation.h"
 #include "bake_params.h"
+#include "grid_scene.h"
+#include "instancing.h"
 #include "parallel.h"
 #include "rng.h"
+#include "scene_tris.h"
 #include "shading.h"
 #include "tribox.h"
 
@@ -70,31 +73,47 @@ void bake_generate_rays(const rt_scene *rt, const voxel_grid *g, size_t index, u
 
 /* The voxel's own triangles (Brito et al.'s per-voxel list), prepared for ray tests in double
  * relative to the voxel's centre: the rays start outside the scene, and a float test there would
- * lose the voxel's scale. */
+ * lose the voxel's scale. `number` is the triangle's scene_tris.h number, (inst, prim) what
+ * rt_surface takes. */
 typedef struct {
     double p0[3], e1[3], e2[3];
-    unsigned prim;
+    double c[3], r2; /* a sphere holding the triangle (centroid, squared radius): a quick miss */
+    size_t number;
+    unsigned inst, prim;
 } own_triangle;
 
 typedef struct {
-    const mesh *m;
+    const scene *s;
     double lo[3], hi[3], centre[3]; /* the voxel's box, widened by the slack */
     own_triangle *tri;
     int count, cap, heap;
 } own_list;
 
 /* Embree's point query hands over every triangle whose bounds come near the voxel's bounding
- * sphere; the exact closed triangle/box test (the grid's own notion of overlap, touching counts;
- * its first axes are the box's, a bounding-box rejection) keeps the voxel's triangles. */
+ * sphere, a copy's through its instance (Embree takes the query into the prototype's space); the
+ * exact closed triangle/box test on the world corners (the grid's own notion of overlap, touching
+ * counts; its first axes are the box's, a bounding-box rejection) keeps the voxel's triangles. */
 static bool own_collect(struct RTCPointQueryFunctionArguments *args)
 {
     own_list *o = args->userPtr;
-    const uint32_t *idx = &o->m->indices[3 * (size_t)args->primID];
-    double v[3][3];
-    for (int k = 0; k < 3; k++) {
-        vec3 p = mesh_position(o->m, idx[k]);
-        v[k][0] = p.x, v[k][1] = p.y, v[k][2] = p.z;
+    const scene *s = o->s;
+    float c[9];
+    unsigned inst = RTC_INVALID_GEOMETRY_ID;
+    size_t number = args->primID;
+    if (args->context->instStackSize > 0) {
+        inst = args->context->instID[0];
+        const inst_instance *I = &s->inst->inst[inst];
+        inst_corners(s->inst, I, args->primID, c);
+        number = s->mesh.triangle_count + I->offset + args->primID;
+    } else {
+        const uint32_t *idx = &s->mesh.indices[3 * (size_t)args->primID];
+        for (int k = 0; k < 3; k++)
+            memcpy(&c[3 * k], &s->mesh.positions[3 * (size_t)idx[k]], 3 * sizeof(float));
     }
+    double v[3][3];
+    for (int k = 0; k < 3; k++)
+        for (int a = 0; a < 3; a++)
+            v[k][a] = c[3 * k + a];
     if (!tribox_overlap_d(o->lo, o->hi, v[0], v[1], v[2]))
         return false;
     if (o->count == o->cap) {
@@ -113,21 +132,45 @@ static bool own_collect(struct RTCPointQueryFunctionArguments *args)
         t->p0[a] = v[0][a] - o->centre[a];
         t->e1[a] = v[1][a] - v[0][a];
         t->e2[a] = v[2][a] - v[0][a];
+        t->c[a] = (v[0][a] + v[1][a] + v[2][a]) / 3.0 - o->centre[a];
     }
+    t->r2 = 0;
+    for (int k = 0; k < 3; k++) {
+        double d2 = 0;
+        for (int a = 0; a < 3; a++)
+            d2 += (v[k][a] - o->centre[a] - t->c[a]) * (v[k][a] - o->centre[a] - t->c[a]);
+        t->r2 = d2 > t->r2 ? d2 : t->r2;
+    }
+    t->number = number;
+    t->inst = inst;
     t->prim = args->primID;
     return false;
 }
 
+static int by_number(const void *a, const void *b)
+{
+    size_t x = ((const own_triangle *)a)->number, y = ((const own_triangle *)b)->number;
+    return (x > y) - (x < y);
+}
+
 /* Closest crossing of the line o + t d (o relative to the voxel's centre) with the own triangles:
  * Moller-Trumbore with inclusive edges (a line through a shared edge hits both sides; either gives
- * the same t). Returns the index of the triangle, or -1; t, u, v as Embree reports them. */
+ * the same t). Returns the index of the triangle, or -1; t, u, v as Embree reports them. A voxel of
+ * a dense forest lists thousands of leaves, most far from any one line: the line's distance to
+ * each triangle's bounding sphere skips those first, with a margin far above the rounding of that
+ * distance, so that the test only ever skips triangles Moller-Trumbore would reject. */
 static int own_closest_hit(const own_list *o, const double org[3], const double d[3], double *t_out, float *u_out,
                            float *v_out)
 {
     int best = -1;
-    double best_t = INFINITY;
+    double best_t = INFINITY, dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
     for (int i = 0; i < o->count; i++) {
         const own_triangle *tr = &o->tri[i];
+        double w[3] = {tr->c[0] - org[0], tr->c[1] - org[1], tr->c[2] - org[2]};
+        double x[3] = {w[1] * d[2] - w[2] * d[1], w[2] * d[0] - w[0] * d[2], w[0] * d[1] - w[1] * d[0]};
+        double x2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2], w2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+        if (x2 > (tr->r2 * 1.000001 + 1e-12 * w2) * dd) /* |w x d|^2 / |d|^2: the line's squared distance */
+            continue;
         double p[3] = {d[1] * tr->e2[2] - d[2] * tr->e2[1], d[2] * tr->e2[0] - d[0] * tr->e2[2],
                        d[0] * tr->e2[1] - d[1] * tr->e2[0]};
         double det = tr->e1[0] * p[0] + tr->e1[1] * p[1] + tr->e1[2] * p[2];
@@ -164,7 +207,7 @@ void bake_trace(const rt_scene *rt, const voxel_grid *g, size_t index, vx_sample
     /* Triangles lying on the voxel's faces are hit exactly at t_entry or t_exit: widen a little. */
     float slack = 1e-4f * g->voxel_size + rt->epsilon * 0.1f;
     own_triangle stack[OWN_STACK];
-    own_list own = {.m = &rt->scene->mesh, .tri = stack, .cap = OWN_STACK};
+    own_list own = {.s = rt->scene, .tri = stack, .cap = OWN_STACK};
     float flo[3] = {lo.x, lo.y, lo.z}, fhi[3] = {hi.x, hi.y, hi.z};
     for (int a = 0; a < 3; a++) {
         own.lo[a] = (double)flo[a] - slack;
@@ -172,10 +215,18 @@ void bake_trace(const rt_scene *rt, const voxel_grid *g, size_t index, vx_sample
         own.centre[a] = 0.5 * ((double)flo[a] + (double)fhi[a]);
     }
     struct RTCPointQuery query = {(float)own.centre[0], (float)own.centre[1], (float)own.centre[2], 0.0f,
-                                  0.8660254f * (float)(own.hi[0] - own.lo[0]) * 1.001f};
+                                  0.8660254f * (float)(own.hi[0] - own.lo[0]) * 1.001f / rt->query_scale};
     struct RTCPointQueryContext ctx;
     rtcInitPointQueryContext(&ctx);
+    /* rt->query_scale: Embree 3.13 takes the query's centre into a copy's space but not its radius
+     * (a copy scaled by 0.6 missed triangles the written-out copy had), so the radius is widened
+     * by the smallest scale of any copy; the exact test below drops what the wider query adds. */
     rtcPointQuery(rt->bvh, &query, &ctx, own_collect, &own);
+    /* In the scene's triangle order, whatever order the BVH's traversal met them in: a line through
+     * an edge two triangles share meets both at the same t, and the first listed wins, so the order
+     * decides which one's normal and colour the sample gets. Ordered this way, an instanced scene
+     * and its written-out form (whose BVHs differ) classify every sample identically. */
+    qsort(own.tri, (size_t)own.count, sizeof *own.tri, by_number);
     for (int i = 0; i < n; i++) {
         vx_sample *sp = &samples[i];
         double org[3] = {(double)sp->origin.x - own.centre[0], (double)sp->origin.y - own.centre[1],
@@ -193,7 +244,12 @@ void bake_trace(const rt_scene *rt, const voxel_grid *g, size_t index, vx_sample
             continue;
         }
         surface_hit h;
-        rt_surface(rt, own.tri[hit].prim, u, v, sp->origin, sp->dir, sp->t_hit, &h);
+        const own_triangle *ot = &own.tri[hit];
+        if (ot->inst != RTC_INVALID_GEOMETRY_ID && rt->scene->inst->inst[ot->inst].mirror) {
+            float tmp = u; /* (u, v) on the copy's reversed winding -> on the prototype's */
+            u = v, v = tmp;
+        }
+        rt_surface(rt, ot->inst, ot->prim, u, v, sp->origin, sp->dir, sp->t_hit, &h);
         sp->normal = h.normal;
         sp->specular = h.material->specular;
         sp->roughness = h.material->roughness;
@@ -301,13 +357,12 @@ int bake_scene(const scene *s, const vx_model *m, int res, const bake_options *o
 {
     double t0 = now_seconds();
     double lo[3], hi[3]; /* an animated scene: one lattice for every frame */
-    if (anim_grid_bounds(s, lo, hi) ? grid_build_bounds(g, &s->mesh, res, lo, hi, e) : grid_build(g, &s->mesh, res, e))
+    int animated = anim_grid_bounds(s, lo, hi);
+    if (grid_build_scene(g, s, res, animated ? lo : NULL, animated ? hi : NULL, e))
         return -1;
     *grid_seconds = now_seconds() - t0;
     rt_scene rt;
-    /* Instances written out: the own-triangle lists and their order are the expanded scene's, so
-     * an instanced scene bakes bit for bit as its expanded form (instancing.h). */
-    if (rt_build_flat(&rt, s, e)) {
+    if (rt_build(&rt, s, e)) {
         grid_free(g);
         return -1;
     }

@@ -1,5 +1,7 @@
 #include "vox_load.h"
 
+#include "grid_scene.h"
+
 #include <stdlib.h>
 #include <string.h>
 
@@ -27,7 +29,7 @@ int vox_load(const scene *s, const char *path, const char *model_name, const vx_
         rc = vx_fail(e, "%s: header field n (grid resolution) is %d, outside 1..%d", path, (int)h->n, GRID_MAX_N);
     if (rc == 0) {
         double t0 = now_seconds();
-        if (grid_build(g, &s->mesh, h->n, e))
+        if (grid_build_scene(g, s, h->n, NULL, NULL, e))
             rc = -1;
         *grid_seconds = now_seconds() - t0;
     }

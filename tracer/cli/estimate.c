@@ -7,28 +7,25 @@
 #include <sys/resource.h>
 
 #include "grid.h"
+#include "instancing.h"
 #include "parallel.h"
 
 /* Embree's BVH over triangles costs of the order of 100 bytes a triangle; with the mesh's own
  * arrays (positions, normals, uvs, colours, indices, materials) about 200 in all. */
+static double mesh_bytes(const mesh *m) { return 200.0 * (double)m->triangle_count + 48.0 * (double)m->vertex_count; }
+
+/* An instanced scene holds each prototype once and a placement (and Embree instance) per copy. */
 static double scene_bytes(const scene *s)
 {
-    return 200.0 * (double)s->mesh.triangle_count + 48.0 * (double)s->mesh.vertex_count;
+    double b = mesh_bytes(&s->mesh);
+    for (int q = 0; s->inst && q < s->inst->proto_count; q++)
+        b += mesh_bytes(&s->inst->protos[q]);
+    return b + (s->inst ? 400.0 * (double)s->inst->count : 0.0);
 }
 
-/* Non-empty voxels at resolution res: the larger of two estimates, capped at res^3. Fine meshes:
- * the distinct cells holding a vertex (a hash set over the vertices). Coarse meshes: the surface's
- * area over a cell's face, times 1.5 (a plane crossing the grid at an angle meets up to sqrt(3) times
- * as many cells as its area in faces). Measured against the real grid on the shipped scenes at
- * 64^3 and 256^3, within a factor of about 2 either way. */
-static double voxel_estimate(const scene *s, int res)
+static double mesh_area(const mesh *m)
 {
-    vec3 lo = s->bounds_lo, hi = s->bounds_hi;
-    double ext = fmax(fmax(hi.x - lo.x, hi.y - lo.y), hi.z - lo.z);
-    if (!(ext > 0))
-        return 1;
-    double vs = ext / res, area = 0;
-    const mesh *m = &s->mesh;
+    double area = 0;
     for (size_t t = 0; t < m->triangle_count; t++) {
         const float *p[3];
         for (int k = 0; k < 3; k++)
@@ -42,6 +39,42 @@ static double voxel_estimate(const scene *s, int res)
                cz = e1[0] * e2[1] - e1[1] * e2[0];
         area += 0.5 * sqrt(cx * cx + cy * cy + cz * cz);
     }
+    return area;
+}
+
+/* Area of every instance copy: the prototype's, times the placement's area scale (|det|^(2/3),
+ * exact for a uniform scale). */
+static double copies_area(const scene *s)
+{
+    const scene_instancing *in = s->inst;
+    if (!in)
+        return 0;
+    double *proto = calloc((size_t)in->proto_count + 1, sizeof *proto), area = 0;
+    if (!proto)
+        return 0;
+    for (int q = 0; q < in->proto_count; q++)
+        proto[q] = mesh_area(&in->protos[q]);
+    for (size_t i = 0; i < in->count; i++) {
+        vec3 k = in->inst[i].x.scale;
+        area += proto[in->inst[i].proto] * pow(fabs((double)k.x * k.y * k.z), 2.0 / 3.0);
+    }
+    free(proto);
+    return area;
+}
+
+/* Non-empty voxels at resolution res: the larger of two estimates, capped at res^3. Fine meshes:
+ * the distinct cells holding a vertex (a hash set over the vertices). Coarse meshes: the surface's
+ * area over a cell's face, times 1.5 (a plane crossing the grid at an angle meets up to sqrt(3) times
+ * as many cells as its area in faces). Measured against the real grid on the shipped scenes at
+ * 64^3 and 256^3, within a factor of about 2 either way. */
+static double voxel_estimate(const scene *s, int res)
+{
+    vec3 lo = s->bounds_lo, hi = s->bounds_hi;
+    double ext = fmax(fmax(hi.x - lo.x, hi.y - lo.y), hi.z - lo.z);
+    if (!(ext > 0))
+        return 1;
+    double vs = ext / res, area = mesh_area(&s->mesh) + copies_area(s);
+    const mesh *m = &s->mesh;
     double by_area = 1.5 * area / (vs * vs);
     /* Distinct vertex cells; without memory for the set, the vertex count bounds them. */
     double by_vertex = (double)m->vertex_count;

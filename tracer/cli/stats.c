@@ -2,6 +2,8 @@
  * the object atomically. Shared by the commands, so no command's file depends on another's. */
 #include "stats.h"
 
+#include "scene_tris.h"
+
 #include "instancing.h"
 
 #include <stdio.h>
@@ -13,9 +15,24 @@
 #include "fileio.h"
 #include "parallel.h"
 
+/* The high-water mark of this process's own memory (VmHWM). Not getrusage's ru_maxrss: Linux
+ * folds into it the RSS of the image exec replaced, so a voxlab started by a 150 MB Python
+ * experiment reported 150 MB whatever it used itself. */
 double peak_rss_bytes(void)
 {
-    struct rusage ru;
+    FILE *f = fopen("/proc/self/status", "r");
+    char line[256];
+    double kb = -1;
+    while (f && fgets(line, sizeof line, f))
+        if (strncmp(line, "VmHWM:", 6) == 0) {
+            kb = strtod(line + 6, NULL);
+            break;
+        }
+    if (f)
+        fclose(f);
+    if (kb >= 0)
+        return kb * 1024.0;
+    struct rusage ru; /* no procfs: the best the system offers */
     getrusage(RUSAGE_SELF, &ru);
     return (double)ru.ru_maxrss * 1024.0; /* Linux reports kilobytes */
 }
@@ -24,7 +41,7 @@ cJSON *stats_scene_fields(const scene *s)
 {
     cJSON *j = cJSON_CreateObject();
     cJSON_AddStringToObject(j, "scene", s->name);
-    cJSON_AddNumberToObject(j, "triangles", (double)s->mesh.triangle_count);
+    cJSON_AddNumberToObject(j, "triangles", (double)scene_triangle_count(s));
     cJSON_AddNumberToObject(j, "degenerate_triangles", (double)s->degenerate_triangles);
     /* Instancing (instancing.h): "triangles" counts every copy; the prototypes' own triangles are
      * what the truth's BVH holds. */

@@ -9,6 +9,7 @@
 #include "animation.h"
 #include "bake_params.h"
 #include "parallel.h"
+#include "scene_tris.h"
 
 int dyn_filter_from_name(const char *name)
 {
@@ -58,6 +59,8 @@ static void sub_scene(const scene *s, const int *owners, int owner, scene *out)
 {
     *out = *s;
     memset(&out->mesh, 0, sizeof out->mesh);
+    if (owner >= 0)
+        out->inst = NULL; /* instanced objects are static (they cannot be animated) */
     uint32_t *map = malloc((s->mesh.vertex_count + 1) * sizeof *map);
     if (!map)
         return; /* an empty part: the caller's bake reports it */
@@ -112,7 +115,7 @@ int dyn_prepare(dyn_scene *d, const scene *s, const vx_model *m, int res, const 
             anim_pose(&s->anim->objects[p - 1], d->ref_frame, P->A, P->t);
         scene sub;
         sub_scene(s, owners, p - 1, &sub);
-        if (sub.mesh.triangle_count == 0) { /* e.g. no static geometry: an empty part */
+        if (scene_triangle_count(&sub) == 0) { /* e.g. no static geometry: an empty part */
             mesh_free(&sub.mesh);
             continue;
         }

@@ -32,7 +32,7 @@ static inline size_t dense_word(const dense_bits *d, int x, int y, int j)
 }
 
 typedef struct {
-    const mesh *m;
+    const grid_triangles *src;
     double origin[3], voxel_size;
     dense_bits *bits; /* level 0 */
     size_t next;      /* first triangle not yet handed out (atomic) */
@@ -58,15 +58,12 @@ static inline double dmax(double a, double b) { return a > b ? a : b; }
  * the number of cells marked, never to the bounding-box volume: a 512x512 ground plate costs about
  * 512^2 cell tests. Ranges derived in floating point are widened by a cell against rounding; the
  * exact SAT (tribox.h: plane + three projected edge tests) decides every cell. */
-static void voxelize_triangle(build_job *job, size_t t)
+static void voxelize_triangle(build_job *job, const float c[9])
 {
-    const mesh *m = job->m;
     double v[3][3];
-    for (int k = 0; k < 3; k++) {
-        const float *p = m->positions + 3 * (size_t)m->indices[3 * t + k];
+    for (int k = 0; k < 3; k++)
         for (int a = 0; a < 3; a++)
-            v[k][a] = ((double)p[a] - job->origin[a]) / job->voxel_size;
-    }
+            v[k][a] = ((double)c[3 * k + a] - job->origin[a]) / job->voxel_size;
     tribox_cells s;
     if (!tribox_cells_setup(&s, v[0], v[1], v[2]))
         return; /* zero area: no surface to voxelise */
@@ -149,16 +146,26 @@ static void voxelize_triangle(build_job *job, size_t t)
 static void *build_worker(void *arg)
 {
     build_job *job = arg;
-    size_t total = job->m->triangle_count;
+    const grid_triangles *src = job->src;
+    float corners[BUILD_CHUNK][9];
     for (;;) {
         size_t first = __atomic_fetch_add(&job->next, BUILD_CHUNK, __ATOMIC_RELAXED);
-        if (first >= total)
+        if (first >= src->count)
             break;
-        size_t last = first + BUILD_CHUNK < total ? first + BUILD_CHUNK : total;
-        for (size_t t = first; t < last; t++)
-            voxelize_triangle(job, t);
+        size_t n = first + BUILD_CHUNK < src->count ? BUILD_CHUNK : src->count - first;
+        src->corners(src->ctx, first, n, corners);
+        for (size_t i = 0; i < n; i++)
+            voxelize_triangle(job, corners[i]);
     }
     return NULL;
+}
+
+static void mesh_corners(const void *ctx, size_t first, size_t n, float (*out)[9])
+{
+    const mesh *m = ctx;
+    for (size_t i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++)
+            memcpy(&out[i][3 * k], m->positions + 3 * (size_t)m->indices[3 * (first + i) + (size_t)k], 3 * sizeof(float));
 }
 
 /* The even bits of x, packed into the low 32 bits (bit 2k -> bit k). */
@@ -382,6 +389,39 @@ static int build_levels(voxel_grid *g, dense_bits dense, vx_err *e)
     return 0;
 }
 
+int grid_build_triangles(voxel_grid *g, const grid_triangles *src, int n, const double lo[3], const double hi[3],
+                         int threads, vx_err *e)
+{
+    memset(g, 0, sizeof *g);
+    if (n < 1 || n > GRID_MAX_N)
+        return vx_fail(e, "grid_build: resolution %d is outside 1..%d", n, GRID_MAX_N);
+    if (src->count == 0)
+        return vx_fail(e, "grid_build: the mesh has no triangles");
+    grid_set_mapping(g, n, lo, hi);
+    dense_bits dense;
+    if (dense_alloc(&dense, n)) {
+        memset(g, 0, sizeof *g);
+        return vx_fail(e, "grid_build: out of memory for the %d^3 occupancy bits", n);
+    }
+    build_job job = {.src = src, .voxel_size = g->voxel_size_d, .bits = &dense};
+    memcpy(job.origin, g->origin_d, sizeof job.origin);
+    if (threads < 1)
+        threads = 1;
+    if (threads > 64)
+        threads = 64;
+    pthread_t tid[64];
+    int started = 0;
+    for (int i = 1; i < threads; i++) {
+        if (pthread_create(&tid[started], NULL, build_worker, &job) != 0)
+            break; /* fewer threads only costs time: the calling thread finishes the work */
+        started++;
+    }
+    build_worker(&job);
+    for (int i = 0; i < started; i++)
+        pthread_join(tid[i], NULL);
+    return build_levels(g, dense, e);
+}
+
 static int grid_build_impl(voxel_grid *g, const mesh *m, int n, const double *blo, const double *bhi, int threads,
                            vx_err *e)
 {
@@ -399,30 +439,8 @@ static int grid_build_impl(voxel_grid *g, const mesh *m, int n, const double *bl
                 return vx_fail(e, "grid_build: the mesh leaves the given bounds on axis %d", a);
             lo[a] = blo[a], hi[a] = bhi[a];
         }
-    grid_set_mapping(g, n, lo, hi);
-
-    dense_bits dense;
-    if (dense_alloc(&dense, n)) {
-        memset(g, 0, sizeof *g);
-        return vx_fail(e, "grid_build: out of memory for the %d^3 occupancy bits", n);
-    }
-    build_job job = {.m = m, .voxel_size = g->voxel_size_d, .bits = &dense};
-    memcpy(job.origin, g->origin_d, sizeof job.origin);
-    if (threads < 1)
-        threads = 1;
-    if (threads > 64)
-        threads = 64;
-    pthread_t tid[64];
-    int started = 0;
-    for (int i = 1; i < threads; i++) {
-        if (pthread_create(&tid[started], NULL, build_worker, &job) != 0)
-            break; /* fewer threads only costs time: the calling thread finishes the work */
-        started++;
-    }
-    build_worker(&job);
-    for (int i = 0; i < started; i++)
-        pthread_join(tid[i], NULL);
-    return build_levels(g, dense, e);
+    grid_triangles src = {m->triangle_count, mesh_corners, m};
+    return grid_build_triangles(g, &src, n, lo, hi, threads, e);
 }
 
 int grid_build_threads(voxel_grid *g, const mesh *m, int n, int threads, vx_err *e)

@@ -55,6 +55,18 @@ int grid_build_bounds(voxel_grid *g, const mesh *m, int n, const double lo[3], c
  * (x << 20 | y << 10 | z, as grid_coords reads them), MIP levels as grid_build: moving objects'
  * records put into the world lattice (tracer/dynamic/). */
 int grid_build_cells(voxel_grid *g, const voxel_grid *like, const uint32_t *cells, size_t count, vx_err *e);
+/* Triangles from any source, in batches: corners(ctx, first, n, out) writes the world corners of
+ * triangles first .. first + n - 1 (x, y, z of corners 0, 1, 2). An instanced scene's copies are
+ * placed on the fly this way, never written out (tracer/scene/scene_tris.h). */
+typedef struct {
+    size_t count;
+    void (*corners)(const void *ctx, size_t first, size_t n, float (*out)[9]);
+    const void *ctx;
+} grid_triangles;
+/* The grid of src's triangles over the lattice of bounds lo/hi (which must contain them; the
+ * caller validated their coordinates), with `threads` threads. */
+int grid_build_triangles(voxel_grid *g, const grid_triangles *src, int n, const double lo[3], const double hi[3],
+                         int threads, vx_err *e);
 void grid_free(voxel_grid *g);
 
 /* Bytes allocated by the grid (all levels, tables, coordinates). */

@@ -1,6 +1,5 @@
 /* Instancing (instancing.h; format in README.md): parsing the "instances" list and the seeded
- * "scatter", writing the copies into the scene's mesh, and, after the zero-area drop, where each
- * copy's triangles landed, for the truth's instance hits. */
+ * "scatter", and keeping each copy's placement beside its prototype. */
 #include "instancing.h"
 
 #include <math.h>
@@ -35,23 +34,6 @@ static int extract(const mesh *m, size_t v0, size_t t0, mesh *out)
         mesh_add_triangle(out, x[0] - (uint32_t)v0, x[1] - (uint32_t)v0, x[2] - (uint32_t)v0, m->materials[t]);
     }
     return 0;
-}
-
-/* Appends prototype p placed by x: the same floats as the object loaded again and given x as its
- * "transform" (xform_apply on the copy). */
-static void append_copy(mesh *m, const mesh *p, const xform *x)
-{
-    size_t v0 = m->vertex_count, t0 = m->triangle_count;
-    for (size_t v = 0; v < p->vertex_count; v++) {
-        const float *q = p->positions + 3 * v, *n = p->normals + 3 * v, *c = p->colors + 3 * v;
-        uint32_t i = mesh_add_vertex(m, v3(q[0], q[1], q[2]), v3(n[0], n[1], n[2]), p->uvs[2 * v], p->uvs[2 * v + 1]);
-        mesh_set_vertex_color(m, i, v3(c[0], c[1], c[2]));
-    }
-    for (size_t t = 0; t < p->triangle_count; t++) {
-        const uint32_t *x3 = p->indices + 3 * t;
-        mesh_add_triangle(m, x3[0] + (uint32_t)v0, x3[1] + (uint32_t)v0, x3[2] + (uint32_t)v0, p->materials[t]);
-    }
-    xform_apply(m, v0, t0, x);
 }
 
 /* "instances": [{"translate", "rotate_deg", "scale"}, ...] */
@@ -164,6 +146,9 @@ static int parse_scatter(const scene *s, const cJSON *sc, const char *where, xfo
         if (o->animated)
             return vx_fail(e, "%s.over: object \"%s\" is animated: instances scattered over it would not follow it", w,
                            over->valuestring);
+        if (o->instanced)
+            return vx_fail(e, "%s.over: object \"%s\" is instanced: scatter over an object drawn once", w,
+                           over->valuestring);
         if (surface_cdf(m, o->t0, o->t1, &tri, &cdf, &nt)) {
             free(tri), free(cdf);
             return vx_fail(e, "%s: out of memory", w);
@@ -210,7 +195,7 @@ static int parse_scatter(const scene *s, const cJSON *sc, const char *where, xfo
     return 0;
 }
 
-static int add_name(scene *s, const char *name, size_t t0, int animated, const char *where, vx_err *e)
+static int add_name(scene *s, const char *name, size_t t0, int animated, int instanced, const char *where, vx_err *e)
 {
     scene_instancing *in = get(s, where, e);
     if (!in)
@@ -225,7 +210,7 @@ static int add_name(scene *s, const char *name, size_t t0, int animated, const c
     inst_named *o = &g[in->named_count];
     if (!(o->name = strdup(name)))
         return vx_fail(e, "%s: out of memory", where);
-    o->t0 = t0, o->t1 = s->mesh.triangle_count, o->animated = animated;
+    o->t0 = t0, o->t1 = s->mesh.triangle_count, o->animated = animated, o->instanced = instanced;
     in->named_count++;
     return 0;
 }
@@ -251,17 +236,16 @@ int inst_parse_object(scene *s, const cJSON *o, const char *where, size_t v0, si
         }
         scene_instancing *in = get(s, where, e);
         size_t nt = s->mesh.triangle_count - t0;
-        if (!in || nt == 0 || (double)nt * n + (double)in->expanded_triangles > INST_MAX_TRIANGLES ||
-            (double)(s->mesh.vertex_count - v0) * n + (double)s->mesh.vertex_count > 4e9) {
+        if (!in || nt == 0 || (double)nt * n + (double)in->triangles > (double)INST_MAX_TRIANGLES) {
             free(x);
             if (!in)
                 return -1;
             if (nt == 0)
                 return vx_fail(e, "%s.%s: the object has no triangles to instance", where, list ? "instances" : "scatter");
             return vx_fail(e, "%s.%s: %d instances of %zu triangles make %.0f triangles with the scene's other "
-                              "instances, more than the %u this build expands for the voxeliser and the bake",
-                           where, list ? "instances" : "scatter", n, nt, (double)nt * n + (double)in->expanded_triangles,
-                           INST_MAX_TRIANGLES);
+                              "instances, more than the %zu a scene may hold",
+                           where, list ? "instances" : "scatter", n, nt, (double)nt * n + (double)in->triangles,
+                           (size_t)INST_MAX_TRIANGLES);
         }
         mesh *protos = realloc(in->protos, (size_t)(in->proto_count + 1) * sizeof *protos);
         inst_instance *inst = protos ? realloc(in->inst, (in->count + (size_t)n) * sizeof *inst) : NULL;
@@ -285,58 +269,23 @@ int inst_parse_object(scene *s, const cJSON *o, const char *where, size_t v0, si
             memset(I, 0, sizeof *I);
             double M[12];
             xform_matrix(&x[i], M);
+            const double sc[3] = {x[i].scale.x, x[i].scale.y, x[i].scale.z};
             for (int k = 0; k < 12; k++)
                 I->m[k] = (float)M[k];
+            /* (R S)^-T = R S^-1: column c of the linear part divided by s_c twice. */
+            for (int r = 0; r < 3; r++)
+                for (int c = 0; c < 3; c++)
+                    I->nm[3 * r + c] = (float)(M[4 * r + c] / (sc[c] * sc[c]));
+            xform_prepare(&x[i], &I->x);
             I->proto = p;
             I->mirror = xform_mirrors(&x[i]);
-            I->t_old = s->mesh.triangle_count;
-            append_copy(&s->mesh, &in->protos[p], &x[i]);
+            I->offset = in->triangles;
+            in->triangles += nt;
         }
-        in->expanded_triangles += nt * (size_t)n;
         free(x);
     }
-    if (name && add_name(s, name, t0, anim != NULL, where, e))
+    if (name && add_name(s, name, t0, anim != NULL, list || sc, where, e))
         return -1;
-    return 0;
-}
-
-int inst_finalize(scene *s, const uint32_t *map, size_t old_count, vx_err *e)
-{
-    scene_instancing *in = s->inst;
-    if (!in || in->count == 0)
-        return 0;
-    char *owned = calloc(old_count + 1, 1);
-    if (!owned)
-        return vx_fail(e, "%s: out of memory", s->path);
-    for (size_t i = 0; i < in->count; i++) {
-        inst_instance *I = &in->inst[i];
-        size_t nt = in->protos[I->proto].triangle_count;
-        int whole = 1;
-        for (size_t p = 0; p < nt; p++) {
-            owned[I->t_old + p] = 1;
-            whole &= map[I->t_old + p] != UINT32_MAX && map[I->t_old + p] == map[I->t_old] + p;
-        }
-        I->base = map[I->t_old];
-        if (!whole) { /* zero-area copies were dropped: look each triangle up */
-            if (!(I->remap = malloc(nt * sizeof *I->remap))) {
-                free(owned);
-                return vx_fail(e, "%s: out of memory", s->path);
-            }
-            for (size_t p = 0; p < nt; p++)
-                I->remap[p] = map[I->t_old + p];
-        }
-    }
-    free(in->plain);
-    in->plain = malloc((old_count + 1) * sizeof *in->plain);
-    if (!in->plain) {
-        free(owned);
-        return vx_fail(e, "%s: out of memory", s->path);
-    }
-    in->plain_count = 0;
-    for (size_t t = 0; t < old_count; t++)
-        if (!owned[t] && map[t] != UINT32_MAX)
-            in->plain[in->plain_count++] = map[t];
-    free(owned);
     return 0;
 }
 
@@ -346,13 +295,10 @@ void inst_free(scene_instancing *in)
         return;
     for (int i = 0; i < in->proto_count; i++)
         mesh_free(&in->protos[i]);
-    for (size_t i = 0; i < in->count; i++)
-        free(in->inst[i].remap);
     for (int i = 0; i < in->named_count; i++)
         free(in->named[i].name);
     free(in->protos);
     free(in->inst);
-    free(in->plain);
     free(in->named);
     free(in);
 }

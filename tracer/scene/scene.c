@@ -11,6 +11,7 @@
 #include "animation.h"
 #include "generator.h"
 #include "instancing.h"
+#include "scene_tris.h"
 #include "json_util.h"
 #include "mesh_load.h"
 #include "readfile.h"
@@ -561,34 +562,25 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
     return 0;
 }
 
-/* Drops zero-area triangles (they have no surface to shade or voxelise) and counts them. An
- * instanced scene then learns where each copy's triangles went (instancing.h). */
-static int drop_degenerate(scene *s, vx_err *e)
+/* Drops the mesh's zero-area triangles (they have no surface to shade or voxelise) and counts
+ * them. Prototypes keep theirs: a copy is numbered as its prototype (scene_tris.h), and every
+ * consumer skips a triangle without area (the voxeliser's setup, the ray tests' determinant). */
+static void drop_degenerate(scene *s)
 {
     mesh *m = &s->mesh;
-    size_t kept = 0, old_count = m->triangle_count;
-    uint32_t *map = NULL;
-    if (s->inst && s->inst->count && !(map = malloc((old_count + 1) * sizeof *map)))
-        return vx_fail(e, "%s: out of memory", s->path);
+    size_t kept = 0;
     for (size_t t = 0; t < m->triangle_count; t++) {
         const uint32_t *tri = &m->indices[3 * t];
         vec3 a = mesh_position(m, tri[0]), b = mesh_position(m, tri[1]), c = mesh_position(m, tri[2]);
         vec3 n = v3_cross(v3_sub(b, a), v3_sub(c, a));
         if (!(v3_dot(n, n) > 0.0f)) {
             s->degenerate_triangles++;
-            if (map)
-                map[t] = UINT32_MAX;
             continue;
         }
-        if (map)
-            map[t] = (uint32_t)kept;
         memmove(&m->indices[3 * kept], tri, 3 * sizeof(uint32_t));
         m->materials[kept++] = m->materials[t];
     }
     m->triangle_count = kept;
-    int rc = map ? inst_finalize(s, map, old_count, e) : 0;
-    free(map);
-    return rc;
 }
 
 static uint64_t hash_bytes(uint64_t h, const void *data, size_t n)
@@ -602,15 +594,10 @@ static uint64_t hash_bytes(uint64_t h, const void *data, size_t n)
 static void compute_bounds_and_identity(scene *s)
 {
     mesh *m = &s->mesh;
-    vec3 lo = v3(INFINITY, INFINITY, INFINITY), hi = v3(-INFINITY, -INFINITY, -INFINITY);
-    for (size_t t = 0; t < m->triangle_count; t++)
-        for (int k = 0; k < 3; k++) {
-            vec3 p = mesh_position(m, m->indices[3 * t + (size_t)k]);
-            lo = v3_min(lo, p);
-            hi = v3_max(hi, p);
-        }
-    s->bounds_lo = lo;
-    s->bounds_hi = hi;
+    double lo[3], hi[3];
+    scene_triangle_bounds(s, lo, hi);
+    s->bounds_lo = v3((float)lo[0], (float)lo[1], (float)lo[2]);
+    s->bounds_hi = v3((float)hi[0], (float)hi[1], (float)hi[2]);
     uint64_t h = 0xcbf29ce484222325ULL;
     h = hash_bytes(h, m->positions, m->vertex_count * 3 * sizeof(float));
     h = hash_bytes(h, m->normals, m->vertex_count * 3 * sizeof(float));
@@ -618,6 +605,20 @@ static void compute_bounds_and_identity(scene *s)
     h = hash_bytes(h, m->uvs, m->vertex_count * 2 * sizeof(float));
     h = hash_bytes(h, m->indices, m->triangle_count * 3 * sizeof(uint32_t));
     h = hash_bytes(h, m->materials, m->triangle_count * sizeof(uint32_t));
+    const scene_instancing *in = s->inst;
+    for (int q = 0; in && q < in->proto_count; q++) { /* the prototypes once, then each placement */
+        const mesh *p = &in->protos[q];
+        h = hash_bytes(h, p->positions, p->vertex_count * 3 * sizeof(float));
+        h = hash_bytes(h, p->normals, p->vertex_count * 3 * sizeof(float));
+        h = hash_bytes(h, p->colors, p->vertex_count * 3 * sizeof(float));
+        h = hash_bytes(h, p->uvs, p->vertex_count * 2 * sizeof(float));
+        h = hash_bytes(h, p->indices, p->triangle_count * 3 * sizeof(uint32_t));
+        h = hash_bytes(h, p->materials, p->triangle_count * sizeof(uint32_t));
+    }
+    for (size_t i = 0; in && i < in->count; i++) {
+        h = hash_bytes(h, &in->inst[i].proto, sizeof in->inst[i].proto);
+        h = hash_bytes(h, in->inst[i].m, sizeof in->inst[i].m);
+    }
     for (int i = 0; i < s->material_count; i++)
         h = hash_bytes(h, &s->materials[i], sizeof(material));
     h = hash_bytes(h, &s->effects, sizeof s->effects);
@@ -685,9 +686,10 @@ int scene_load_text(const char *text, const char *path, scene *s, vx_err *e)
         if (dot)
             *dot = 0;
     }
-    if (drop_degenerate(s, e))
+    drop_degenerate(s);
+    if (s->inst && s->inst->count && inst_compute_bounds(s, e))
         goto done;
-    if (s->mesh.triangle_count == 0) {
+    if (scene_triangle_count(s) == 0) {
         vx_fail(e, "%s: objects: the scene has no triangles (after dropping %zu zero-area ones)", path,
                 s->degenerate_triangles);
         goto done;

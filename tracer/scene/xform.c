@@ -3,6 +3,7 @@
 #include "xform.h"
 
 #include <math.h>
+#include <string.h>
 
 #include "json_util.h"
 
@@ -30,30 +31,39 @@ int xform_parse(const cJSON *xf, const char *where, xform *out, vx_err *e)
     return 0;
 }
 
-/* Rotates P and N (double) about x, then y, then z. */
-static void rotate(const double ang[3], double P[3], double N[3])
+/* Rotates P and N (double) about x, then y, then z, by the angles whose cosines and sines are cs. */
+static void rotate(const double cs[3][2], double P[3], double N[3])
 {
-    for (int axis = 0; axis < 3; axis++) {
-        int a = (axis + 1) % 3, b = (axis + 2) % 3;
-        double c = cos(ang[axis]), s = sin(ang[axis]);
-        double pa = c * P[a] - s * P[b], pb = s * P[a] + c * P[b];
-        double na = c * N[a] - s * N[b], nb = s * N[a] + c * N[b];
-        P[a] = pa, P[b] = pb, N[a] = na, N[b] = nb;
-    }
+    xform_rotate(cs, P);
+    xform_rotate(cs, N);
+}
+
+void xform_prepare(const xform *x, xform_exact *out)
+{
+    out->scale = x->scale;
+    out->translate = x->translate;
+    double ang[3] = {x->rotate_deg.x * M_PI / 180, x->rotate_deg.y * M_PI / 180, x->rotate_deg.z * M_PI / 180};
+    for (int a = 0; a < 3; a++)
+        out->cs[a][0] = cos(ang[a]), out->cs[a][1] = sin(ang[a]);
+}
+
+void xform_normal(const xform_exact *x, const float n[3], float out[3])
+{
+    double P[3] = {0, 0, 0}, N[3] = {n[0] / x->scale.x, n[1] / x->scale.y, n[2] / x->scale.z};
+    rotate(x->cs, P, N);
+    vec3 nn = v3_normalize(v3((float)N[0], (float)N[1], (float)N[2]));
+    out[0] = nn.x, out[1] = nn.y, out[2] = nn.z;
 }
 
 void xform_apply(mesh *m, size_t v0, size_t t0, const xform *x)
 {
-    vec3 scale = x->scale, rot = x->rotate_deg, tr = x->translate;
-    double ang[3] = {rot.x * M_PI / 180, rot.y * M_PI / 180, rot.z * M_PI / 180};
+    xform_exact xe;
+    xform_prepare(x, &xe);
     for (size_t i = v0; i < m->vertex_count; i++) {
-        float *p = &m->positions[3 * i], *n = &m->normals[3 * i];
-        double P[3] = {p[0] * scale.x, p[1] * scale.y, p[2] * scale.z};
-        double N[3] = {n[0] / scale.x, n[1] / scale.y, n[2] / scale.z};
-        rotate(ang, P, N);
-        vec3 nn = v3_normalize(v3((float)N[0], (float)N[1], (float)N[2]));
-        p[0] = (float)(P[0] + tr.x), p[1] = (float)(P[1] + tr.y), p[2] = (float)(P[2] + tr.z);
-        n[0] = nn.x, n[1] = nn.y, n[2] = nn.z;
+        float *p = &m->positions[3 * i], *n = &m->normals[3 * i], q[3];
+        xform_point(&xe, p, q);
+        xform_normal(&xe, n, n);
+        memcpy(p, q, sizeof q);
     }
     if (xform_mirrors(x))
         for (size_t t = t0; t < m->triangle_count; t++) {
@@ -65,12 +75,13 @@ void xform_apply(mesh *m, size_t v0, size_t t0, const xform *x)
 
 void xform_matrix(const xform *x, double M[12])
 {
-    double ang[3] = {x->rotate_deg.x * M_PI / 180, x->rotate_deg.y * M_PI / 180, x->rotate_deg.z * M_PI / 180};
+    xform_exact xe;
+    xform_prepare(x, &xe);
     const double s[3] = {x->scale.x, x->scale.y, x->scale.z}, t[3] = {x->translate.x, x->translate.y, x->translate.z};
     for (int c = 0; c < 3; c++) { /* column c: the image of the scaled unit vector e_c */
         double P[3] = {0, 0, 0}, N[3] = {0, 0, 0};
         P[c] = s[c];
-        rotate(ang, P, N);
+        rotate(xe.cs, P, N);
         for (int r = 0; r < 3; r++)
             M[4 * r + c] = P[r];
     }

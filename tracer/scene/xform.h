@@ -16,6 +16,12 @@ typedef struct {
     vec3 scale, rotate_deg, translate;
 } xform;
 
+/* A placement ready to apply to many points: the rotation's cosines and sines computed once. */
+typedef struct {
+    vec3 scale, translate;
+    double cs[3][2];
+} xform_exact;
+
 #define XFORM_IDENTITY ((xform){{1, 1, 1}, {0, 0, 0}, {0, 0, 0}})
 
 /* Reads {"scale": s | [x,y,z], "rotate_deg": [x,y,z], "translate": [x,y,z]} (each optional; no
@@ -24,6 +30,31 @@ int xform_parse(const cJSON *obj, const char *where, xform *out, vx_err *e);
 /* Applies x to the vertices from v0 on; normals by the inverse transpose (renormalised), and the
  * winding of the triangles from t0 on reversed when the scale mirrors, to keep fronts outside. */
 void xform_apply(mesh *m, size_t v0, size_t t0, const xform *x);
+void xform_prepare(const xform *x, xform_exact *out);
+
+/* V rotated about x, then y, then z, by the angles whose cosines and sines are cs. */
+static inline void xform_rotate(const double cs[3][2], double V[3])
+{
+    for (int axis = 0; axis < 3; axis++) {
+        int a = (axis + 1) % 3, b = (axis + 2) % 3;
+        double c = cs[axis][0], s = cs[axis][1];
+        double va = c * V[a] - s * V[b], vb = s * V[a] + c * V[b];
+        V[a] = va, V[b] = vb;
+    }
+}
+
+/* One point placed with exactly xform_apply's arithmetic (the same float result): instance copies
+ * are placed on the fly by the voxeliser and the bake sampler with it. Inline: they place every
+ * corner of every copy they visit. */
+static inline void xform_point(const xform_exact *x, const float p[3], float out[3])
+{
+    double P[3] = {p[0] * x->scale.x, p[1] * x->scale.y, p[2] * x->scale.z};
+    xform_rotate(x->cs, P);
+    out[0] = (float)(P[0] + x->translate.x), out[1] = (float)(P[1] + x->translate.y);
+    out[2] = (float)(P[2] + x->translate.z);
+}
+/* A normal placed by the inverse transpose and normalised, likewise (out may be n). */
+void xform_normal(const xform_exact *x, const float n[3], float out[3]);
 /* The same map as a row-major 3x4 matrix (p' = M[0..2] p + M[3] per row), in double. */
 void xform_matrix(const xform *x, double M[12]);
 /* 1 when the scale mirrors (its determinant is negative). */

@@ -11,6 +11,7 @@
 
 #include "parallel.h"
 #include "rt.h"
+#include "scene_tris.h"
 #include "shadow_build_internal.h"
 
 typedef struct {
@@ -50,7 +51,7 @@ static void tri_row(void *p, int64_t row, int thread)
             if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID)
                 break;
             float t = rh.ray.tfar;
-            float sigma = s->shadow_sigma[s->mesh.materials[rh.hit.primID]];
+            float sigma = s->shadow_sigma[scene_hit_material(s, rh.hit.instID[0], rh.hit.primID)];
             if (!(sigma > 0.0f)) {
                 b->opaque[(size_t)jj * (size_t)res + (size_t)i] = t;
                 break;

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "instancing.h"
+#include "rt_attributes.h"
 #include "rt_instances.h"
 
 static void embree_error(void *user, enum RTCError code, const char *str)
@@ -31,21 +32,8 @@ static bool memory_monitor(void *user, ssize_t bytes, bool post)
 /* The shading attributes every hit reads (rt_surface), per vertex and triangle of the scene's mesh. */
 static int shading_attributes(rt_scene *rt, const scene *s, vx_err *e)
 {
-    const mesh *m = &s->mesh;
-    rt->vertices = malloc(sizeof(rt_vertex) * (m->vertex_count ? m->vertex_count : 1));
-    rt->face_normals = malloc(sizeof(vec3) * (m->triangle_count ? m->triangle_count : 1));
-    if (!rt->vertices || !rt->face_normals)
-        return vx_fail(e, "out of memory for %zu vertices' shading attributes", m->vertex_count);
-    for (size_t i = 0; i < m->vertex_count; i++) {
-        memcpy(rt->vertices[i].normal, &m->normals[3 * i], sizeof(float) * 3);
-        memcpy(rt->vertices[i].color, &m->colors[3 * i], sizeof(float) * 3);
-        memcpy(rt->vertices[i].uv, &m->uvs[2 * i], sizeof(float) * 2);
-    }
-    for (size_t t = 0; t < m->triangle_count; t++) {
-        const uint32_t *tri = &m->indices[3 * t];
-        vec3 a = mesh_position(m, tri[0]), b = mesh_position(m, tri[1]), c = mesh_position(m, tri[2]);
-        rt->face_normals[t] = v3_normalize(v3_cross(v3_sub(b, a), v3_sub(c, a)));
-    }
+    if (rt_mesh_attributes(&s->mesh, &rt->vertices, &rt->face_normals))
+        return vx_fail(e, "out of memory for %zu vertices' shading attributes", s->mesh.vertex_count);
     vec3 ext = v3_sub(s->bounds_hi, s->bounds_lo);
     float size = fmaxf(ext.x, fmaxf(ext.y, ext.z));
     float far = fmaxf(fmaxf(fabsf(s->bounds_lo.x), fabsf(s->bounds_hi.x)),
@@ -56,10 +44,11 @@ static int shading_attributes(rt_scene *rt, const scene *s, vx_err *e)
     return 0;
 }
 
-static int build(rt_scene *rt, const scene *s, int flat, vx_err *e)
+int rt_build(rt_scene *rt, const scene *s, vx_err *e)
 {
     memset(rt, 0, sizeof *rt);
     rt->scene = s;
+    rt->query_scale = 1.0f;
     rt->device = rtcNewDevice(NULL);
     if (!rt->device)
         return vx_fail(e, "Embree: cannot create a device (error %d)", (int)rtcGetDeviceError(NULL));
@@ -67,7 +56,7 @@ static int build(rt_scene *rt, const scene *s, int flat, vx_err *e)
     rtcSetDeviceMemoryMonitorFunction(rt->device, memory_monitor, rt);
     rt->bvh = rtcNewScene(rt->device);
     rtcSetSceneBuildQuality(rt->bvh, RTC_BUILD_QUALITY_HIGH);
-    if (!flat && s->inst && s->inst->count) {
+    if (s->inst && s->inst->count) {
         if (rt_attach_instances(rt, s, e)) {
             rt_free(rt);
             return -1;
@@ -94,18 +83,18 @@ static int build(rt_scene *rt, const scene *s, int flat, vx_err *e)
     return 0;
 }
 
-int rt_build(rt_scene *rt, const scene *s, vx_err *e) { return build(rt, s, 0, e); }
-
-int rt_build_flat(rt_scene *rt, const scene *s, vx_err *e) { return build(rt, s, 1, e); }
-
 void rt_free(rt_scene *rt)
 {
     if (rt->bvh)
         rtcReleaseScene(rt->bvh);
-    for (int i = 0; i < rt->proto_count; i++)
+    for (int i = 0; i < rt->proto_count; i++) {
         if (rt->protos[i])
             rtcReleaseScene(rt->protos[i]);
+        free(rt->proto_vertices[i]);
+    }
     free(rt->protos);
+    free(rt->proto_vertices);
+    rt->proto_vertices = NULL;
     if (rt->device)
         rtcReleaseDevice(rt->device);
     free(rt->vertices);

@@ -22,12 +22,15 @@ typedef struct {
     float epsilon;         /* offset for secondary rays, relative to the scene's size */
     rt_vertex *vertices;   /* per vertex */
     vec3 *face_normals;    /* per triangle: unit, toward the counter-clockwise front */
-    /* An instanced scene (instancing.h) built by rt_build: one BVH per prototype under instance
-     * geometries; Embree's filter turns every hit's primID into the scene mesh's triangle (the
-     * copy's), so rt_surface and every caller see the expanded mesh's triangle numbers. */
+    /* An instanced scene (instancing.h): one BVH per prototype under an instance geometry per copy
+     * (geomID = instance index; the mesh's own triangles are the geometry after them). A hit on a
+     * copy reports hit.instID[0] = the instance and primID = the prototype's triangle; rt_surface
+     * places the prototype's attributes as the copy's written-out form would have them. */
     RTCScene *protos;
+    rt_vertex **proto_vertices; /* per prototype: its vertices' attributes, in its own space */
     int proto_count;
     int instanced;
+    float query_scale; /* min(1, the smallest scale factor of any copy): point queries' radius divisor */
     long long bvh_live, bvh_peak; /* the memory monitor's running and peak sums */
     size_t bvh_bytes;      /* peak bytes Embree allocated (its memory monitor): BVHs and geometry buffers */
 } rt_scene;
@@ -62,27 +65,19 @@ static inline void rt_packet_rayhit(struct RTCRayHit16 *rh, int k, vec3 org, vec
     rh->hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
 }
 
-/* Describes the hit of a ray with direction dir on triangle prim at barycentrics (u, v). Inline:
- * the ground truth calls it for every sample and lets the compiler keep the result in registers. */
-static inline void rt_surface(const rt_scene *rt, unsigned prim, float u, float v, vec3 origin, vec3 dir,
-                              float t, surface_hit *out)
+/* The shading every hit shares: ng the unit geometric normal toward the front, nsum the
+ * interpolated (unnormalised) shading normal in world space, (w, u, v) the barycentrics on the
+ * corners' colours and uvs. */
+static inline void rt_shade(const scene *s, const material *mat, vec3 ng, vec3 nsum, const rt_vertex *v0,
+                            const rt_vertex *v1, const rt_vertex *v2, float w, float u, float v, vec3 origin, vec3 dir,
+                            float t, surface_hit *out)
 {
-    const scene *s = rt->scene;
-    const mesh *m = &s->mesh;
-    const uint32_t *tri = &m->indices[3 * (size_t)prim];
-    const rt_vertex *v0 = &rt->vertices[tri[0]], *v1 = &rt->vertices[tri[1]], *v2 = &rt->vertices[tri[2]];
-    float w = 1.0f - u - v;
-    vec3 ng = rt->face_normals[prim];
-    const material *mat = &s->materials[m->materials[prim]];
     out->position = v3_madd(origin, dir, t);
     out->geometric_normal = ng;
     out->front_facing = v3_dot(ng, dir) < 0.0f;
     out->material = mat;
     out->shaded = out->front_facing || mat->double_sided;
-    vec3 n = v3_normalize_or(v3(w * v0->normal[0] + u * v1->normal[0] + v * v2->normal[0],
-                                w * v0->normal[1] + u * v1->normal[1] + v * v2->normal[1],
-                                w * v0->normal[2] + u * v1->normal[2] + v * v2->normal[2]),
-                             ng);
+    vec3 n = v3_normalize_or(nsum, ng);
     /* Keep the shading normal on the geometric side: interpolated normals can tip over at
      * silhouettes, which would shade a visible point as if facing away. */
     if (v3_dot(n, ng) < 0.0f)
@@ -101,15 +96,51 @@ static inline void rt_surface(const rt_scene *rt, unsigned prim, float u, float 
     out->albedo = out->shaded ? albedo : v3(0, 0, 0);
 }
 
+static inline vec3 rt_interpolate_normal(const rt_vertex *v0, const rt_vertex *v1, const rt_vertex *v2, float w,
+                                         float u, float v)
+{
+    return v3(w * v0->normal[0] + u * v1->normal[0] + v * v2->normal[0],
+              w * v0->normal[1] + u * v1->normal[1] + v * v2->normal[1],
+              w * v0->normal[2] + u * v1->normal[2] + v * v2->normal[2]);
+}
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+/* rt_surface's case of a hit on a copy (rt_instances.c). */
+void rt_surface_instance(const rt_scene *rt, unsigned inst, unsigned prim, float u, float v, vec3 origin, vec3 dir,
+                         float t, surface_hit *out);
+#ifdef __cplusplus
+}
+#endif
+
+/* Describes the hit of a ray with direction dir at barycentrics (u, v) on the mesh's triangle prim
+ * (inst = RTC_INVALID_GEOMETRY_ID, what Embree reports outside instances) or on instance inst's
+ * prototype triangle prim, with Embree's (u, v) in the prototype's winding. Inline: the ground
+ * truth calls it for every sample and lets the compiler keep the result in registers. */
+static inline void rt_surface(const rt_scene *rt, unsigned inst, unsigned prim, float u, float v, vec3 origin,
+                              vec3 dir, float t, surface_hit *out)
+{
+    if (inst != RTC_INVALID_GEOMETRY_ID) {
+        rt_surface_instance(rt, inst, prim, u, v, origin, dir, t, out);
+        return;
+    }
+    const scene *s = rt->scene;
+    const mesh *m = &s->mesh;
+    const uint32_t *tri = &m->indices[3 * (size_t)prim];
+    const rt_vertex *v0 = &rt->vertices[tri[0]], *v1 = &rt->vertices[tri[1]], *v2 = &rt->vertices[tri[2]];
+    float w = 1.0f - u - v;
+    rt_shade(s, &s->materials[m->materials[prim]], rt->face_normals[prim], rt_interpolate_normal(v0, v1, v2, w, u, v),
+             v0, v1, v2, w, u, v, origin, dir, t, out);
+}
+
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-/* Embree over the scene; an instanced scene as Embree instances (the truth, the slicemaps). */
+/* Embree over the scene; an instanced scene as Embree instances (the truth, the slicemaps, the
+ * bake sampler's point queries). */
 int rt_build(rt_scene *rt, const scene *s, vx_err *e);
-/* One BVH over the scene's mesh with every instance written out: the bake sampler's point queries
- * walk it (the per-voxel own-triangle lists are those of the expanded scene). */
-int rt_build_flat(rt_scene *rt, const scene *s, vx_err *e);
 void rt_free(rt_scene *rt);
 
 #ifdef __cplusplus

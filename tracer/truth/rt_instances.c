@@ -1,19 +1,19 @@
 /* Embree instances for an instanced scene (rt_instances.h). The prototypes' BVHs are built once;
  * each copy is an RTC_GEOMETRY_TYPE_INSTANCE with its object-to-world matrix, so the BVH memory
  * grows with the prototypes' triangles plus a few dozen bytes a copy. Embree intersects a copy in
- * the prototype's space and reports (instance, prototype triangle, u, v); the intersection filter
- * maps that to the mesh's triangle of the copy (and swaps u and v for a mirrored copy, whose
- * winding the expanded mesh reverses), so every caller keeps reading hit.primID as a triangle of
- * s->mesh. Embree commits the filtered hit (it is what the filter may modify), and for a
- * closest-hit query the filter runs on every candidate, which is the instanced truth's one extra
- * cost. Hit distances and barycentrics come from Embree's arithmetic in the prototype's space, so
- * they differ from the expanded mesh's in the last bits; the shading attributes do not. */
+ * the prototype's space and reports (instance, prototype triangle, u, v); rt_surface_instance
+ * shades that from the prototype's attributes, normals taken to the world by the instance's
+ * inverse transpose. Hit distances, barycentrics and normals come from arithmetic in the
+ * prototype's space, so they differ from the expanded form's in the last bits. */
 #include "rt_instances.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "instancing.h"
+#include "rt_attributes.h"
+#include "scene_tris.h"
 
 /* A triangle geometry over the mesh (all of it): Embree's own buffers, as it may read past the last
  * vertex with 16-byte loads, which a shared buffer of ours would have to be padded for. */
@@ -34,64 +34,36 @@ RTCGeometry rt_triangle_geometry(RTCDevice device, const mesh *m)
     return geom;
 }
 
-/* Instance copies are attached with geomID = instance index; the other objects' triangles last. */
-static void instance_filter(const struct RTCFilterFunctionNArguments *args)
+void rt_surface_instance(const rt_scene *rt, unsigned inst, unsigned prim, float u, float v, vec3 origin, vec3 dir,
+                         float t, surface_hit *out)
 {
-    const scene_instancing *in = args->geometryUserPtr;
-    unsigned *hit = (unsigned *)args->hit, N = args->N;
-    float *hf = (float *)args->hit;
-    unsigned id = args->context->instID[0];
-    if (id >= in->count) /* cannot happen: every prototype is reached through an instance */
-        return;
-    const inst_instance *I = &in->inst[id];
-    for (unsigned i = 0; i < N; i++) {
-        if (args->valid[i] != -1)
-            continue;
-        uint32_t t = inst_triangle(I, hit[5 * N + i]);
-        if (t == UINT32_MAX) { /* the copy's triangle has no area: the expanded mesh has no such triangle */
-            args->valid[i] = 0;
-            continue;
-        }
-        hit[5 * N + i] = t;
-        if (I->mirror) {
-            float u = hf[3 * N + i];
-            hf[3 * N + i] = hf[4 * N + i];
-            hf[4 * N + i] = u;
-        }
+    const scene *s = rt->scene;
+    const inst_instance *I = &s->inst->inst[inst];
+    const mesh *m = &s->inst->protos[I->proto];
+    const uint32_t *tri = &m->indices[3 * (size_t)prim];
+    const rt_vertex *pv = rt->proto_vertices[I->proto];
+    /* The copy as written out: corners in its winding (1 and 2 swapped when the placement
+     * mirrors, and Embree's (u, v) with them), placed with the arithmetic of a "transform", the
+     * face normal from the placed corners as rt_mesh_attributes takes it. So a hit shades as on
+     * the expanded scene's triangle, bit for bit for the same (u, v). */
+    static const int order[2][3] = {{0, 1, 2}, {0, 2, 1}};
+    const int *o = order[I->mirror ? 1 : 0];
+    if (I->mirror) {
+        float tmp = u;
+        u = v, v = tmp;
     }
-}
-
-static void plain_filter(const struct RTCFilterFunctionNArguments *args)
-{
-    const scene_instancing *in = args->geometryUserPtr;
-    unsigned *hit = (unsigned *)args->hit, N = args->N;
-    for (unsigned i = 0; i < N; i++)
-        if (args->valid[i] == -1)
-            hit[5 * N + i] = in->plain[hit[5 * N + i]];
-}
-
-/* The triangles of the objects that are not instanced, with only the vertices they use. */
-static int plain_mesh(const scene *s, mesh *out)
-{
-    const scene_instancing *in = s->inst;
-    const mesh *m = &s->mesh;
-    memset(out, 0, sizeof *out);
-    uint32_t *map = malloc((m->vertex_count + 1) * sizeof *map);
-    if (!map)
-        return -1;
-    memset(map, 0xff, (m->vertex_count + 1) * sizeof *map);
-    for (size_t i = 0; i < in->plain_count; i++) {
-        const uint32_t *x = m->indices + 3 * (size_t)in->plain[i];
-        uint32_t v[3];
-        for (int k = 0; k < 3; k++) {
-            if (map[x[k]] == UINT32_MAX)
-                map[x[k]] = mesh_add_vertex(out, mesh_position(m, x[k]), v3(0, 0, 1), 0, 0);
-            v[k] = map[x[k]];
-        }
-        mesh_add_triangle(out, v[0], v[1], v[2], 0);
+    rt_vertex c[3];
+    float p[9];
+    inst_corners(s->inst, I, prim, p);
+    for (int k = 0; k < 3; k++) {
+        c[k] = pv[tri[o[k]]];
+        xform_normal(&I->x, c[k].normal, c[k].normal);
     }
-    free(map);
-    return 0;
+    vec3 a = v3(p[0], p[1], p[2]), b = v3(p[3], p[4], p[5]), d = v3(p[6], p[7], p[8]);
+    vec3 ng = v3_normalize(v3_cross(v3_sub(b, a), v3_sub(d, a)));
+    float w = 1.0f - u - v;
+    rt_shade(s, &s->materials[m->materials[prim]], ng, rt_interpolate_normal(&c[0], &c[1], &c[2], w, u, v), &c[0], &c[1],
+             &c[2], w, u, v, origin, dir, t, out);
 }
 
 int rt_attach_instances(rt_scene *rt, const scene *s, vx_err *e)
@@ -104,16 +76,16 @@ int rt_attach_instances(rt_scene *rt, const scene *s, vx_err *e)
      * instance boxes its cost is small. Checked by tests/test_instancing.py (a shadowed scene). */
     rtcSetSceneFlags(rt->bvh, RTC_SCENE_FLAG_COMPACT);
     rt->protos = calloc((size_t)in->proto_count, sizeof *rt->protos);
-    if (!rt->protos)
+    rt->proto_vertices = calloc((size_t)in->proto_count, sizeof *rt->proto_vertices);
+    if (!rt->protos || !rt->proto_vertices)
         return vx_fail(e, "out of memory for %d prototypes", in->proto_count);
     rt->proto_count = in->proto_count;
     for (int p = 0; p < in->proto_count; p++) {
+        if (rt_mesh_attributes(&in->protos[p], &rt->proto_vertices[p], NULL))
+            return vx_fail(e, "out of memory for prototype %d's shading attributes", p);
         RTCGeometry g = rt_triangle_geometry(rt->device, &in->protos[p]);
         if (!g)
             return vx_fail(e, "Embree: cannot allocate prototype %d's geometry buffers", p);
-        rtcSetGeometryUserData(g, (void *)in);
-        rtcSetGeometryIntersectFilterFunction(g, instance_filter);
-        rtcCommitGeometry(g);
         rt->protos[p] = rtcNewScene(rt->device);
         rtcSetSceneBuildQuality(rt->protos[p], RTC_BUILD_QUALITY_HIGH);
         rtcAttachGeometry(rt->protos[p], g);
@@ -121,6 +93,8 @@ int rt_attach_instances(rt_scene *rt, const scene *s, vx_err *e)
         rtcCommitScene(rt->protos[p]);
     }
     for (size_t i = 0; i < in->count; i++) {
+        vec3 k = in->inst[i].x.scale; /* the placement's singular values: rotations keep lengths */
+        rt->query_scale = fminf(rt->query_scale, fminf(fabsf(k.x), fminf(fabsf(k.y), fabsf(k.z))));
         RTCGeometry g = rtcNewGeometry(rt->device, RTC_GEOMETRY_TYPE_INSTANCE);
         rtcSetGeometryInstancedScene(g, rt->protos[in->inst[i].proto]);
         rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, in->inst[i].m);
@@ -128,17 +102,10 @@ int rt_attach_instances(rt_scene *rt, const scene *s, vx_err *e)
         rtcAttachGeometryByID(rt->bvh, g, (unsigned)i);
         rtcReleaseGeometry(g);
     }
-    if (in->plain_count) {
-        mesh pm;
-        if (plain_mesh(s, &pm))
-            return vx_fail(e, "out of memory for the scene's other objects");
-        RTCGeometry g = rt_triangle_geometry(rt->device, &pm);
-        mesh_free(&pm);
+    if (s->mesh.triangle_count) { /* the objects drawn once: the mesh itself, primID its triangle */
+        RTCGeometry g = rt_triangle_geometry(rt->device, &s->mesh);
         if (!g)
-            return vx_fail(e, "Embree: cannot allocate geometry buffers for %zu triangles", in->plain_count);
-        rtcSetGeometryUserData(g, (void *)in);
-        rtcSetGeometryIntersectFilterFunction(g, plain_filter);
-        rtcCommitGeometry(g);
+            return vx_fail(e, "Embree: cannot allocate geometry buffers for %zu triangles", s->mesh.triangle_count);
         rtcAttachGeometryByID(rt->bvh, g, (unsigned)in->count);
         rtcReleaseGeometry(g);
     }

@@ -1,7 +1,6 @@
 /* The Embree side of instancing (tracer/scene/instancing.h): a BVH per prototype, an instance
- * geometry per copy, and the triangles of the other objects in one geometry of their own; filter
- * functions renumber each hit to the scene mesh's triangle, so shading reads the expanded mesh's
- * attributes (the material, normals and colour of the copy the ray met). */
+ * geometry per copy (geomID = instance index), and the scene mesh (the objects drawn once) as the
+ * geometry after them. */
 #ifndef VX_RT_INSTANCES_H
 #define VX_RT_INSTANCES_H
 

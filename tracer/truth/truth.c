@@ -77,7 +77,7 @@ static void describe_surfaces(const truth_job *j, const struct RTCRayHit16 *rh, 
         vec3 org = v3(rh->ray.org_x[k], rh->ray.org_y[k], rh->ray.org_z[k]);
         vec3 dir = v3(rh->ray.dir_x[k], rh->ray.dir_y[k], rh->ray.dir_z[k]);
         surface_hit sh;
-        rt_surface(rt, rh->hit.primID[k], rh->hit.u[k], rh->hit.v[k], org, dir, rh->ray.tfar[k], &sh);
+        rt_surface(rt, rh->hit.instID[0][k], rh->hit.primID[k], rh->hit.u[k], rh->hit.v[k], org, dir, rh->ray.tfar[k], &sh);
         if (!sh.shaded)
             continue;
         vec3 side = sh.front_facing ? sh.geometric_normal : v3_scale(sh.geometric_normal, -1.0f);
