@@ -10,6 +10,7 @@
 #include "instancing.h"
 #include "parallel.h"
 #include "rng.h"
+#include "rt_instances.h"
 #include "scene_tris.h"
 #include "shading.h"
 #include "tribox.h"
@@ -89,24 +90,22 @@ typedef struct {
     int count, cap, heap;
 } own_list;
 
-/* Embree's point query hands over every triangle whose bounds come near the voxel's bounding
- * sphere, a copy's through its instance (Embree takes the query into the prototype's space); the
- * exact closed triangle/box test on the world corners (the grid's own notion of overlap, touching
- * counts; its first axes are the box's, a bounding-box rejection) keeps the voxel's triangles. */
-static bool own_collect(struct RTCPointQueryFunctionArguments *args)
+/* The point query (rt_query_sphere) hands over every triangle whose bounds come near the voxel's
+ * bounding sphere, the copies' included; the exact closed triangle/box test on the world corners
+ * (the grid's own notion of overlap, touching counts; its first axes are the box's, a bounding-box
+ * rejection) keeps the voxel's triangles. */
+static void own_collect(void *user, unsigned inst, unsigned prim)
 {
-    own_list *o = args->userPtr;
+    own_list *o = user;
     const scene *s = o->s;
     float c[9];
-    unsigned inst = RTC_INVALID_GEOMETRY_ID;
-    size_t number = args->primID;
-    if (args->context->instStackSize > 0) {
-        inst = args->context->instID[0];
+    size_t number = prim;
+    if (inst != RTC_INVALID_GEOMETRY_ID) {
         const inst_instance *I = &s->inst->inst[inst];
-        inst_corners(s->inst, I, args->primID, c);
-        number = s->mesh.triangle_count + I->offset + args->primID;
+        inst_corners(s->inst, I, prim, c);
+        number = s->mesh.triangle_count + I->offset + prim;
     } else {
-        const uint32_t *idx = &s->mesh.indices[3 * (size_t)args->primID];
+        const uint32_t *idx = &s->mesh.indices[3 * (size_t)prim];
         for (int k = 0; k < 3; k++)
             memcpy(&c[3 * k], &s->mesh.positions[3 * (size_t)idx[k]], 3 * sizeof(float));
     }
@@ -115,12 +114,12 @@ static bool own_collect(struct RTCPointQueryFunctionArguments *args)
         for (int a = 0; a < 3; a++)
             v[k][a] = c[3 * k + a];
     if (!tribox_overlap_d(o->lo, o->hi, v[0], v[1], v[2]))
-        return false;
+        return;
     if (o->count == o->cap) {
         int cap = o->cap * 2;
         own_triangle *t = o->heap ? realloc(o->tri, sizeof *t * (size_t)cap) : malloc(sizeof *t * (size_t)cap);
         if (!t)
-            return false; /* out of memory: the voxel keeps the triangles gathered so far */
+            return; /* out of memory: the voxel keeps the triangles gathered so far */
         if (!o->heap)
             memcpy(t, o->tri, sizeof *t * (size_t)o->count);
         o->heap = 1;
@@ -143,8 +142,7 @@ static bool own_collect(struct RTCPointQueryFunctionArguments *args)
     }
     t->number = number;
     t->inst = inst;
-    t->prim = args->primID;
-    return false;
+    t->prim = prim;
 }
 
 static int by_number(const void *a, const void *b)
@@ -214,14 +212,8 @@ void bake_trace(const rt_scene *rt, const voxel_grid *g, size_t index, vx_sample
         own.hi[a] = (double)fhi[a] + slack;
         own.centre[a] = 0.5 * ((double)flo[a] + (double)fhi[a]);
     }
-    struct RTCPointQuery query = {(float)own.centre[0], (float)own.centre[1], (float)own.centre[2], 0.0f,
-                                  0.8660254f * (float)(own.hi[0] - own.lo[0]) * 1.001f / rt->query_scale};
-    struct RTCPointQueryContext ctx;
-    rtcInitPointQueryContext(&ctx);
-    /* rt->query_scale: Embree 3.13 takes the query's centre into a copy's space but not its radius
-     * (a copy scaled by 0.6 missed triangles the written-out copy had), so the radius is widened
-     * by the smallest scale of any copy; the exact test below drops what the wider query adds. */
-    rtcPointQuery(rt->bvh, &query, &ctx, own_collect, &own);
+    float centre[3] = {(float)own.centre[0], (float)own.centre[1], (float)own.centre[2]};
+    rt_query_sphere(rt, centre, 0.8660254f * (float)(own.hi[0] - own.lo[0]) * 1.001f, own_collect, &own);
     /* In the scene's triangle order, whatever order the BVH's traversal met them in: a line through
      * an edge two triangles share meets both at the same t, and the first listed wins, so the order
      * decides which one's normal and colour the sample gets. Ordered this way, an instanced scene

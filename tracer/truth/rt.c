@@ -48,7 +48,6 @@ int rt_build(rt_scene *rt, const scene *s, vx_err *e)
 {
     memset(rt, 0, sizeof *rt);
     rt->scene = s;
-    rt->query_scale = 1.0f;
     rt->device = rtcNewDevice(NULL);
     if (!rt->device)
         return vx_fail(e, "Embree: cannot create a device (error %d)", (int)rtcGetDeviceError(NULL));
@@ -76,6 +75,10 @@ int rt_build(rt_scene *rt, const scene *s, vx_err *e)
         return vx_fail(e, "Embree: building the BVH failed");
     }
     rt->bvh_bytes = (size_t)(rt->bvh_peak > 0 ? rt->bvh_peak : 0);
+    if (rt_build_queries(rt, e)) { /* after bvh_bytes: that figure is the truth's BVH */
+        rt_free(rt);
+        return -1;
+    }
     if (shading_attributes(rt, s, e)) {
         rt_free(rt);
         return -1;
@@ -87,6 +90,11 @@ void rt_free(rt_scene *rt)
 {
     if (rt->bvh)
         rtcReleaseScene(rt->bvh);
+    if (rt->query)
+        rtcReleaseScene(rt->query);
+    free(rt->inst_boxes);
+    rt->inst_boxes = NULL;
+    rt->query = NULL;
     for (int i = 0; i < rt->proto_count; i++) {
         if (rt->protos[i])
             rtcReleaseScene(rt->protos[i]);

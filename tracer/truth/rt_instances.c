@@ -93,8 +93,6 @@ int rt_attach_instances(rt_scene *rt, const scene *s, vx_err *e)
         rtcCommitScene(rt->protos[p]);
     }
     for (size_t i = 0; i < in->count; i++) {
-        vec3 k = in->inst[i].x.scale; /* the placement's singular values: rotations keep lengths */
-        rt->query_scale = fminf(rt->query_scale, fminf(fabsf(k.x), fminf(fabsf(k.y), fabsf(k.z))));
         RTCGeometry g = rtcNewGeometry(rt->device, RTC_GEOMETRY_TYPE_INSTANCE);
         rtcSetGeometryInstancedScene(g, rt->protos[in->inst[i].proto]);
         rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, in->inst[i].m);
@@ -109,5 +107,136 @@ int rt_attach_instances(rt_scene *rt, const scene *s, vx_err *e)
         rtcAttachGeometryByID(rt->bvh, g, (unsigned)in->count);
         rtcReleaseGeometry(g);
     }
+    return 0;
+}
+
+/* ---- Point queries (rt_query_sphere): Embree 3.13 takes a point query's centre into a copy's
+ * space but leaves its radius as it was, so a copy scaled by 0.6 lost triangles that its
+ * written-out form's query found (checked by tests/test_instancing.py's shrunk copy). The copies
+ * are therefore visited by hand: the query scene holds the mesh's triangles and one user
+ * primitive per copy (its world bounds), and a copy the sphere reaches is queried in its
+ * prototype's BVH with the sphere taken into the prototype's space, radius divided by the copy's
+ * smallest scale: the image of the world sphere lies inside that one, whatever the placement. */
+
+typedef struct {
+    const rt_scene *rt;
+    rt_triangle_visit visit;
+    void *user;
+    unsigned inst; /* the copy being visited inside its prototype */
+} query_walk;
+
+static void box_bounds(const struct RTCBoundsFunctionArguments *args)
+{
+    const float *b = (const float *)args->geometryUserPtr + 6 * (size_t)args->primID;
+    struct RTCBounds *o = args->bounds_o;
+    o->lower_x = b[0], o->lower_y = b[1], o->lower_z = b[2];
+    o->upper_x = b[3], o->upper_y = b[4], o->upper_z = b[5];
+}
+
+static bool visit_proto_triangle(struct RTCPointQueryFunctionArguments *args)
+{
+    query_walk *w = args->userPtr;
+    w->visit(w->user, w->inst, args->primID);
+    return false;
+}
+
+static bool visit_top(struct RTCPointQueryFunctionArguments *args)
+{
+    query_walk *w = args->userPtr;
+    if (args->geomID == 0) { /* the mesh's own triangles */
+        w->visit(w->user, RTC_INVALID_GEOMETRY_ID, args->primID);
+        return false;
+    }
+    const inst_instance *I = &w->rt->scene->inst->inst[args->primID];
+    /* The centre into the prototype's space: undo the translation, the turns about z, y, x (in
+     * that order, each by its negative angle), then the scale. */
+    double P[3] = {args->query->x - (double)I->x.translate.x, args->query->y - (double)I->x.translate.y,
+                   args->query->z - (double)I->x.translate.z};
+    for (int axis = 2; axis >= 0; axis--) {
+        int a = (axis + 1) % 3, b = (axis + 2) % 3;
+        double c = I->x.cs[axis][0], sn = I->x.cs[axis][1];
+        double pa = c * P[a] + sn * P[b], pb = -sn * P[a] + c * P[b];
+        P[a] = pa, P[b] = pb;
+    }
+    vec3 k = I->x.scale;
+    double smin = fmin(fabs((double)k.x), fmin(fabs((double)k.y), fabs((double)k.z)));
+    struct RTCPointQuery q = {(float)(P[0] / k.x), (float)(P[1] / k.y), (float)(P[2] / k.z), 0.0f,
+                              (float)(args->query->radius / smin * 1.0001) + 1e-30f};
+    struct RTCPointQueryContext ctx;
+    rtcInitPointQueryContext(&ctx);
+    query_walk inner = *w;
+    inner.inst = args->primID;
+    rtcPointQuery(w->rt->protos[I->proto], &q, &ctx, visit_proto_triangle, &inner);
+    return false;
+}
+
+static bool visit_plain(struct RTCPointQueryFunctionArguments *args)
+{
+    query_walk *w = args->userPtr;
+    w->visit(w->user, RTC_INVALID_GEOMETRY_ID, args->primID);
+    return false;
+}
+
+void rt_query_sphere(const rt_scene *rt, const float centre[3], float radius, rt_triangle_visit visit, void *user)
+{
+    query_walk w = {rt, visit, user, RTC_INVALID_GEOMETRY_ID};
+    struct RTCPointQuery q = {centre[0], centre[1], centre[2], 0.0f, radius};
+    struct RTCPointQueryContext ctx;
+    rtcInitPointQueryContext(&ctx);
+    if (rt->query)
+        rtcPointQuery(rt->query, &q, &ctx, visit_top, &w);
+    else
+        rtcPointQuery(rt->bvh, &q, &ctx, visit_plain, &w);
+}
+
+int rt_build_queries(rt_scene *rt, vx_err *e)
+{
+    const scene *s = rt->scene;
+    const scene_instancing *in = s->inst;
+    if (!in || in->count == 0 || rt->query)
+        return 0;
+    rt->inst_boxes = malloc(6 * sizeof(float) * in->count);
+    if (!rt->inst_boxes)
+        return vx_fail(e, "out of memory for %zu instance bounds", in->count);
+    for (size_t i = 0; i < in->count; i++) { /* the placed corners of the prototype's box */
+        const inst_instance *I = &in->inst[i];
+        const mesh *m = &in->protos[I->proto];
+        float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+        for (size_t v = 0; v < m->vertex_count; v++)
+            for (int a = 0; a < 3; a++)
+                lo[a] = fminf(lo[a], m->positions[3 * v + (size_t)a]), hi[a] = fmaxf(hi[a], m->positions[3 * v + (size_t)a]);
+        float *b = rt->inst_boxes + 6 * i;
+        for (int a = 0; a < 3; a++)
+            b[a] = INFINITY, b[3 + a] = -INFINITY;
+        for (int c = 0; c < 8; c++) {
+            float p[3] = {c & 1 ? hi[0] : lo[0], c & 2 ? hi[1] : lo[1], c & 4 ? hi[2] : lo[2]}, w[3];
+            xform_point(&I->x, p, w);
+            for (int a = 0; a < 3; a++)
+                b[a] = fminf(b[a], w[a]), b[3 + a] = fmaxf(b[3 + a], w[a]);
+        }
+        /* Widened past the rounding of the placed vertices (each within an ulp of the exact map of
+         * a point inside the box). */
+        float pad = 1e-5f * fmaxf(b[3] - b[0], fmaxf(b[4] - b[1], b[5] - b[2])) + 1e-6f * fmaxf(fabsf(b[0]), fmaxf(fabsf(b[3]), 1.0f));
+        for (int a = 0; a < 3; a++)
+            b[a] -= pad + 1e-6f * fabsf(b[a]), b[3 + a] += pad + 1e-6f * fabsf(b[3 + a]);
+    }
+    rt->query = rtcNewScene(rt->device);
+    RTCGeometry plain = s->mesh.triangle_count ? rt_triangle_geometry(rt->device, &s->mesh) : NULL;
+    if (s->mesh.triangle_count && !plain)
+        return vx_fail(e, "Embree: cannot allocate geometry buffers for %zu triangles", s->mesh.triangle_count);
+    if (plain) {
+        rtcAttachGeometryByID(rt->query, plain, 0);
+        rtcReleaseGeometry(plain);
+    }
+    RTCGeometry boxes = rtcNewGeometry(rt->device, RTC_GEOMETRY_TYPE_USER);
+    rtcSetGeometryUserPrimitiveCount(boxes, (unsigned)in->count);
+    rtcSetGeometryUserData(boxes, rt->inst_boxes);
+    rtcSetGeometryBoundsFunction(boxes, box_bounds, rt->inst_boxes);
+    rtcCommitGeometry(boxes);
+    rtcAttachGeometryByID(rt->query, boxes, 1);
+    rtcReleaseGeometry(boxes);
+    rtcCommitScene(rt->query);
+    if (rtcGetDeviceError(rt->device) != RTC_ERROR_NONE)
+        return vx_fail(e, "Embree: building the instance query scene failed");
     return 0;
 }

@@ -11,4 +11,12 @@ int rt_attach_instances(rt_scene *rt, const scene *s, vx_err *e);
 /* A committed triangle geometry holding mesh m (every BVH of rt.c is made of these). */
 RTCGeometry rt_triangle_geometry(RTCDevice device, const mesh *m);
 
+/* Every triangle whose bounds come near the sphere (centre, radius), a copy's included, visited
+ * as visit(user, inst, prim): inst = RTC_INVALID_GEOMETRY_ID and prim the mesh's triangle, or the
+ * copy and its prototype's triangle (rt_surface's arguments). Conservative: it may visit more. */
+typedef void (*rt_triangle_visit)(void *user, unsigned inst, unsigned prim);
+void rt_query_sphere(const rt_scene *rt, const float centre[3], float radius, rt_triangle_visit visit, void *user);
+/* The instanced scene's query structure (nothing for a scene without instances); rt_build calls it. */
+int rt_build_queries(rt_scene *rt, vx_err *e);
+
 #endif
