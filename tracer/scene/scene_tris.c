@@ -57,11 +57,12 @@ uint32_t scene_hit_material(const scene *s, unsigned inst, unsigned prim)
     return s->inst->protos[s->inst->inst[inst].proto].materials[prim];
 }
 
-static void grow(double lo[3], double hi[3], const float p[3])
+/* Plain comparisons, inlined (libm's fmin/fmax are calls, for NaN rules; coordinates are finite). */
+static inline void grow(double lo[3], double hi[3], const float p[3])
 {
     for (int a = 0; a < 3; a++) {
-        lo[a] = fmin(lo[a], p[a]);
-        hi[a] = fmax(hi[a], p[a]);
+        lo[a] = p[a] < lo[a] ? p[a] : lo[a];
+        hi[a] = p[a] > hi[a] ? p[a] : hi[a];
     }
 }
 
@@ -90,15 +91,20 @@ int inst_compute_bounds(scene *s, vx_err *e)
             const inst_instance *I = &in->inst[i];
             if (I->proto != q)
                 continue;
+            double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
             for (size_t v = 0; v < n; v++) {
                 float w[3];
                 xform_point(&I->x, &pm->positions[3 * (size_t)list[v]], w);
-                if (!isfinite(w[0]) || !isfinite(w[1]) || !isfinite(w[2])) {
+                grow(lo, hi, w);
+            }
+            /* A non-finite corner (a scale overflowing float) shows in the copy's bounds. */
+            for (int a = 0; a < 3; a++)
+                if (!isfinite(lo[a]) || !isfinite(hi[a])) {
                     free(list);
                     return vx_fail(e, "%s: instance %zu places a vertex of its object at a non-finite position", s->path, i);
                 }
-                grow(in->lo, in->hi, w);
-            }
+            grow(in->lo, in->hi, (float[3]){(float)lo[0], (float)lo[1], (float)lo[2]});
+            grow(in->lo, in->hi, (float[3]){(float)hi[0], (float)hi[1], (float)hi[2]});
         }
         free(list);
     }

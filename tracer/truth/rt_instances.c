@@ -198,13 +198,23 @@ int rt_build_queries(rt_scene *rt, vx_err *e)
     rt->inst_boxes = malloc(6 * sizeof(float) * in->count);
     if (!rt->inst_boxes)
         return vx_fail(e, "out of memory for %zu instance bounds", in->count);
+    float *pbox = malloc(6 * sizeof(float) * (size_t)in->proto_count);
+    if (!pbox)
+        return vx_fail(e, "out of memory for %d prototype bounds", in->proto_count);
+    for (int q = 0; q < in->proto_count; q++) {
+        const mesh *m = &in->protos[q];
+        float *lo = pbox + 6 * q, *hi = lo + 3;
+        for (int a = 0; a < 3; a++)
+            lo[a] = INFINITY, hi[a] = -INFINITY;
+        for (size_t v = 0; v < m->vertex_count; v++)
+            for (int a = 0; a < 3; a++) {
+                float c = m->positions[3 * v + (size_t)a];
+                lo[a] = c < lo[a] ? c : lo[a], hi[a] = c > hi[a] ? c : hi[a];
+            }
+    }
     for (size_t i = 0; i < in->count; i++) { /* the placed corners of the prototype's box */
         const inst_instance *I = &in->inst[i];
-        const mesh *m = &in->protos[I->proto];
-        float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-        for (size_t v = 0; v < m->vertex_count; v++)
-            for (int a = 0; a < 3; a++)
-                lo[a] = fminf(lo[a], m->positions[3 * v + (size_t)a]), hi[a] = fmaxf(hi[a], m->positions[3 * v + (size_t)a]);
+        const float *lo = pbox + 6 * I->proto, *hi = lo + 3;
         float *b = rt->inst_boxes + 6 * i;
         for (int a = 0; a < 3; a++)
             b[a] = INFINITY, b[3 + a] = -INFINITY;
@@ -220,6 +230,7 @@ int rt_build_queries(rt_scene *rt, vx_err *e)
         for (int a = 0; a < 3; a++)
             b[a] -= pad + 1e-6f * fabsf(b[a]), b[3 + a] += pad + 1e-6f * fabsf(b[3 + a]);
     }
+    free(pbox);
     rt->query = rtcNewScene(rt->device);
     RTCGeometry plain = s->mesh.triangle_count ? rt_triangle_geometry(rt->device, &s->mesh) : NULL;
     if (s->mesh.triangle_count && !plain)
