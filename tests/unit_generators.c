@@ -185,6 +185,7 @@ static const struct {
     {"tree", "leaves", "{\"leaves\": -1}"},
     {"island", "resolution", "{\"resolution\": 3}"},
     {"city", "street_width", "{\"street_width\": 100}"},
+    {"city", "window_scale", "{\"window_scale\": 0.01}"},
     {"heightfield", "sigma_h", "{\"sigma_h\": -1}"},
 };
 
@@ -269,6 +270,7 @@ static const struct {
     {"city", "{\"blocks\": 32, \"size\": 1, \"street_width\": 0}"},
     {"city", "{\"blocks\": 32, \"size\": 1, \"street_width\": 0.01875, \"max_height\": 2}"},
     {"city", "{\"blocks\": 1, \"size\": 1000, \"street_width\": 600, \"max_height\": 50}"},
+    {"city", "{\"blocks\": 2, \"size\": 1, \"window_scale\": 0.05}"},
     {"heightfield", "{\"resolution\": 8, \"waves\": 1, \"sigma_h\": 1}"},
     {"heightfield", "{\"size\": 0.01, \"resolution\": 64, \"waves\": 8, \"mean_color\": [0, 1, 0.5], "
                     "\"delta_color\": [0, 0, -0.5]}"},
@@ -487,6 +489,25 @@ static void check_city(void)
     CHECK("city: has windows", windows >= 1000);
     CHECK("city: at most 300k triangles at defaults", m.triangle_count <= 300000);
     mesh_free(&m);
+
+    /* window_scale s: windows per facade grow as 1/s^2 (columns and floors each as 1/s, a little
+     * faster for the whole ones that now fit), what scenes/city_large.json's 10^7 triangles rest on;
+     * checked on a 2x2-block city so that it stays quick. */
+    size_t w[3];
+    const char *scaled[3] = {"{\"blocks\": 2, \"size\": 4}", "{\"blocks\": 2, \"size\": 4, \"window_scale\": 0.5}",
+                             "{\"blocks\": 2, \"size\": 4, \"window_scale\": 0.25}"};
+    for (int i = 0; i < 3; i++) {
+        if (run(g, scaled[i], 7, &m, &e)) {
+            printf("# %s\n", e.msg);
+            w[i] = 0;
+            continue;
+        }
+        w[i] = triangles_in_slot(g, &m, "window");
+        mesh_free(&m);
+    }
+    printf("# city 2x2 blocks: %zu, %zu, %zu window triangles at window_scale 1, 0.5, 0.25\n", w[0], w[1], w[2]);
+    CHECK("city: window_scale 0.5 gives 4 to 6 times the windows", w[0] > 0 && w[1] >= 4 * w[0] && w[1] <= 6 * w[0]);
+    CHECK("city: window_scale 0.25 gives 4 to 6 times the windows of 0.5", w[2] >= 4 * w[1] && w[2] <= 6 * w[1]);
 }
 
 static void check_island(void)

@@ -14,6 +14,9 @@ static const char *const city_slots[] = {"ground", "building", "window", NULL};
 typedef struct {
     int blocks;
     double size, street_width, max_height;
+    /* Window size and spacing as a fraction of the default: windows per facade grow as its inverse
+     * square (the large city's detail, issue 19). */
+    double window_scale;
 } city_params;
 
 /* Box faces in mesh_add_box's order; a window box leaves out the face against the wall. */
@@ -21,15 +24,17 @@ enum { FACE_NEG_X, FACE_POS_X, FACE_NEG_Y, FACE_POS_Y, FACE_NEG_Z, FACE_POS_Z, F
 
 static int read_params(const cJSON *params, const char *where, city_params *p, vx_err *e)
 {
-    static const char *const known[] = {"blocks", "size", "street_width", "max_height", NULL};
+    static const char *const known[] = {"blocks", "size", "street_width", "max_height", "window_scale", NULL};
     p->blocks = 6;
     p->size = 12.0;
     p->street_width = -1.0; /* defaults below depend on size */
     p->max_height = -1.0;
+    p->window_scale = 1.0;
     if (params && !cJSON_IsObject(params))
         return vx_fail(e, "%s: expected an object of parameters", where);
     if (json_only_fields(params, where, known, e) || json_int_in(params, "blocks", where, 1, 32, &p->blocks, e) ||
-        json_number_in(params, "size", where, 1.0, 1000.0, &p->size, e))
+        json_number_in(params, "size", where, 1.0, 1000.0, &p->size, e) ||
+        json_number_in(params, "window_scale", where, 0.05, 1.0, &p->window_scale, e))
         return -1;
     double pitch = p->size / p->blocks;
     p->street_width = 0.2 * pitch;
@@ -142,7 +147,9 @@ static int city_generate(const cJSON *params, const char *where, uint64_t seed, 
     float g = half + 0.5f * street;
     mesh_add_quad(out, v3(-g, 0, g), v3(g, 0, g), v3(g, 0, -g), v3(-g, 0, -g), slot_materials[SLOT_GROUND]);
 
-    window_style w = window_style_for(scale);
+    /* window_scale 1 multiplies by exactly 1.0f: the default city is bit-identical to the one before
+     * the parameter existed. */
+    window_style w = window_style_for(scale * (float)p.window_scale);
     float curb = 0.02f * scale, alley = 0.08f * scale, setback = 0.04f * scale;
     for (int bz = 0; bz < p.blocks; bz++) {
         for (int bx = 0; bx < p.blocks; bx++) {
@@ -182,7 +189,7 @@ static int city_generate(const cJSON *params, const char *where, uint64_t seed, 
 const scene_generator generator_city = {
     .name = "city",
     .description = "grid of city blocks of box buildings with sub-voxel window boxes on every facade (params: "
-                   "blocks, size, street_width, max_height)",
+                   "blocks, size, street_width, max_height, window_scale)",
     .slots = city_slots,
     .generate = city_generate,
 };

@@ -7,7 +7,10 @@
  * the fuzzer would otherwise report as timeouts and out-of-memory on inputs that are valid. Small
  * values still run every generator's code (run.sh seeds the height field at resolution 32). Instancing
  * multiplies an object: inputs with more than 64 instances over all objects ("instances" lists and
- * "scatter" counts) are skipped too, for the same reason (a million copies are valid, and gigabytes). */
+ * "scatter" counts) are skipped too, for the same reason (a million copies are valid, and gigabytes).
+ * So are inputs that multiply triangles by a small number: "subdivide" above 1 (4^k triangles per
+ * triangle) and a "window_scale" param below 0.5 (the city's windows grow as its inverse square;
+ * scenes/city_large.json's 0.11 is 10^7 triangles). */
 #include <cjson/cJSON.h>
 
 #include "fuzz_common.h"
@@ -38,6 +41,10 @@ static int too_costly(const uint8_t *data, size_t size)
         const cJSON *count = cJSON_GetObjectItemCaseSensitive(scatter, "count");
         copies += cJSON_GetArraySize(list) + (cJSON_IsNumber(count) ? count->valuedouble : 0);
         costly = has_big_number(count) || copies > 64;
+        const cJSON *subdivide = cJSON_GetObjectItemCaseSensitive(o, "subdivide");
+        const cJSON *windows = cJSON_GetObjectItemCaseSensitive(params, "window_scale");
+        costly = costly || (cJSON_IsNumber(subdivide) && !(subdivide->valuedouble <= 1)) ||
+                 (cJSON_IsNumber(windows) && !(windows->valuedouble >= 0.5));
         costly = costly || (gen && (has_big_number(params) ||
                          (cJSON_IsString(gen) && strcmp(gen->valuestring, "heightfield") == 0 &&
                           !cJSON_GetObjectItemCaseSensitive(params, "resolution"))));

@@ -14,6 +14,7 @@
 #include "scene_tris.h"
 #include "json_util.h"
 #include "mesh_load.h"
+#include "mesh_subdivide.h"
 #include "readfile.h"
 #include "xform.h"
 
@@ -503,7 +504,7 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
         snprintf(where, sizeof where, "%s: objects[%d]", s->path, i++);
         static const char *const known[] = {"generator", "seed", "params", "materials", "material",
                                             "ply", "gltf", "obj", "transform", "uris_outside_folder", "animation",
-                                            "name", "instances", "scatter", NULL};
+                                            "name", "instances", "scatter", "subdivide", NULL};
         if (!cJSON_IsObject(o))
             return vx_fail(e, "%s: expected an object", where);
         if (json_only_fields(o, where, known, e))
@@ -551,7 +552,9 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
                 return vx_wrap(e, "%s.%s", where, kind);
             warn_unused_texture(s, v0, t0, where);
         }
-        if (apply_transform(&s->mesh, v0, t0, cJSON_GetObjectItemCaseSensitive(o, "transform"), where, e) ||
+        /* "subdivide": k Loop levels, on the object as loaded, before its placement. */
+        if (mesh_subdivide_object(&s->mesh, v0, t0, o, where, e) ||
+            apply_transform(&s->mesh, v0, t0, cJSON_GetObjectItemCaseSensitive(o, "transform"), where, e) ||
             inst_parse_object(s, o, where, v0, t0, e) || anim_parse_object(s, o, where, i - 1, v0, e))
             return -1;
         for (size_t v = v0; v < s->mesh.vertex_count; v++)
