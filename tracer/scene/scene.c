@@ -594,6 +594,16 @@ static uint64_t hash_bytes(uint64_t h, const void *data, size_t n)
     return h;
 }
 
+static uint64_t hash_mesh(uint64_t h, const mesh *m)
+{
+    h = hash_bytes(h, m->positions, m->vertex_count * 3 * sizeof(float));
+    h = hash_bytes(h, m->normals, m->vertex_count * 3 * sizeof(float));
+    h = hash_bytes(h, m->colors, m->vertex_count * 3 * sizeof(float));
+    h = hash_bytes(h, m->uvs, m->vertex_count * 2 * sizeof(float));
+    h = hash_bytes(h, m->indices, m->triangle_count * 3 * sizeof(uint32_t));
+    return hash_bytes(h, m->materials, m->triangle_count * sizeof(uint32_t));
+}
+
 static void compute_bounds_and_identity(scene *s)
 {
     mesh *m = &s->mesh;
@@ -601,23 +611,10 @@ static void compute_bounds_and_identity(scene *s)
     scene_triangle_bounds(s, lo, hi);
     s->bounds_lo = v3((float)lo[0], (float)lo[1], (float)lo[2]);
     s->bounds_hi = v3((float)hi[0], (float)hi[1], (float)hi[2]);
-    uint64_t h = 0xcbf29ce484222325ULL;
-    h = hash_bytes(h, m->positions, m->vertex_count * 3 * sizeof(float));
-    h = hash_bytes(h, m->normals, m->vertex_count * 3 * sizeof(float));
-    h = hash_bytes(h, m->colors, m->vertex_count * 3 * sizeof(float));
-    h = hash_bytes(h, m->uvs, m->vertex_count * 2 * sizeof(float));
-    h = hash_bytes(h, m->indices, m->triangle_count * 3 * sizeof(uint32_t));
-    h = hash_bytes(h, m->materials, m->triangle_count * sizeof(uint32_t));
+    uint64_t h = hash_mesh(0xcbf29ce484222325ULL, m);
     const scene_instancing *in = s->inst;
-    for (int q = 0; in && q < in->proto_count; q++) { /* the prototypes once, then each placement */
-        const mesh *p = &in->protos[q];
-        h = hash_bytes(h, p->positions, p->vertex_count * 3 * sizeof(float));
-        h = hash_bytes(h, p->normals, p->vertex_count * 3 * sizeof(float));
-        h = hash_bytes(h, p->colors, p->vertex_count * 3 * sizeof(float));
-        h = hash_bytes(h, p->uvs, p->vertex_count * 2 * sizeof(float));
-        h = hash_bytes(h, p->indices, p->triangle_count * 3 * sizeof(uint32_t));
-        h = hash_bytes(h, p->materials, p->triangle_count * sizeof(uint32_t));
-    }
+    for (int q = 0; in && q < in->proto_count; q++) /* the prototypes once, then each placement */
+        h = hash_mesh(h, &in->protos[q]);
     for (size_t i = 0; in && i < in->count; i++) {
         h = hash_bytes(h, &in->inst[i].proto, sizeof in->inst[i].proto);
         h = hash_bytes(h, in->inst[i].m, sizeof in->inst[i].m);
