@@ -187,6 +187,11 @@ anim_ground = base_scene("bad", [dict(GROUND, animation={"keys": [{"frame": 0}]}
 anim_ground["frames"] = [0, 1]
 p = run("truth", write("bad", anim_ground), "--spp", 1, "-o", os.path.join(TMP, "bad_out.exr"))
 report("scatter over an animated object refused", p.returncode == 1 and "objects[1].scatter.over" in p.stderr, p.stderr)
+over_copies = base_scene("bad", [GROUND, dict(TREE, name="tree", instances=[{}]),
+                                 dict(TREE, scatter={"count": 3, "over": "tree"})])
+p = run("truth", write("bad", over_copies), "--spp", 1, "-o", os.path.join(TMP, "bad_out.exr"))
+report("scatter over an instanced object refused (its triangles are its copies')",
+       p.returncode == 1 and "objects[2].scatter.over" in p.stderr and "instanced" in p.stderr, p.stderr)
 
 # 5. Scatter: deterministic for a seed, different for another; instances stand on the surface.
 def scatter_scene(seed):

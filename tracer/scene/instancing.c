@@ -269,13 +269,8 @@ int inst_parse_object(scene *s, const cJSON *o, const char *where, size_t v0, si
             memset(I, 0, sizeof *I);
             double M[12];
             xform_matrix(&x[i], M);
-            const double sc[3] = {x[i].scale.x, x[i].scale.y, x[i].scale.z};
             for (int k = 0; k < 12; k++)
                 I->m[k] = (float)M[k];
-            /* (R S)^-T = R S^-1: column c of the linear part divided by s_c twice. */
-            for (int r = 0; r < 3; r++)
-                for (int c = 0; c < 3; c++)
-                    I->nm[3 * r + c] = (float)(M[4 * r + c] / (sc[c] * sc[c]));
             xform_prepare(&x[i], &I->x);
             I->proto = p;
             I->mirror = xform_mirrors(&x[i]);

@@ -32,7 +32,6 @@ typedef struct {
     int proto;
     float m[12];     /* object -> world, row-major 3x4 (Embree's RTC_FORMAT_FLOAT3X4_ROW_MAJOR) */
     xform_exact x;   /* the same placement, for vertices placed exactly as a "transform" would */
-    float nm[9];     /* normals: the inverse transpose of m's linear part (row-major), unnormalised */
     int mirror;      /* the placement mirrors: the copy's winding is reversed (corners 1 and 2 swap) */
     size_t offset;   /* number of the copy's first triangle among all copies' (scene_tris.h) */
 } inst_instance;
