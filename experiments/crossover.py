@@ -26,6 +26,7 @@ is, marked "floor"; one more accurate than the curve's last point extrapolates M
                   the truth's memory), crossings marked.
 """
 import argparse
+import json
 import math
 import os
 import sys
@@ -40,7 +41,7 @@ from voxlab_exp.report import settings_text  # noqa: E402
 from voxlab_exp.rows import run_experiment  # noqa: E402
 from voxlab_exp.schema import load_declaration  # noqa: E402
 
-CSV_FIELDS = ["sweep", "scene", "x", "triangles", "model", "mse", "ssim", "render_ms", "bake_s", "mb",
+CSV_FIELDS = ["sweep", "family", "scene", "x", "triangles", "model", "mse", "ssim", "render_ms", "bake_s", "mb",
               "truth_ms_equal_error", "truth_read", "truth_spp_equal_error", "truth_ms_1spp", "truth_mse_1spp",
               "truth_mb", "speedup", "wins"]
 
@@ -85,7 +86,9 @@ def crossings(xs, model_ms, truth_ms):
 
 
 def sweeps_of(decl):
-    """[(sweep name, [scene names], x kind)] from the declaration's figure."""
+    """[(sweep name, [scene names], x kind)] from the declaration's figure. A sweep may join several
+    families (complexity: the procedural forest, then the instanced one); family_of names each
+    scene's, and crossings are read within a family, never across two scenes' curves."""
     fig = decl["figure"]
     if fig.get("type") != "crossover":
         raise DeclarationError(f"{decl['shown']}: figure.type: expected \"crossover\"")
@@ -107,8 +110,14 @@ def sweeps_of(decl):
     return out
 
 
+def family_of(decl):
+    """Scene name -> its family (the declaration's scene entry name)."""
+    return {s["name"]: s.get("base_name") or s["name"] for s in decl["scenes"]}
+
+
 def build_points(decl, rows):
     scenes = {s["name"]: s for s in decl["scenes"]}
+    fam = family_of(decl)
     pts = []
     for sweep, names, xkind in sweeps_of(decl):
         for sc in names:
@@ -123,7 +132,7 @@ def build_points(decl, rows):
                 if r["kind"] != "model":
                     continue
                 ms, spp, how = truth_time_at(curve, r.get("mse"))
-                pts.append({"sweep": sweep, "scene": sc, "x": x, "triangles": tri, "model": r["model"],
+                pts.append({"sweep": sweep, "family": fam[sc], "scene": sc, "x": x, "triangles": tri, "model": r["model"],
                             "mse": r.get("mse"), "ssim": r.get("ssim"), "render_ms": r.get("render_ms"),
                             "bake_s": r.get("bake_s"), "mb": r.get("mb"), "truth_ms_equal_error": ms,
                             "truth_read": how, "truth_spp_equal_error": spp,
@@ -153,19 +162,24 @@ def summary(decl, meta, pts):
                 "%.2f" % p["speedup"] if p["speedup"] else "?", "%.3g" % p["mb"] if p["mb"] else "?",
                 "%.3g" % p["truth_mb"] if p["truth_mb"] else "?"))
         md.append("")
+        families = list(dict.fromkeys(p["family"] for p in sp))
         for m in dict.fromkeys(p["model"] for p in sp):
-            mp = sorted((p for p in sp if p["model"] == m and p["x"]), key=lambda p: p["x"])
-            cr = crossings([p["x"] for p in mp], [p["render_ms"] for p in mp], [p["truth_ms_equal_error"] for p in mp])
-            wins = [p["x"] for p in mp if p["wins"]]
-            if cr:
-                text = "; ".join(f"{how} the triangles at {xkind} ≈ {x:.3g}" for x, how in cr)
-            elif wins:
-                text = f"faster than the triangles at equal error over the whole sweep"
-            else:
-                best = max((p["speedup"] for p in mp if p["speedup"]), default=None)
-                text = ("does not overtake the triangles within the sweep" +
-                        (f" (at best {best:.2f}x the truth's speed at equal error)" if best else ""))
-            md.append(f"- **{m}**: {text}.")
+            for f in families:
+                mp = sorted((p for p in sp if p["model"] == m and p["family"] == f and p["x"]), key=lambda p: p["x"])
+                cr = crossings([p["x"] for p in mp], [p["render_ms"] for p in mp],
+                               [p["truth_ms_equal_error"] for p in mp])
+                wins = [p["x"] for p in mp if p["wins"]]
+                if cr:
+                    text = "; ".join(f"{how} the triangles at {xkind} ≈ {x:.3g}" for x, how in cr)
+                elif wins and len(wins) == len(mp):
+                    text = "faster than the triangles at equal error over the whole sweep"
+                else:
+                    best = max((p["speedup"] for p in mp if p["speedup"]), default=None)
+                    text = ("does not overtake the triangles within the sweep" +
+                            (f" (at best {best:.2f}x the truth's speed at equal error)" if best else ""))
+                label = f"**{m}**" + (f" ({f}, {xkind} {mp[0]['x']:.3g} to {mp[-1]['x']:.3g})"
+                                      if len(families) > 1 and mp else "")
+                md.append(f"- {label}: {text}.")
         md.append("")
     return md
 
@@ -181,20 +195,27 @@ def plot(decl, meta, pts, out_stem):
     for col, (sweep, _names, xkind) in enumerate(sweeps):
         sp = [p for p in pts if p["sweep"] == sweep and p["x"]]
         at, am = axes[0][col], axes[1][col]
+        families = list(dict.fromkeys(p["family"] for p in sp))
+        marks = "os^vD"
         for m in dict.fromkeys(p["model"] for p in sp):
-            mp = sorted((p for p in sp if p["model"] == m), key=lambda p: p["x"])
             c = model_colour(m)
-            xs = [p["x"] for p in mp]
-            at.plot(xs, [p["render_ms"] for p in mp], "-o", color=c, ms=4, label=m)
-            at.plot(xs, [p["truth_ms_equal_error"] for p in mp], "--", color=c, lw=1,
-                    label=f"truth at {m}'s error")
-            for x, how in crossings(xs, [p["render_ms"] for p in mp], [p["truth_ms_equal_error"] for p in mp]):
-                at.axvline(x, color=c, ls=":", lw=1)
-                at.text(x, 0.02, f"{m} {how}", transform=at.get_xaxis_transform(), color=c, fontsize=7,
-                        rotation=90, va="bottom", ha="right")
-            am.plot(xs, [p["mb"] for p in mp], "-o", color=c, ms=4, label=f"{m} (records + grid)")
-        tp = sorted({p["x"]: p for p in sp}.values(), key=lambda p: p["x"])
-        am.plot([p["x"] for p in tp], [p["truth_mb"] for p in tp], "-*", color=TRUTH_COLOUR, label="truth (mesh + BVH)")
+            for fi, f in enumerate(families):
+                mp = sorted((p for p in sp if p["model"] == m and p["family"] == f), key=lambda p: p["x"])
+                xs = [p["x"] for p in mp]
+                name = m if len(families) == 1 else f"{m} ({f})"
+                at.plot(xs, [p["render_ms"] for p in mp], "-" + marks[fi % len(marks)], color=c, ms=4, label=name)
+                at.plot(xs, [p["truth_ms_equal_error"] for p in mp], "--", color=c, lw=1,
+                        label=f"truth at {name}'s error")
+                for x, how in crossings(xs, [p["render_ms"] for p in mp], [p["truth_ms_equal_error"] for p in mp]):
+                    at.axvline(x, color=c, ls=":", lw=1)
+                    at.text(x, 0.02, f"{name} {how}", transform=at.get_xaxis_transform(), color=c, fontsize=6,
+                            rotation=90, va="bottom", ha="right")
+                am.plot(xs, [p["mb"] for p in mp], "-" + marks[fi % len(marks)], color=c, ms=4,
+                        label=f"{name} (records + grid)")
+        for fi, f in enumerate(families):
+            tp = sorted({p["x"]: p for p in sp if p["family"] == f}.values(), key=lambda p: p["x"])
+            am.plot([p["x"] for p in tp], [p["truth_mb"] for p in tp], "-*", color=TRUTH_COLOUR, alpha=1 - 0.3 * fi,
+                    label="truth (mesh + BVH)" + ("" if len(families) == 1 else f" ({f})"))
         for ax, ylabel in ((at, "render ms per frame at equal error"), (am, "memory (MB)")):
             ax.set_xscale("log")
             ax.set_yscale("log")
@@ -216,6 +237,8 @@ def plot(decl, meta, pts, out_stem):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     add_common_args(ap, experiment=os.path.join(REPO, "experiments", "crossover.json"))
+    ap.add_argument("--replot", action="store_true",
+                    help="rewrite crossover.csv/.md/.png from the last run's rows.json, running nothing")
     a = ap.parse_args(argv)
 
     def go():
@@ -223,8 +246,16 @@ def main(argv=None):
         sweeps_of(decl)  # a bad figure block fails before anything runs
         if not decl["truth_curve"]:
             raise DeclarationError(f"{decl['shown']}: truth_curve: required (the truth's time at equal error)")
-        meta, rows = run_experiment(decl, **sweep_args(a))
         out = os.path.join(os.path.abspath(a.results), decl["name"])
+        if a.replot:
+            try:
+                with open(os.path.join(out, "rows.json")) as f:
+                    saved = json.load(f)
+            except (OSError, ValueError) as err:
+                raise DeclarationError(f"--replot: no readable {rel(out, REPO)}/rows.json ({err}): run without it first")
+            meta, rows = saved["meta"], saved["rows"]
+        else:
+            meta, rows = run_experiment(decl, **sweep_args(a))
         pts = build_points(decl, rows)
         write_csv(os.path.join(out, "crossover.csv"), pts, CSV_FIELDS)
         write_text(os.path.join(out, "crossover.md"), "\n".join(summary(decl, meta, pts)) + "\n")

@@ -80,6 +80,15 @@ if p.returncode == 0:
     report("crossover.md has both sweeps and a verdict per model",
            "## complexity" in md and "## distance" in md and md.count("- **alpha**") == 2 and md.count("- **binary**") == 2)
     report("crossover.png is written", os.path.getsize(os.path.join(out, "crossover.png")) > 5000)
+    report("crossover.csv names each point's family (crossings are read within one)",
+           {(r["sweep"], r["family"]) for r in pts} == {("complexity", "fn"), ("distance", "fd")})
+    # --replot: the outputs again from rows.json alone, nothing run (no voxlab given: none needed).
+    os.remove(os.path.join(out, "crossover.md"))
+    p = subprocess.run(["/usr/bin/python3", os.path.join(REPO, "experiments", "crossover.py"), "--experiment", path,
+                        "--results", res, "--replot", "--voxlab", "/nonexistent/voxlab"], capture_output=True, text=True)
+    report("--replot rewrites crossover.md from rows.json, identical, running nothing",
+           p.returncode == 0 and os.path.exists(os.path.join(out, "crossover.md"))
+           and open(os.path.join(out, "crossover.md")).read() == md, p.stderr[-1000:])
 
 bad = dict(decl, figure={})
 bpath = os.path.join(TMP, "crossover_bad.json")
