@@ -43,7 +43,7 @@ from voxlab_exp.schema import load_declaration  # noqa: E402
 
 CSV_FIELDS = ["sweep", "family", "scene", "x", "triangles", "model", "mse", "ssim", "render_ms", "bake_s", "mb",
               "truth_ms_equal_error", "truth_read", "truth_spp_equal_error", "truth_ms_1spp", "truth_mse_1spp",
-              "truth_mb", "speedup", "wins"]
+              "truth_mb", "truth_bvh_s", "truth_bvh_mb", "speedup", "wins"]
 
 
 def truth_time_at(curve, mse):
@@ -138,6 +138,8 @@ def build_points(decl, rows):
                             "truth_read": how, "truth_spp_equal_error": spp,
                             "truth_ms_1spp": one["render_ms"] if one else None,
                             "truth_mse_1spp": one["mse"] if one else None, "truth_mb": one["mb"] if one else None,
+                            "truth_bvh_s": one.get("bvh_s") if one else None,
+                            "truth_bvh_mb": one["bvh_bytes"] / 1e6 if one and one.get("bvh_bytes") else None,
                             "speedup": ms / r["render_ms"] if ms and r.get("render_ms") else None,
                             "wins": int(bool(ms and r.get("render_ms") and r["render_ms"] < ms))})
     return pts

@@ -80,6 +80,8 @@ if p.returncode == 0:
     report("crossover.md has both sweeps and a verdict per model",
            "## complexity" in md and "## distance" in md and md.count("- **alpha**") == 2 and md.count("- **binary**") == 2)
     report("crossover.png is written", os.path.getsize(os.path.join(out, "crossover.png")) > 5000)
+    report("crossover.csv has the truth's BVH build time and memory at every point",
+           all(float(r["truth_bvh_s"]) > 0 and float(r["truth_bvh_mb"]) > 0 for r in pts))
     report("crossover.csv names each point's family (crossings are read within one)",
            {(r["sweep"], r["family"]) for r in pts} == {("complexity", "fn"), ("distance", "fd")})
     # --replot: the outputs again from rows.json alone, nothing run (no voxlab given: none needed).

@@ -26,7 +26,7 @@ ROW_FIELDS_HEAD = ["experiment", "scene", "base_scene", "variant", "kind", "mode
 ROW_FIELDS_TAIL = ["render_s", "render_ms", "render_ms_min", "render_ms_spread", "repeats", "bake_s", "bake_s_min",
                    "bake_s_spread", "truth_s_min", "truth_s_spread", "load", "loaded", "bytes_per_voxel", "voxels",
                    "model_bytes", "grid_bytes", "mb", "shadow_build_s", "shadow_bytes", "shadow_queries",
-                   "peak_rss_bytes", "cache_hits", "model_evals", "triangles",
+                   "peak_rss_bytes", "cache_hits", "model_evals", "triangles", "bvh_s", "bvh_bytes",
                    "truth_s", "image", "preview", "truth_image", "truth_preview", "computed", "jobs_cached"]
 
 
@@ -236,6 +236,7 @@ def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
         row.update(status="ok", error="", seed=decl["truth_curve"]["seed"], **metric_columns(ms),
                    **timing_columns(t, "render_ms", 1000.0), **load_columns(t), bake_s=0.0,
                    triangles=ts.get("triangles"), peak_rss_bytes=rss,
+                   bvh_s=ts.get("bvh_seconds"), bvh_bytes=ts.get("bvh_bytes"),  # the truth's BVH: build, memory
                    # Triangles' memory: voxlab reports mesh_bytes when it can, else peak RSS minus a
                    # process that loads no scene (mesh + BVH + framebuffer: an overestimate).
                    mb=(ts["mesh_bytes"] / 1e6 if "mesh_bytes" in ts else
