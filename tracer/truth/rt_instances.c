@@ -2,9 +2,9 @@
  * each copy is an RTC_GEOMETRY_TYPE_INSTANCE with its object-to-world matrix, so the BVH memory
  * grows with the prototypes' triangles plus a few dozen bytes a copy. Embree intersects a copy in
  * the prototype's space and reports (instance, prototype triangle, u, v); rt_surface_instance
- * shades that from the prototype's attributes, normals taken to the world by the instance's
- * inverse transpose. Hit distances, barycentrics and normals come from arithmetic in the
- * prototype's space, so they differ from the expanded form's in the last bits. */
+ * shades that from the prototype's attributes placed as the written-out copy has them. Hit
+ * distances and barycentrics come from Embree's arithmetic in the prototype's space, so they may
+ * differ from the expanded form's in the last bits; the attributes at a given (u, v) do not. */
 #include "rt_instances.h"
 
 #include <math.h>
