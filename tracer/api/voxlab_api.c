@@ -159,6 +159,7 @@ int vxapi_truth(const vxapi_scene *as, int width, int height, int spp, long long
     else {
         cJSON *j = stats_truth(s, &o, &c);
         cJSON_AddNumberToObject(j, "bvh_bytes", (double)rt.bvh_bytes); /* as the CLI's --stats */
+        cJSON_AddNumberToObject(j, "bvh_seconds", rt.bvh_seconds);
         if ((rc = give_json(j, stats, err, err_size)) == 0)
             give_image(&img, pixels, out_width, out_height);
     }

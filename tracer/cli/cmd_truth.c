@@ -137,12 +137,8 @@ int cmd_truth(int argc, char **argv)
         if (stats_path)
             frames_path(stats_path, f, stats_f, sizeof stats_f);
         const char *out = fr.sequence ? out_f : out_path, *stats = !stats_path ? NULL : fr.sequence ? stats_f : stats_path;
-        if (scene_set_frame(&s, f, &e))
+        if (scene_set_frame(&s, f, &e) || rt_build(&rt, &s, &e))
             goto fail;
-        double bvh_t0 = now_seconds();
-        if (rt_build(&rt, &s, &e))
-            goto fail;
-        double bvh_seconds = now_seconds() - bvh_t0;
         truth_counts counts;
         image_meta meta;
         provenance_common(&meta, argc, argv, &s, o.width, o.height, o.spp, o.seed);
@@ -157,7 +153,7 @@ int cmd_truth(int argc, char **argv)
         if (stats) {
             cJSON *j = stats_truth(&s, &o, &counts);
             cJSON_AddNumberToObject(j, "bvh_bytes", (double)rt.bvh_bytes); /* Embree's peak allocation */
-            cJSON_AddNumberToObject(j, "bvh_seconds", bvh_seconds);       /* building it (rt_build) */
+            cJSON_AddNumberToObject(j, "bvh_seconds", rt.bvh_seconds);     /* building it (rt_build) */
             if (fr.given)
                 cJSON_AddNumberToObject(j, "frame", f);
             if (stats_finish(j, stats, "truth", out))

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "instancing.h"
+#include "parallel.h"
 #include "rt_attributes.h"
 #include "rt_instances.h"
 
@@ -48,6 +49,7 @@ int rt_build(rt_scene *rt, const scene *s, vx_err *e)
 {
     memset(rt, 0, sizeof *rt);
     rt->scene = s;
+    double t0 = now_seconds();
     rt->device = rtcNewDevice(NULL);
     if (!rt->device)
         return vx_fail(e, "Embree: cannot create a device (error %d)", (int)rtcGetDeviceError(NULL));
@@ -83,6 +85,7 @@ int rt_build(rt_scene *rt, const scene *s, vx_err *e)
         rt_free(rt);
         return -1;
     }
+    rt->bvh_seconds = now_seconds() - t0;
     return 0;
 }
 

@@ -34,6 +34,7 @@ typedef struct {
     float *inst_boxes; /* per copy: its world bounds (lo xyz, hi xyz), for `query` */
     long long bvh_live, bvh_peak; /* the memory monitor's running and peak sums */
     size_t bvh_bytes;      /* peak bytes Embree allocated (its memory monitor): BVHs and geometry buffers */
+    double bvh_seconds;    /* rt_build's time: the BVHs and the shading attributes */
 } rt_scene;
 
 typedef struct {
