@@ -34,6 +34,7 @@ typedef struct {
     xform_exact x;   /* the same placement, for vertices placed exactly as a "transform" would */
     int mirror;      /* the placement mirrors: the copy's winding is reversed (corners 1 and 2 swap) */
     size_t offset;   /* number of the copy's first triangle among all copies' (scene_tris.h) */
+    float lo[3], hi[3]; /* bounds of the copy's placed corners (inst_compute_bounds, at load) */
 } inst_instance;
 
 typedef struct {

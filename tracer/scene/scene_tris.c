@@ -88,7 +88,7 @@ int inst_compute_bounds(scene *s, vx_err *e)
             }
         free(used);
         for (size_t i = 0; i < in->count; i++) {
-            const inst_instance *I = &in->inst[i];
+            inst_instance *I = &in->inst[i];
             if (I->proto != q)
                 continue;
             double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
@@ -103,8 +103,10 @@ int inst_compute_bounds(scene *s, vx_err *e)
                     free(list);
                     return vx_fail(e, "%s: instance %zu places a vertex of its object at a non-finite position", s->path, i);
                 }
-            grow(in->lo, in->hi, (float[3]){(float)lo[0], (float)lo[1], (float)lo[2]});
-            grow(in->lo, in->hi, (float[3]){(float)hi[0], (float)hi[1], (float)hi[2]});
+            for (int a = 0; a < 3; a++) /* float values: they are placed corners' coordinates */
+                I->lo[a] = (float)lo[a], I->hi[a] = (float)hi[a];
+            grow(in->lo, in->hi, I->lo);
+            grow(in->lo, in->hi, I->hi);
         }
         free(list);
     }

@@ -29,7 +29,6 @@ typedef struct {
     RTCScene *protos;
     rt_vertex **proto_vertices; /* per prototype: its vertices' attributes, in its own space */
     int proto_count;
-    int instanced;
     RTCScene query;    /* point queries of an instanced scene (rt_build_queries), else NULL */
     float *inst_boxes; /* per copy: its world bounds (lo xyz, hi xyz), for `query` */
     long long bvh_live, bvh_peak; /* the memory monitor's running and peak sums */

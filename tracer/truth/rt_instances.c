@@ -69,7 +69,6 @@ void rt_surface_instance(const rt_scene *rt, unsigned inst, unsigned prim, float
 int rt_attach_instances(rt_scene *rt, const scene *s, vx_err *e)
 {
     const scene_instancing *in = s->inst;
-    rt->instanced = 1;
     /* Embree 3.13.5 (Debian 12) never returns from a coherent rtcOccluded16 (the truth's shadow
      * packets) through instances once a coherent rtcIntersect16 has run, with the default top-level
      * BVH; the compact one (RTC_SCENE_FLAG_COMPACT) traverses correctly, and over a few thousand
@@ -198,39 +197,11 @@ int rt_build_queries(rt_scene *rt, vx_err *e)
     rt->inst_boxes = malloc(6 * sizeof(float) * in->count);
     if (!rt->inst_boxes)
         return vx_fail(e, "out of memory for %zu instance bounds", in->count);
-    float *pbox = malloc(6 * sizeof(float) * (size_t)in->proto_count);
-    if (!pbox)
-        return vx_fail(e, "out of memory for %d prototype bounds", in->proto_count);
-    for (int q = 0; q < in->proto_count; q++) {
-        const mesh *m = &in->protos[q];
-        float *lo = pbox + 6 * q, *hi = lo + 3;
+    /* Each copy's box is the exact bounds of its placed corners, computed once at load
+     * (inst_compute_bounds): every triangle a query may need lies inside it. */
+    for (size_t i = 0; i < in->count; i++)
         for (int a = 0; a < 3; a++)
-            lo[a] = INFINITY, hi[a] = -INFINITY;
-        for (size_t v = 0; v < m->vertex_count; v++)
-            for (int a = 0; a < 3; a++) {
-                float c = m->positions[3 * v + (size_t)a];
-                lo[a] = c < lo[a] ? c : lo[a], hi[a] = c > hi[a] ? c : hi[a];
-            }
-    }
-    for (size_t i = 0; i < in->count; i++) { /* the placed corners of the prototype's box */
-        const inst_instance *I = &in->inst[i];
-        const float *lo = pbox + 6 * I->proto, *hi = lo + 3;
-        float *b = rt->inst_boxes + 6 * i;
-        for (int a = 0; a < 3; a++)
-            b[a] = INFINITY, b[3 + a] = -INFINITY;
-        for (int c = 0; c < 8; c++) {
-            float p[3] = {c & 1 ? hi[0] : lo[0], c & 2 ? hi[1] : lo[1], c & 4 ? hi[2] : lo[2]}, w[3];
-            xform_point(&I->x, p, w);
-            for (int a = 0; a < 3; a++)
-                b[a] = fminf(b[a], w[a]), b[3 + a] = fmaxf(b[3 + a], w[a]);
-        }
-        /* Widened past the rounding of the placed vertices (each within an ulp of the exact map of
-         * a point inside the box). */
-        float pad = 1e-5f * fmaxf(b[3] - b[0], fmaxf(b[4] - b[1], b[5] - b[2])) + 1e-6f * fmaxf(fabsf(b[0]), fmaxf(fabsf(b[3]), 1.0f));
-        for (int a = 0; a < 3; a++)
-            b[a] -= pad + 1e-6f * fabsf(b[a]), b[3 + a] += pad + 1e-6f * fabsf(b[3 + a]);
-    }
-    free(pbox);
+            rt->inst_boxes[6 * i + (size_t)a] = in->inst[i].lo[a], rt->inst_boxes[6 * i + 3 + (size_t)a] = in->inst[i].hi[a];
     rt->query = rtcNewScene(rt->device);
     RTCGeometry plain = s->mesh.triangle_count ? rt_triangle_geometry(rt->device, &s->mesh) : NULL;
     if (s->mesh.triangle_count && !plain)
