@@ -422,6 +422,17 @@ int grid_build_triangles(voxel_grid *g, const grid_triangles *src, int n, const 
     return build_levels(g, dense, e);
 }
 
+int grid_take_lattice(double lo[3], double hi[3], const double *blo, const double *bhi, vx_err *e)
+{
+    if (blo) /* the caller's lattice (an animation's): the triangles must lie inside it */
+        for (int a = 0; a < 3; a++) {
+            if (lo[a] < blo[a] || hi[a] > bhi[a])
+                return vx_fail(e, "grid_build: the mesh leaves the given bounds on axis %d", a);
+            lo[a] = blo[a], hi[a] = bhi[a];
+        }
+    return 0;
+}
+
 static int grid_build_impl(voxel_grid *g, const mesh *m, int n, const double *blo, const double *bhi, int threads,
                            vx_err *e)
 {
@@ -433,12 +444,8 @@ static int grid_build_impl(voxel_grid *g, const mesh *m, int n, const double *bl
     double lo[3], hi[3];
     if (mesh_bounds(m, lo, hi, e))
         return -1;
-    if (blo) /* the caller's lattice (an animation's): the mesh must lie inside it */
-        for (int a = 0; a < 3; a++) {
-            if (lo[a] < blo[a] || hi[a] > bhi[a])
-                return vx_fail(e, "grid_build: the mesh leaves the given bounds on axis %d", a);
-            lo[a] = blo[a], hi[a] = bhi[a];
-        }
+    if (grid_take_lattice(lo, hi, blo, bhi, e))
+        return -1;
     grid_triangles src = {m->triangle_count, mesh_corners, m};
     return grid_build_triangles(g, &src, n, lo, hi, threads, e);
 }

@@ -67,6 +67,9 @@ typedef struct {
  * caller validated their coordinates), with `threads` threads. */
 int grid_build_triangles(voxel_grid *g, const grid_triangles *src, int n, const double lo[3], const double hi[3],
                          int threads, vx_err *e);
+/* The lattice a grid is built over: the triangles' bounds lo/hi, or, when blo/bhi are given (an
+ * animation's shared lattice), those, which must contain lo/hi (else an error naming the axis). */
+int grid_take_lattice(double lo[3], double hi[3], const double *blo, const double *bhi, vx_err *e);
 void grid_free(voxel_grid *g);
 
 /* Bytes allocated by the grid (all levels, tables, coordinates). */

@@ -12,12 +12,8 @@ int grid_build_scene(voxel_grid *g, const scene *s, int n, const double *blo, co
 {
     double lo[3], hi[3];
     scene_triangle_bounds(s, lo, hi);
-    if (blo)
-        for (int a = 0; a < 3; a++) {
-            if (lo[a] < blo[a] || hi[a] > bhi[a])
-                return vx_fail(e, "grid_build: the mesh leaves the given bounds on axis %d", a);
-            lo[a] = blo[a], hi[a] = bhi[a];
-        }
+    if (grid_take_lattice(lo, hi, blo, bhi, e))
+        return -1;
     grid_triangles src = {scene_triangle_count(s), scene_corners, s};
     return grid_build_triangles(g, &src, n, lo, hi, 2, e);
 }
