@@ -29,6 +29,8 @@ PY = "/usr/bin/python3"
 # What differs between two runs of the same jobs: when, where, how fast, how loaded.
 VOLATILE = {"render_s", "render_ms", "render_ms_min", "render_ms_spread", "bake_s", "bake_s_min", "bake_s_spread",
             "truth_s", "truth_s_min", "truth_s_spread", "load", "loaded", "peak_rss_bytes", "computed", "bvh_s",
+            # Embree's allocator total: its parallel builder takes blocks per worker thread.
+            "bvh_bytes",
             # Counters of the shading cache: per thread, so they vary with how the threads share the
             # pixels (a timed render uses every core); the images do not (compared byte for byte).
             "cache_hits", "model_evals"}

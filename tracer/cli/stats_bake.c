@@ -58,9 +58,14 @@ cJSON *stats_render(const scene *s, const vx_model *m, const bake_options *bo, c
     if (b->splits_model_time) {
         cJSON_AddNumberToObject(j, "traversal_seconds", rc->traversal_seconds);
         cJSON_AddNumberToObject(j, "model_seconds", rc->model_seconds);
+        /* Minor page faults inside `seconds`: memory the render threads touched first, each fault a
+         * stall and a TLB shootdown of the other cores (issue 15). Near 0 when the render's buffers
+         * were pre-faulted; a large number here means a timed frame paid for allocation. */
+        cJSON_AddNumberToObject(j, "render_page_faults", (double)rc->page_faults);
     } else {
         cJSON_AddNullToObject(j, "traversal_seconds");
         cJSON_AddNullToObject(j, "model_seconds");
+        cJSON_AddNullToObject(j, "render_page_faults"); /* the device's memory: not this process's faults */
     }
     if (b->has_device) /* NAME_compile_seconds ...: compile time is apart from seconds */
         stats_add_backend(j, b->name, bcnt);
