@@ -20,13 +20,13 @@
 VX_INLINE vec3 average_shading(vec3 albedo, vec3 mean_normal, float specular, float roughness, unsigned int double_sided,
                                const vx_query *q)
 {
-    float len = fminf(v3_length(mean_normal), 1.0f);
+    float len = vx_fminf(v3_length(mean_normal), 1.0f);
     vec3 n = v3_normalize_or(mean_normal, q->to_viewer);
     if (double_sided && v3_dot(n, q->to_viewer) < 0.0f)
         n = v3_scale(n, -1.0f);
     vec3 sum = v3(0.0f, 0.0f, 0.0f);
     for (int i = 0; i < q->light_count; i++) {
-        float cos_l = fmaxf(0.0f, v3_dot(n, q->to_light[i]));
+        float cos_l = vx_fmaxf(0.0f, v3_dot(n, q->to_light[i]));
         float diffuse = (len * cos_l + (1.0f - len) * 0.25f) / VX_PI;
         vec3 f = v3_scale(albedo, diffuse);
         if ((q->effects & VX_EFFECT_SPECULAR) && cos_l > 0.0f) {

@@ -36,6 +36,6 @@ void sggx_fit(const vec3 *normals, int n, float min_area, sggx_frame *out)
             sum += fabs((double)v3_dot(ax[k], normals[i]));
         float l = (float)(sum / (double)n);
         out->axis[k] = ax[k];
-        out->area[k] = fminf(fmaxf(l, min_area), 1.0f);
+        out->area[k] = vx_fminf(vx_fmaxf(l, min_area), 1.0f);
     }
 }

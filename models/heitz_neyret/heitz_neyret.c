@@ -55,7 +55,7 @@ static void build_tables(void)
             double x, y, d = INFINITY;
             random_in_disk(&r, &x, &y);
             for (int i = 0; i < k; i++)
-                d = fmin(d, (x - px[i]) * (x - px[i]) + (y - py[i]) * (y - py[i]));
+                d = vx_fmin(d, (x - px[i]) * (x - px[i]) + (y - py[i]) * (y - py[i]));
             if (d > best) {
                 best = d;
                 bx = x;
@@ -397,7 +397,7 @@ static void derive(const moments *m, float size, hn_data *d)
     }
     /* Stored normal: the plane's orientation with the mean normal's length along it (how much the
      * normals agree); a two-sided sheet stores its unit axis. */
-    double along = d->two_sided ? 1.0 : fmax(nbar[0] * N[0] + nbar[1] * N[1] + nbar[2] * N[2], HN_ONE_SIDED_MIN);
+    double along = d->two_sided ? 1.0 : vx_fmax(nbar[0] * N[0] + nbar[1] * N[1] + nbar[2] * N[2], HN_ONE_SIDED_MIN);
     d->n = v3((float)(along * N[0]), (float)(along * N[1]), (float)(along * N[2]));
     double h = 0.0, var_h = 0.0, mq = 0.0, var_tilt = 0.0;
     for (int i = 0; i < 3; i++) {
@@ -408,8 +408,8 @@ static void derive(const moments *m, float size, hn_data *d)
             var_tilt += N[i] * m->tang[i][k] * N[k] / m->w;
         }
     }
-    var_h = fmax(var_h, 0.0);
-    var_tilt = fmin(fmax(var_tilt, 0.0), var_h);
+    var_h = vx_fmax(var_h, 0.0);
+    var_tilt = vx_fmin(vx_fmax(var_tilt, 0.0), var_h);
     d->h = (float)h;
     d->var_h = (float)var_h;
     d->var_n = (float)hn_sigma2_of_m(mq);
@@ -439,16 +439,16 @@ static void derive(const moments *m, float size, hn_data *d)
          * not read as an edge, so twice that standard error comes off the offset. */
         if (m->w2 > 0.0) {
             double n_eff = m->w * m->w / m->w2, spread = C[0][0] + C[1][1] + C[2][2] - var_h;
-            off2 = fmax(off2 - 4.0 * fmax(spread, 0.0) / n_eff, 0.0);
+            off2 = vx_fmax(off2 - 4.0 * vx_fmax(spread, 0.0) / n_eff, 0.0);
         }
-        d->psi = (float)fmin(fmax(2.0 * sqrt(off2) - 0.5 * size, -0.5 * size), 0.5 * size);
+        d->psi = (float)vx_fmin(vx_fmax(2.0 * sqrt(off2) - 0.5 * size, -0.5 * size), 0.5 * size);
     }
     if (!(m->wf > 0.0))
         return; /* only back faces: colour unknown (black if no neighbour knows better) */
     d->has_color = 1;
     double sigma_h = sqrt(var_h), a[3];
     for (int c = 0; c < 3; c++)
-        a[c] = fmin(fmax(m->a[c] / m->wf, 0.0), 1.0);
+        a[c] = vx_fmin(vx_fmax(m->a[c] / m->wf, 0.0), 1.0);
     d->a = v3((float)a[0], (float)a[1], (float)a[2]);
     /* a_s from Cov(a, h): for Gaussian heights and a = a + a_s s(h), Stein's lemma gives
      * E[h s(h)] = sigma_h / sqrt(pi), so a_s = sqrt(pi) Cov(a, h) / sigma_h exactly; unlike the
@@ -461,14 +461,14 @@ static void derive(const moments *m, float size, hn_data *d)
      * so that a curved cell (all tilt, little else) does not amplify a chance correlation. */
     double as[3] = {0, 0, 0};
     double var_rest = var_h - var_tilt;
-    double gain = var_rest > 0.0 ? fmin(var_h / var_rest, 4.0) : 1.0;
+    double gain = var_rest > 0.0 ? vx_fmin(var_h / var_rest, 4.0) : 1.0;
     if (sigma_h > 1e-5 * size) {
         for (int c = 0; c < 3; c++) {
             double cov = 0.0;
             for (int k = 0; k < 3; k++)
                 cov += N[k] * (m->ax[c][k] / m->wf - a[c] * m->xf[k] / m->wf);
-            double bound = fmin(a[c], 1.0 - a[c]);
-            as[c] = fmin(fmax(sqrt(M_PI) * gain * cov / sigma_h, -bound), bound);
+            double bound = vx_fmin(a[c], 1.0 - a[c]);
+            as[c] = vx_fmin(vx_fmax(sqrt(M_PI) * gain * cov / sigma_h, -bound), bound);
         }
     }
     d->as = v3((float)as[0], (float)as[1], (float)as[2]);
@@ -553,7 +553,7 @@ static void moments_of_record(const hn_data *d, float size, moments *m)
     if (!d->two_sided)
         for (int i = 0; i < 3; i++)
             nbar[i] = (double)v3_get(d->n, i);
-    double sigma_h = sqrt(fmax(d->var_h, 0.0f));
+    double sigma_h = sqrt(vx_fmax(d->var_h, 0.0f));
     double a[3] = {d->a.x, d->a.y, d->a.z}, as[3] = {d->as.x, d->as.y, d->as.z};
     m->w = w;
     m->wf = d->has_color ? w : 0.0;
@@ -630,7 +630,7 @@ static void parent_edge_from_children(const hn_data kids[8], float child, float 
         sw += kids[k].area;
         sp += kids[k].area * (kids[k].psi - v3_dot(u, centre[k]));
     }
-    d->psi = (float)fmin(fmax(sp / sw, -0.5 * size), 0.5 * size);
+    d->psi = (float)vx_fmin(vx_fmax(sp / sw, -0.5 * size), 0.5 * size);
 }
 
 /* Coarser levels, each cell from its (up to 8) children. */

@@ -53,7 +53,7 @@ VX_INLINE void hn_fill_stencil(const voxel_grid *g, vec3 p, float level, hn_sten
     st->level_frac = 0.0f;
     if (!g || g->levels < 1)
         return;
-    float lv = fminf(fmaxf(level, 0.0f), (float)(g->levels - 1)); /* NaN -> 0 */
+    float lv = vx_fminf(vx_fmaxf(level, 0.0f), (float)(g->levels - 1)); /* NaN -> 0 */
     int L0 = (int)floorf(lv);
     int L1 = L0 + 1 < g->levels ? L0 + 1 : L0;
     st->level_frac = L1 > L0 ? lv - (float)L0 : 0.0f;
@@ -127,7 +127,7 @@ VX_INLINE void hn_cone_element_eval(const vx_query *q, vx_answer *a)
     if (!hn_blend_geometry(records, &st, q->position, &s))
         return;
     hn_blend_edge(records, &st, q->position, &s);
-    vec3 N = hn_mask_answer(table, &s, q, fmaxf(q->footprint, 0.0f), a);
+    vec3 N = hn_mask_answer(table, &s, q, vx_fmaxf(q->footprint, 0.0f), a);
     if (q->light_count <= 0 || !(a->opacity > 0.0f))
         return;
     vec3 nu = v3_normalize_or(s.n, N);
@@ -147,11 +147,11 @@ VX_INLINE void hn_cone_element_eval(const vx_query *q, vx_answer *a)
         if (!(d > 0.0f) || !(d < 1e30f))
             continue; /* directional, or unknown */
         vec3 v = v3_add(v3_scale(q->to_light[i], d), v3_sub(q->position, foot));
-        float d2 = v3_dot(v, v), r = fmaxf(q->footprint, 0.0f);
+        float d2 = v3_dot(v, v), r = vx_fmaxf(q->footprint, 0.0f);
         if (!(d2 < 1e30f))
             continue;
         ql.to_light[i] = v3_normalize_or(v, q->to_light[i]);
-        ql.irradiance[i] = v3_scale(q->irradiance[i], d * d / fmaxf(d2, fmaxf(r * r, 1e-30f)));
+        ql.irradiance[i] = v3_scale(q->irradiance[i], d * d / vx_fmaxf(d2, vx_fmaxf(r * r, 1e-30f)));
     }
     a->radiance = hn_radiance(&s, N, &ql);
 }

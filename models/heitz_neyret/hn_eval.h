@@ -92,7 +92,7 @@ VX_INLINE float hn_blend_level_geometry(VX_GLOBAL const hn_record *records, cons
             h = -h;
         }
         vec3 nu = v3_normalize_or(n, v3(0.0f, 0.0f, 1.0f));
-        float wg = w * fminf(1.0f, 2.0f * d.area / (st->size[i] * st->size[i]));
+        float wg = w * vx_fminf(1.0f, 2.0f * d.area / (st->size[i] * st->size[i]));
         sn = v3_madd(sn, n, wg);
         sD += wg * (v3_dot(nu, v3_sub(p, st->centre[i])) - h);
         s_var_h += wg * d.var_h;
@@ -119,7 +119,7 @@ VX_INLINE int hn_blend_geometry(VX_GLOBAL const hn_record *records, const hn_ste
     int count = st->count < HN_STENCIL_MAX ? st->count : HN_STENCIL_MAX;
     wsum[0] = hn_blend_level_geometry(records, st, count, 0, p, &lv[0]);
     wsum[1] = hn_blend_level_geometry(records, st, count, 1, p, &lv[1]);
-    float f = fminf(fmaxf(st->level_frac, 0.0f), 1.0f);
+    float f = vx_fminf(vx_fmaxf(st->level_frac, 0.0f), 1.0f);
     float w0, w1;
     hn_level_weights(f, wsum[0] > 0.0f, wsum[1] > 0.0f, &w0, &w1);
     if (!(w0 + w1 > 0.0f))
@@ -170,7 +170,7 @@ VX_INLINE void hn_blend_edge(VX_GLOBAL const hn_record *records, const hn_stenci
         float wa[3], ga[3];
         for (int a = 0; a < 3; a++) {
             float u = v3_get(dp, a) / size;
-            wa[a] = fmaxf(0.0f, 1.0f - fabsf(u));
+            wa[a] = vx_fmaxf(0.0f, 1.0f - fabsf(u));
             ga[a] = (u > 0.0f ? -1.0f : 1.0f) / size;
         }
         float w = wa[0] * wa[1] * wa[2];
@@ -199,7 +199,7 @@ VX_INLINE void hn_blend_edge(VX_GLOBAL const hn_record *records, const hn_stenci
         G[k] = v3_madd(G[k], gw, psi);
         Gw[k] = v3_add(Gw[k], gw);
     }
-    float f = fminf(fmaxf(st->level_frac, 0.0f), 1.0f);
+    float f = vx_fminf(vx_fmaxf(st->level_frac, 0.0f), 1.0f);
     float w0, w1;
     hn_level_weights(f, W[0] > 0.0f, W[1] > 0.0f, &w0, &w1);
     if (!(w0 + w1 > 0.0f))
@@ -244,7 +244,7 @@ VX_INLINE void hn_blend_attributes(VX_GLOBAL const hn_record *records, const hn_
         float wa = d.area / (st->size[i] * st->size[i]);
         for (int a = 0; a < 3; a++)
             if (a != across)
-                wa *= fmaxf(0.0f, 1.0f - fabsf(v3_get(p, a) - v3_get(st->centre[i], a)) / st->size[i]);
+                wa *= vx_fmaxf(0.0f, 1.0f - fabsf(v3_get(p, a) - v3_get(st->centre[i], a)) / st->size[i]);
         if (!(wa > 0.0f))
             continue;
         int k = st->slot[i] ? 1 : 0;
@@ -259,7 +259,7 @@ VX_INLINE void hn_blend_attributes(VX_GLOBAL const hn_record *records, const hn_
             wc[k] += wa;
         }
     }
-    float f = fminf(fmaxf(st->level_frac, 0.0f), 1.0f);
+    float f = vx_fminf(vx_fmaxf(st->level_frac, 0.0f), 1.0f);
     float w0, w1;
     hn_level_weights(f, wv[0] > 0.0f, wv[1] > 0.0f, &w0, &w1);
     if (w0 + w1 > 0.0f) {
@@ -303,7 +303,7 @@ VX_INLINE vec3 hn_radiance(const hn_sample *s, vec3 N, const vx_query *q)
 {
     vec3 v = q->to_viewer;
     float cv = v3_dot(N, v);
-    float sigma = sqrtf(fmaxf(s->var_n, 0.0f));
+    float sigma = sqrtf(vx_fmaxf(s->var_n, 0.0f));
     float mu_v = hn_cot_from_cos(cv);
     float lambda_v = hn_lambda_mu(mu_v, sigma);
     float tilt = hn_visible_tilt(mu_v, sigma);
@@ -312,8 +312,8 @@ VX_INLINE vec3 hn_radiance(const hn_sample *s, vec3 N, const vx_query *q)
     int shadows = (q->effects & VX_EFFECT_SHADOWS) != 0u;
     int specular = (q->effects & VX_EFFECT_SPECULAR) != 0u;
     int two_sided = s->two_sided > 0.5f;
-    float alpha = sqrtf(2.0f * (fmaxf(s->var_n, 0.0f) + fmaxf(s->var_brdf, 0.0f)));
-    alpha = fminf(fmaxf(alpha, 1e-3f), 1e3f);
+    float alpha = sqrtf(2.0f * (vx_fmaxf(s->var_n, 0.0f) + vx_fmaxf(s->var_brdf, 0.0f)));
+    alpha = vx_fminf(vx_fmaxf(alpha, 1e-3f), 1e3f);
     vec3 sum = v3(0.0f, 0.0f, 0.0f);
     int nl = q->light_count < VX_MAX_LIGHTS ? q->light_count : VX_MAX_LIGHTS;
     for (int i = 0; i < nl; i++) {
@@ -323,7 +323,7 @@ VX_INLINE vec3 hn_radiance(const hn_sample *s, vec3 N, const vx_query *q)
         vec3 c = v3(hn_attribute(s->a.x, s->as.x, lambda_v, lambda_l), hn_attribute(s->a.y, s->as.y, lambda_v, lambda_l),
                     hn_attribute(s->a.z, s->as.z, lambda_v, lambda_l));
         c = v3_min(v3_max(c, v3(0.0f, 0.0f, 0.0f)), v3(1.0f, 1.0f, 1.0f));
-        float diff = kcos / VX_PI * fmaxf(0.0f, cl + v3_dot(l, tv) * tilt);
+        float diff = kcos / VX_PI * vx_fmaxf(0.0f, cl + v3_dot(l, tv) * tilt);
         /* A two-sided cell whose normals spread (a cluster of leaves, a box smaller than the cell)
          * has no meaningful axis: toward E[max(0, n.l)] = 1/4 of normals uniform on the sphere,
          * as far as the mean facet cosine says the normals spread. */
@@ -358,7 +358,7 @@ VX_INLINE vec3 hn_mask_answer(VX_GLOBAL const unsigned int *table, const hn_samp
         N = v3_scale(N, -1.0f);
         D = -D;
     }
-    float sigma_h = sqrtf(fmaxf(s->var_h, 0.0f));
+    float sigma_h = sqrtf(vx_fmaxf(s->var_h, 0.0f));
     vec3 T, B;
     v3_basis(dir, &T, &B);
     float nx = v3_dot(N, T), ny = v3_dot(N, B), nz = v3_dot(N, dir);
@@ -368,7 +368,7 @@ VX_INLINE vec3 hn_mask_answer(VX_GLOBAL const unsigned int *table, const hn_samp
      * model, whose H7 excludes thin sheets, and a flat sheet, sigma_h = 0, then covered only where
      * the element's centre lay within r |nz| of it: the double-sided plate on cell faces lost
      * coverage.) */
-    float sigma_n = sqrtf(fmaxf(s->var_n, 0.0f));
+    float sigma_n = sqrtf(vx_fmaxf(s->var_n, 0.0f));
     /* The silhouette plane rises with the view: only the peaks remain visible at grazing angles
      * (mean visible depth, report §4.4). */
     float lambda_v = hn_lambda(v3_dot(N, q->to_viewer), sigma_n);

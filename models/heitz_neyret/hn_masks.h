@@ -88,8 +88,8 @@ typedef struct {
 VX_INLINE void hn_constraints_mask(VX_GLOBAL const unsigned int *table, const hn_constraint *c, int n, float r,
                                    float behind, unsigned int *out)
 {
-    r = fmaxf(r, 0.0f);
-    behind = fmaxf(behind, 0.0f);
+    r = vx_fmaxf(r, 0.0f);
+    behind = vx_fmaxf(behind, 0.0f);
     hn_constraint all[HN_CONSTRAINTS_MAX + 2];
     int count = 0;
     all[count].A = -r, all[count].cx = 0.0f, all[count].cy = 0.0f, all[count].b = 1.0f, count++;

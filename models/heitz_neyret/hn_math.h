@@ -48,7 +48,7 @@ VX_INLINE float hn_erfc_cf_tail(float x)
 /* sqrt(pi) * erfcx(y) = sqrt(pi) e^(y^2) erfc(y) for y >= 0, without overflow for large y. */
 VX_INLINE float hn_sqrtpi_erfcx(float y)
 {
-    y = fmaxf(y, 0.0f);
+    y = vx_fmaxf(y, 0.0f);
     if (y < 2.0f)
         return HN_SQRT_PI * hn_erfcxf(y);
     return 1.0f / (y + hn_erfc_cf_tail(y));
@@ -62,11 +62,11 @@ VX_INLINE float hn_phi_pdf(float x) { return 0.39894228040143267794f * expf(-0.5
  * gives a huge cotangent (Lambda = 0). Directions behind the mean plane count as grazing. */
 VX_INLINE float hn_cot_from_cos(float c)
 {
-    c = fminf(fmaxf(c, 0.0f), 1.0f);
+    c = vx_fminf(vx_fmaxf(c, 0.0f), 1.0f);
     float s = sqrtf((1.0f - c) * (1.0f + c)); /* (1-c)(1+c): no cancellation near c = 1 */
     if (s < 1e-6f)
         return 1e6f;
-    return fmaxf(c / s, 1e-6f);
+    return vx_fmaxf(c / s, 1e-6f);
 }
 
 /* Smith's Lambda for Gaussian slopes (2012 paper eq. 6): with mu = cot(theta), x = mu/(sqrt2 sigma),
@@ -76,13 +76,13 @@ VX_INLINE float hn_lambda_mu(float mu, float sigma)
 {
     if (!(sigma > 1e-12f))
         return 0.0f; /* a flat surface masks nothing */
-    sigma = fminf(sigma, HN_SIGMA_MAX);
-    mu = fmaxf(mu, 1e-6f);
+    sigma = vx_fminf(sigma, HN_SIGMA_MAX);
+    mu = vx_fmaxf(mu, 1e-6f);
     float x = mu / (HN_SQRT2 * sigma);
     if (!(x < 9.5f))
         return 0.0f; /* e^(-x^2) < 1e-39: below float */
     if (x < 2.0f)
-        return fmaxf(0.0f, 0.5f * (expf(-x * x) / (x * HN_SQRT_PI) - hn_erfcf(x)));
+        return vx_fmaxf(0.0f, 0.5f * (expf(-x * x) / (x * HN_SQRT_PI) - hn_erfcf(x)));
     float k = hn_erfc_cf_tail(x);
     return 0.5f * (expf(-x * x) / HN_SQRT_PI) * k / (x * (x + k));
 }
@@ -105,7 +105,7 @@ VX_INLINE float hn_g(float h, float sigma_h)
  * a(v,l) = a + a_s (2 (Lv + Ll + 1)/(Lv + Ll + 2) - 1) = a + a_s (Lv + Ll)/(Lv + Ll + 2). */
 VX_INLINE float hn_attribute(float a_mean, float a_s, float lambda_v, float lambda_l)
 {
-    float L = fmaxf(lambda_v, 0.0f) + fmaxf(lambda_l, 0.0f);
+    float L = vx_fmaxf(lambda_v, 0.0f) + vx_fmaxf(lambda_l, 0.0f);
     float w = L < 1e30f ? L / (L + 2.0f) : 1.0f;
     return a_mean + a_s * w;
 }
@@ -114,7 +114,7 @@ VX_INLINE float hn_attribute(float a_mean, float a_s, float lambda_v, float lamb
  * the fitted form (within 14 %) of the integral of h V(v,h) P(h). */
 VX_INLINE float hn_visible_depth_offset(float sigma_h, float lambda_v)
 {
-    return 0.39f * sigma_h * hn_logf(1.0f + 4.75f * fminf(fmaxf(lambda_v, 0.0f), 1e30f));
+    return 0.39f * sigma_h * hn_logf(1.0f + 4.75f * vx_fminf(vx_fmaxf(lambda_v, 0.0f), 1e30f));
 }
 
 /* Mean of n.N over the projected area of Gaussian slopes, E[1/sqrt(1 + p^2 + q^2)]
@@ -124,9 +124,9 @@ VX_INLINE float hn_lambert_cos_mean(float sigma)
 {
     if (!(sigma > 1e-6f))
         return 1.0f;
-    sigma = fminf(sigma, HN_SIGMA_MAX);
+    sigma = vx_fminf(sigma, HN_SIGMA_MAX);
     float y = 1.0f / (HN_SQRT2 * sigma); /* sqrt(beta) */
-    return fminf(1.0f, y * hn_sqrtpi_erfcx(y));
+    return vx_fminf(1.0f, y * hn_sqrtpi_erfcx(y));
 }
 
 /* Tilt of the mean visible normal toward the viewer: the projected-area mean of the visible facets'
@@ -138,7 +138,7 @@ VX_INLINE float hn_visible_tilt(float mu, float sigma)
 {
     if (!(sigma > 1e-8f))
         return 0.0f;
-    sigma = fminf(sigma, HN_SIGMA_MAX);
+    sigma = vx_fminf(sigma, HN_SIGMA_MAX);
     float z = mu / sigma;
     float P = hn_phi_cdf(z);
     float den = mu * P + sigma * hn_phi_pdf(z);

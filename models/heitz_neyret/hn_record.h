@@ -82,7 +82,7 @@ VX_INLINE void hn_decode(VX_GLOBAL const hn_record *r, float size, hn_data *d)
     hn_decode_geometry(r, size, d);
     d->a = v3((float)r->a[0] / 255.0f, (float)r->a[1] / 255.0f, (float)r->a[2] / 255.0f);
     /* a_s relative to its bound min(a, 1 - a): full 8-bit resolution whatever the mean colour. */
-    float b0 = fminf(d->a.x, 1.0f - d->a.x), b1 = fminf(d->a.y, 1.0f - d->a.y), b2 = fminf(d->a.z, 1.0f - d->a.z);
+    float b0 = vx_fminf(d->a.x, 1.0f - d->a.x), b1 = vx_fminf(d->a.y, 1.0f - d->a.y), b2 = vx_fminf(d->a.z, 1.0f - d->a.z);
     d->as = v3((float)r->as[0] / 127.0f * b0, (float)r->as[1] / 127.0f * b1, (float)r->as[2] / 127.0f * b2);
     float alpha = (float)r->alpha / 255.0f;
     d->var_brdf = 0.5f * alpha * alpha;
@@ -118,19 +118,19 @@ static inline unsigned short hn_float_to_half(float f)
 
 static inline unsigned char hn_unorm8(float x)
 {
-    x = fminf(fmaxf(x, 0.0f), 1.0f); /* NaN -> 0 */
+    x = vx_fminf(vx_fmaxf(x, 0.0f), 1.0f); /* NaN -> 0 */
     return (unsigned char)lrintf(x * 255.0f);
 }
 
 static inline signed char hn_snorm8(float x)
 {
-    x = fminf(fmaxf(x, -1.0f), 1.0f);
+    x = vx_fminf(vx_fmaxf(x, -1.0f), 1.0f);
     return (signed char)lrintf(x * 127.0f);
 }
 
 static inline short hn_snorm16(float x)
 {
-    x = fminf(fmaxf(x, -1.0f), 1.0f);
+    x = vx_fminf(vx_fmaxf(x, -1.0f), 1.0f);
     return (short)lrintf(x * 32767.0f);
 }
 
@@ -142,17 +142,17 @@ static inline void hn_encode(const hn_data *d, float size, hn_record *r)
     r->n[0] = hn_snorm16(d->n.x);
     r->n[1] = hn_snorm16(d->n.y);
     r->n[2] = hn_snorm16(d->n.z);
-    r->var_h = hn_float_to_half(fmaxf(d->var_h, 0.0f) / s2);
-    r->var_n = hn_float_to_half(fmaxf(d->var_n, 0.0f));
-    r->area = hn_float_to_half(fmaxf(d->area, 0.0f) / s2 * (d->has_color ? 1.0f : -1.0f));
+    r->var_h = hn_float_to_half(vx_fmaxf(d->var_h, 0.0f) / s2);
+    r->var_n = hn_float_to_half(vx_fmaxf(d->var_n, 0.0f));
+    r->area = hn_float_to_half(vx_fmaxf(d->area, 0.0f) / s2 * (d->has_color ? 1.0f : -1.0f));
     float a[3] = {d->a.x, d->a.y, d->a.z}, as[3] = {d->as.x, d->as.y, d->as.z};
     for (int c = 0; c < 3; c++) {
         r->a[c] = hn_unorm8(a[c]);
-        float aq = (float)r->a[c] / 255.0f, bound = fminf(aq, 1.0f - aq);
+        float aq = (float)r->a[c] / 255.0f, bound = vx_fminf(aq, 1.0f - aq);
         r->as[c] = bound > 0.0f ? hn_snorm8(as[c] / bound) : 0;
     }
-    r->alpha = hn_unorm8(sqrtf(2.0f * fmaxf(d->var_brdf, 0.0f)));
-    unsigned f0 = (unsigned)lrintf(fminf(fmaxf(d->f0, 0.0f), 1.0f) * 127.0f);
+    r->alpha = hn_unorm8(sqrtf(2.0f * vx_fmaxf(d->var_brdf, 0.0f)));
+    unsigned f0 = (unsigned)lrintf(vx_fminf(vx_fmaxf(d->f0, 0.0f), 1.0f) * 127.0f);
     r->f0_flags = (unsigned char)(f0 | (d->two_sided ? HN_TWO_SIDED : 0u));
     r->psi = hn_snorm8(d->psi / (0.5f * size));
     r->spare[0] = r->spare[1] = r->spare[2] = 0;

@@ -34,7 +34,7 @@ static unsigned char unorm8(float x)
 {
     if (!(x > 0.0f))
         return 0;
-    return (unsigned char)lroundf(fminf(x, 1.0f) * 255.0f);
+    return (unsigned char)lroundf(vx_fminf(x, 1.0f) * 255.0f);
 }
 
 /* A symmetric S written as Heitz et al.'s six bytes (sqrt of the diagonal over its largest value,
@@ -45,8 +45,8 @@ static double encode_sggx_matrix(const double S[3][3], vicini_record *r)
 {
     double s[3], smax = 0.0;
     for (int k = 0; k < 3; k++) {
-        s[k] = sqrt(fmax(S[k][k], 0.0));
-        smax = fmax(smax, s[k]);
+        s[k] = sqrt(vx_fmax(S[k][k], 0.0));
+        smax = vx_fmax(smax, s[k]);
     }
     for (int k = 0; k < 3; k++)
         r->sigma[k] = unorm8((float)(s[k] / smax));
@@ -54,7 +54,7 @@ static double encode_sggx_matrix(const double S[3][3], vicini_record *r)
     for (int k = 0; k < 3; k++) {
         double d = s[pair[k][0]] * s[pair[k][1]];
         double c = d > 0.0 ? S[pair[k][0]][pair[k][1]] / d : 0.0;
-        r->corr[k] = (unsigned char)lround(fmin(fmax(c, -1.0), 1.0) * 127.0 + 127.0);
+        r->corr[k] = (unsigned char)lround(vx_fmin(vx_fmax(c, -1.0), 1.0) * 127.0 + 127.0);
     }
     return smax;
 }
@@ -78,7 +78,7 @@ static unsigned char encode_density(double rho)
     if (!(rho > 0.0))
         return 0;
     double code = 1.0 + 254.0 * log2(rho / VICINI_DENSITY_MIN) / VICINI_DENSITY_LOG2_RANGE;
-    return (unsigned char)lround(fmin(fmax(code, 1.0), 255.0));
+    return (unsigned char)lround(vx_fmin(vx_fmax(code, 1.0), 255.0));
 }
 
 /* The flight of sample s through the voxel (0 when it tells nothing about the voxel's inside). */
@@ -91,7 +91,7 @@ static int flight_of(const vx_sample *s, float size, const float S[9], int exten
     switch (s->kind) {
     case VX_SAMPLE_INSIDE_FRONT:
     case VX_SAMPLE_INSIDE_BACK:
-        f->x = sigma * fminf(fmaxf((s->t_hit - s->t_entry) / size, 0.0f), chord);
+        f->x = sigma * vx_fminf(vx_fmaxf((s->t_hit - s->t_entry) / size, 0.0f), chord);
         f->collided = 1;
         return 1;
     case VX_SAMPLE_OUTSIDE:
@@ -135,7 +135,7 @@ static void vicini_bake(const vx_voxel *v, const vx_sample *samples, int n, void
      * material's, not sharper. Without it, the authors' clamp alone. */
     int shiny = (v->effects & VX_EFFECT_SPECULAR) && specular >= 0.5f * VICINI_SPECULAR_F0;
     float floor_area = v->params ? (float)v->params->value[PARAM_MIN_AREA] : (float)SGGX_MIN_AREA_DEFAULT;
-    float min_area = shiny ? fmaxf(floor_area, fminf(roughness, 1.0f)) : floor_area;
+    float min_area = shiny ? vx_fmaxf(floor_area, vx_fminf(roughness, 1.0f)) : floor_area;
     int front = 0;
     for (int i = 0; i < n; i++)
         if (samples[i].kind == VX_SAMPLE_INSIDE_FRONT)
@@ -157,7 +157,7 @@ static void vicini_bake(const vx_voxel *v, const vx_sample *samples, int n, void
         densities[k] = vicini_decode_density((unsigned)k + 1u);
     vicini_fit(flights, m, densities, 255, &est);
     r->density = encode_density(est.density);
-    r->mix = (unsigned char)(lround(fmin(fmax(est.gamma, 0.0), 1.0) * VICINI_GAMMA_MAX_CODE) |
+    r->mix = (unsigned char)(lround(vx_fmin(vx_fmax(est.gamma, 0.0), 1.0) * VICINI_GAMMA_MAX_CODE) |
                              (shiny ? VICINI_SPECULAR_BIT : 0u));
     if (normals != normals_stack)
         free(normals);
@@ -260,7 +260,7 @@ static void vicini_combine(const vx_record_part *parts, int n, float voxel_size,
         scale = encode_sggx_matrix(S, &r);
         for (int k = 0; k < 3; k++)
             r.color[k] = unorm8((float)sqrt(color[k] / mass));
-        r.mix = (unsigned char)(lround(fmin(fmax(gamma / mass, 0.0), 1.0) * VICINI_GAMMA_MAX_CODE) |
+        r.mix = (unsigned char)(lround(vx_fmin(vx_fmax(gamma / mass, 0.0), 1.0) * VICINI_GAMMA_MAX_CODE) |
                                 (2.0 * shiny > mass ? VICINI_SPECULAR_BIT : 0u));
     } else {
         r.sigma[0] = r.sigma[1] = r.sigma[2] = 255; /* an isotropic nothing: valid, never seen */

@@ -93,19 +93,19 @@ VX_INLINE float vicini_quadratic(const float S[9], vec3 w)
 /* SGGX projected area toward w (unit). */
 VX_INLINE float vicini_sigma(const float S[9], vec3 w)
 {
-    return sqrtf(fmaxf(vicini_quadratic(S, w), 1e-8f));
+    return sqrtf(vx_fmaxf(vicini_quadratic(S, w), 1e-8f));
 }
 
 /* The voxel's mean chord along w, in voxel lengths. */
 VX_INLINE float vicini_mean_chord(vec3 w)
 {
-    return 1.0f / fmaxf(fabsf(w.x) + fabsf(w.y) + fabsf(w.z), 1.0f);
+    return 1.0f / vx_fmaxf(fabsf(w.x) + fabsf(w.y) + fabsf(w.z), 1.0f);
 }
 
 /* Vicini's transmittance after optical depth tau, for the mix gamma. */
 VX_INLINE float vicini_f(float tau, float gamma)
 {
-    return gamma * expf(-tau) + (1.0f - gamma) * fmaxf(1.0f - 0.5f * tau, 0.0f);
+    return gamma * expf(-tau) + (1.0f - gamma) * vx_fmaxf(1.0f - 0.5f * tau, 0.0f);
 }
 
 /* The optical depth at which f(., gamma) falls to y: f^-1(y, gamma). Beyond tau = 2 only the
@@ -114,20 +114,20 @@ VX_INLINE float vicini_f(float tau, float gamma)
  * passing it. y = 0 with an exponential part maps to a depth whose transmittance is 0 in float. */
 VX_INLINE float vicini_f_inv(float y, float gamma)
 {
-    y = fminf(fmaxf(y, 0.0f), 1.0f);
+    y = vx_fminf(vx_fmaxf(y, 0.0f), 1.0f);
     if (y >= 1.0f)
         return 0.0f;
     if (gamma <= 0.0f)
         return 2.0f * (1.0f - y);
     if (y <= gamma * 0.13533528f) /* f(2) = gamma e^-2: the root lies in the exponential tail */
-        return y > 0.0f ? fminf(-logf(y / gamma), 104.0f) : 104.0f;
+        return y > 0.0f ? vx_fminf(-logf(y / gamma), 104.0f) : 104.0f;
     float tau = 0.0f;
     for (int i = 0; i < 8; i++) {
         float slope = gamma * expf(-tau) + 0.5f * (1.0f - gamma); /* -df/dtau below tau = 2 */
         float step = (vicini_f(tau, gamma) - y) / slope;
         if (!(step > 1e-7f))
             break;
-        tau = fminf(tau + step, 2.0f);
+        tau = vx_fminf(tau + step, 2.0f);
     }
     return tau;
 }
@@ -135,7 +135,7 @@ VX_INLINE float vicini_f_inv(float y, float gamma)
 /* The heterogeneous model's step: transmittance T, then a voxel of optical depth tau. */
 VX_INLINE float vicini_step(float T, float tau, float gamma)
 {
-    return fminf(T, vicini_f(vicini_f_inv(T, gamma) + tau, gamma));
+    return vx_fminf(T, vicini_f(vicini_f_inv(T, gamma) + tau, gamma));
 }
 
 /* The voxel's opacity toward q->ray_dir for a ray arriving unattenuated: 1 - f(tau, gamma). */
@@ -165,7 +165,7 @@ VX_INLINE float vicini_eval_transmit(VX_GLOBAL const void *record, float opacity
 VX_INLINE vec3 vicini_sample_visible_normal(const float S[9], vec3 wi, float u1, float u2)
 {
     float rad = sqrtf(u1), phi = 2.0f * VX_PI * u2;
-    float u = rad * cosf(phi), v = rad * sinf(phi), w = sqrtf(fmaxf(1.0f - u * u - v * v, 0.0f));
+    float u = rad * cosf(phi), v = rad * sinf(phi), w = sqrtf(vx_fmaxf(1.0f - u * u - v * v, 0.0f));
     vec3 wk, wj;
     v3_basis(wi, &wk, &wj);
     vec3 Sk = v3(S[0] * wk.x + S[1] * wk.y + S[2] * wk.z, S[3] * wk.x + S[4] * wk.y + S[5] * wk.z,
@@ -179,8 +179,8 @@ VX_INLINE vec3 vicini_sample_visible_normal(const float S[9], vec3 wi, float u1,
     float det = S_kk * S_jj * S_ii - S_kj * S_kj * S_ii - S_ki * S_ki * S_jj - S_ji * S_ji * S_kk +
                 2.0f * S_kj * S_ki * S_ji;
     float sqrt_det = sqrtf(fabsf(det));
-    float inv_sqrt_ii = 1.0f / sqrtf(fmaxf(S_ii, 1e-12f));
-    float tmp = sqrtf(fmaxf(S_jj * S_ii - S_ji * S_ji, 1e-12f));
+    float inv_sqrt_ii = 1.0f / sqrtf(vx_fmaxf(S_ii, 1e-12f));
+    float tmp = sqrtf(vx_fmaxf(S_jj * S_ii - S_ji * S_ji, 1e-12f));
     vec3 Mk = v3(sqrt_det / tmp, 0.0f, 0.0f);
     vec3 Mj = v3(-inv_sqrt_ii * (S_ki * S_ji - S_kj * S_ii) / tmp, inv_sqrt_ii * tmp, 0.0f);
     vec3 Mi = v3(inv_sqrt_ii * S_ki, inv_sqrt_ii * S_ji, inv_sqrt_ii * S_ii);
@@ -198,7 +198,7 @@ VX_INLINE float vicini_phase_diffuse(const float S[9], vec3 wi, vec3 wo)
         for (int b = 0; b < VICINI_DIFFUSE_STRATA; b++) {
             vec3 m = vicini_sample_visible_normal(S, wi, ((float)a + 0.5f) / VICINI_DIFFUSE_STRATA,
                                                   ((float)b + 0.5f) / VICINI_DIFFUSE_STRATA);
-            sum += fmaxf(v3_dot(wo, m), 0.0f);
+            sum += vx_fmaxf(v3_dot(wo, m), 0.0f);
         }
     return sum / (VX_PI * (float)(VICINI_DIFFUSE_STRATA * VICINI_DIFFUSE_STRATA));
 }

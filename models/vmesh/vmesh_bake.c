@@ -11,14 +11,14 @@
 
 signed char vmesh_encode_snorm(float x)
 {
-    return (signed char)roundf(fminf(fmaxf(x, -1.0f), 1.0f) * 127.0f);
+    return (signed char)roundf(vx_fminf(vx_fmaxf(x, -1.0f), 1.0f) * 127.0f);
 }
 
 unsigned char vmesh_encode_unorm(float x)
 {
     if (!(x > 0.0f)) /* also NaN */
         return 0;
-    return (unsigned char)roundf(fminf(x, 1.0f) * 255.0f);
+    return (unsigned char)roundf(vx_fminf(x, 1.0f) * 255.0f);
 }
 
 void vmesh_encode_vec(vec3 v, signed char out[3])

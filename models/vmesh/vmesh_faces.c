@@ -58,7 +58,7 @@ static void extremal_normals(const vec3 *normals, int n, vec3 out[3])
     }
     float theta_max = 0.0f, phi0 = 0.0f;
     for (int i = 0; i < n; i++) {
-        float th = acosf(fminf(fmaxf(v3_dot(normals[i], m), -1.0f), 1.0f));
+        float th = acosf(vx_fminf(vx_fmaxf(v3_dot(normals[i], m), -1.0f), 1.0f));
         float phi = atan2f(v3_dot(normals[i], b), v3_dot(normals[i], t));
         p[2 * i] = th * cosf(phi);
         p[2 * i + 1] = th * sinf(phi);
@@ -67,7 +67,7 @@ static void extremal_normals(const vec3 *normals, int n, vec3 out[3])
             phi0 = phi; /* the first extremal normal: the one at theta_max */
         }
     }
-    float cone = fminf(fmaxf(theta_max, MIN_CONE), 0.5f * VX_PI);
+    float cone = vx_fminf(vx_fmaxf(theta_max, MIN_CONE), 0.5f * VX_PI);
     float eps = 1e-4f * cone * cone, disk = VX_PI * cone * cone;
     float best = -INFINITY, best_phi[3] = {phi0, phi0 + 2.0f * VX_PI / 3.0f, phi0 + 4.0f * VX_PI / 3.0f};
     float x0 = cone * cosf(phi0), y0 = cone * sinf(phi0);

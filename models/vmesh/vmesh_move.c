@@ -29,7 +29,7 @@ static int is_zero(const signed char q[3]) { return !(q[0] | q[1] | q[2]); }
  * the lower index (0 or 1) and the fraction toward the next. */
 static int lerp_index(float u, float *frac)
 {
-    u = fminf(fmaxf(u, 0.0f), 2.0f);
+    u = vx_fminf(vx_fmaxf(u, 0.0f), 2.0f);
     int i = u >= 1.0f ? 1 : 0;
     *frac = u - (float)i;
     return i;
@@ -58,7 +58,7 @@ static void turn_subgrid(const unsigned char in[VMESH_SUBCELLS], const float R[9
                     if (w > 0.0f)
                         v += w * (float)in[(s[0] * VMESH_SUB + s[1]) * VMESH_SUB + s[2]];
                 }
-                out[(i * VMESH_SUB + j) * VMESH_SUB + k] = (unsigned char)fminf(roundf(v), 255.0f);
+                out[(i * VMESH_SUB + j) * VMESH_SUB + k] = (unsigned char)vx_fminf(roundf(v), 255.0f);
             }
 }
 
@@ -87,7 +87,7 @@ void vmesh_transform(const void *in, const float R[9], void *out)
 /* Length of [lo0, lo0 + 1] inside [lo1, lo1 + 1]. */
 static float overlap1(float lo0, float lo1)
 {
-    return fmaxf(0.0f, 1.0f - fabsf(lo0 - lo1));
+    return vx_fmaxf(0.0f, 1.0f - fabsf(lo0 - lo1));
 }
 
 /* A part's subgrid (opacities in [0, 1]) moved by d sub-cells (its offset x 3) into the target
@@ -112,7 +112,7 @@ static void shift_subgrid(const unsigned char in[VMESH_SUBCELLS], const float d[
                             if (ww > 0.0f)
                                 v += ww * vmesh_decode_unorm(in[(x * VMESH_SUB + y) * VMESH_SUB + z]);
                         }
-                out[(i * VMESH_SUB + j) * VMESH_SUB + k] = fminf(v, 1.0f);
+                out[(i * VMESH_SUB + j) * VMESH_SUB + k] = vx_fminf(v, 1.0f);
             }
 }
 
@@ -128,11 +128,11 @@ static float coverage_share(const vx_record_part *p, int *shift)
 {
     float ov = 1.0f;
     for (int a = 0; a < 3; a++)
-        ov *= fmaxf(0.0f, 1.0f - fabsf(p->offset[a]));
+        ov *= vx_fmaxf(0.0f, 1.0f - fabsf(p->offset[a]));
     *shift = ov > 0.0f && (p->weight == 1.0f || p->weight <= ov * 1.001f);
     if (!*shift)
-        return fminf(fmaxf(p->weight, 0.0f), 1.0f);
-    return fminf(p->weight / ov, 1.0f);
+        return vx_fminf(vx_fmaxf(p->weight, 0.0f), 1.0f);
+    return vx_fminf(p->weight / ov, 1.0f);
 }
 
 static float mean_opacity(const vmesh_record *r)
@@ -155,7 +155,7 @@ static void mix_frames(const vx_record_part *parts, const float *mass, int n, sg
             continue;
         vmesh_octahedron o = vmesh_decode_octahedron(a);
         for (int k = 0; k < 3; k++) {
-            double l = fmax(vmesh_decode_unorm(a->area[k]), VMESH_MIN_AREA), v[3] = {o.axis[k].x, o.axis[k].y, o.axis[k].z};
+            double l = vx_fmax(vmesh_decode_unorm(a->area[k]), VMESH_MIN_AREA), v[3] = {o.axis[k].x, o.axis[k].y, o.axis[k].z};
             for (int p = 0; p < 3; p++)
                 for (int q = 0; q < 3; q++)
                     S[p][q] += mass[i] * l * l * v[p] * v[q];
@@ -171,7 +171,7 @@ static void mix_frames(const vx_record_part *parts, const float *mass, int n, sg
     eigen_sym3_order_desc(w, order);
     for (int k = 0; k < 3; k++) {
         fit->axis[k] = v3_normalize(v3((float)V[0][order[k]], (float)V[1][order[k]], (float)V[2][order[k]]));
-        fit->area[k] = fminf(fmaxf((float)sqrt(fmax(w[order[k]], 0.0)), VMESH_MIN_AREA), 1.0f);
+        fit->area[k] = vx_fminf(vx_fmaxf((float)sqrt(vx_fmax(w[order[k]], 0.0)), VMESH_MIN_AREA), 1.0f);
     }
     fit->axis[2] = v3_normalize(v3_cross(fit->axis[0], fit->axis[1])); /* right-handed, as the bake */
 }
@@ -260,7 +260,7 @@ void vmesh_combine(const vx_record_part *parts, int n, float voxel_size, void *o
         for (int c = 0; c < VMESH_SUBCELLS; c++)
             clear[c] *= o[c] >= 1.0f ? 0.0 : pow(1.0 - (double)o[c], share);
         /* What the part adds to the look: its covered fraction times its mean opacity. */
-        mass[i] = a->faces ? fmaxf(parts[i].weight, 0.0f) * mean_opacity(a) : 0.0f;
+        mass[i] = a->faces ? vx_fmaxf(parts[i].weight, 0.0f) * mean_opacity(a) : 0.0f;
         M += mass[i];
         faced += a->faces ? 1 : 0;
     }
@@ -268,7 +268,7 @@ void vmesh_combine(const vx_record_part *parts, int n, float voxel_size, void *o
         r.opacity[c] = vmesh_encode_unorm((float)(1.0 - clear[c]));
     if (!(M > 0) && faced > 0) /* faces but no opacity anywhere: the plain weights */
         for (int i = 0; i < n; i++) {
-            mass[i] = ((const vmesh_record *)parts[i].record)->faces ? fmaxf(parts[i].weight, 0.0f) : 0.0f;
+            mass[i] = ((const vmesh_record *)parts[i].record)->faces ? vx_fmaxf(parts[i].weight, 0.0f) : 0.0f;
             M += mass[i];
         }
     if (M > 0) {

@@ -72,7 +72,7 @@ VX_INLINE void vmesh_view_setup(vec3 dir, vmesh_view *w)
     v3_basis(d, &t, &b);
     /* In voxel units (edge 1, centred on the origin): the projection of the cube spans
      * +-(|t.x| + |t.y| + |t.z|) / 2 along t, likewise along b. */
-    float half_side = 0.5f * fmaxf(fabsf(t.x) + fabsf(t.y) + fabsf(t.z), fabsf(b.x) + fabsf(b.y) + fabsf(b.z));
+    float half_side = 0.5f * vx_fmaxf(fabsf(t.x) + fabsf(t.y) + fabsf(t.z), fabsf(b.x) + fabsf(b.y) + fabsf(b.z));
     float cell = 0.5f * half_side;  /* 2 half_side / 4 */
     float rc = 0.5f * cell;         /* disk inscribed in a window cell */
     const float rs = VMESH_RS;
@@ -211,7 +211,7 @@ VX_INLINE float vmesh_opacity_along(VX_GLOBAL const vmesh_record *r, vec3 dir)
             num += best;
         }
     float den = w->den;
-    return den > 0.0f ? fminf(num / den, 1.0f) : 0.0f;
+    return den > 0.0f ? vx_fminf(num / den, 1.0f) : 0.0f;
 }
 
 #endif

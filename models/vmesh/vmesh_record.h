@@ -61,7 +61,7 @@ VX_INLINE float vmesh_decode_unorm(unsigned char q) { return (float)q * (1.0f / 
 VX_INLINE float vmesh_decode_roughness(unsigned char q)
 {
     float s = vmesh_decode_unorm(q);
-    return fmaxf(2.0f * s * s, 1e-3f); /* the scene loader's lower bound */
+    return vx_fmaxf(2.0f * s * s, 1e-3f); /* the scene loader's lower bound */
 }
 
 /* The octahedron of a record. Quantised eigenvectors are no longer exactly orthonormal:
@@ -87,8 +87,8 @@ VX_INLINE vmesh_octahedron vmesh_decode_octahedron(VX_GLOBAL const vmesh_record 
     float lmin = 1.0f;
     float l[3];
     for (int k = 0; k < 3; k++) {
-        l[k] = fmaxf(vmesh_decode_unorm(r->area[k]), VMESH_MIN_AREA);
-        lmin = fminf(lmin, l[k]);
+        l[k] = vx_fmaxf(vmesh_decode_unorm(r->area[k]), VMESH_MIN_AREA);
+        lmin = vx_fminf(lmin, l[k]);
     }
     for (int k = 0; k < 3; k++)
         o.extent[k] = lmin / l[k];

@@ -76,7 +76,7 @@ VX_INLINE vec3 vmesh_shade_record(VX_GLOBAL const vmesh_record *r, const vx_quer
             float area = vmesh_face_projected_area(&o, f, w);
             if (pass == 0 ? !(area > 0.0f) : area > 0.0f)
                 continue;
-            area = fmaxf(fabsf(area), 1e-12f); /* an edge-on face still has its samples */
+            area = vx_fmaxf(fabsf(area), 1e-12f); /* an edge-on face still has its samples */
             vec3 albedo = v3(vmesh_decode_unorm(r->color[f][0]), vmesh_decode_unorm(r->color[f][1]),
                              vmesh_decode_unorm(r->color[f][2]));
             vec3 n[3];

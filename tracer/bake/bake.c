@@ -32,7 +32,7 @@ void bake_generate_rays(const rt_scene *rt, const voxel_grid *g, size_t index, u
     for (int i = 0; i < n; i++) {
         /* Direction uniform on the sphere. */
         float cz = 1.0f - 2.0f * rng_float(&r), phi = 2.0f * VX_PI * rng_float(&r);
-        float sz = sqrtf(fmaxf(0.0f, 1.0f - cz * cz));
+        float sz = sqrtf(vx_fmaxf(0.0f, 1.0f - cz * cz));
         float d[3] = {sz * cosf(phi), sz * sinf(phi), cz};
         /* Lines uniform over the voxel's projection along d, without rejection: every such line
          * enters the cube through exactly one face, and face k's share of the projected area is

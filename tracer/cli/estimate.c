@@ -70,7 +70,7 @@ static double copies_area(const scene *s)
 static double voxel_estimate(const scene *s, int res)
 {
     vec3 lo = s->bounds_lo, hi = s->bounds_hi;
-    double ext = fmax(fmax(hi.x - lo.x, hi.y - lo.y), hi.z - lo.z);
+    double ext = vx_fmax(vx_fmax(hi.x - lo.x, hi.y - lo.y), hi.z - lo.z);
     if (!(ext > 0))
         return 1;
     double vs = ext / res, area = mesh_area(&s->mesh) + copies_area(s);
@@ -88,7 +88,7 @@ static double voxel_estimate(const scene *s, int res)
             uint64_t key = 1; /* 0 marks an empty slot */
             for (int a = 0; a < 3; a++) {
                 double c = floor((m->positions[3 * v + (size_t)a] - (&lo.x)[a]) / vs);
-                key = key * 2048 + (uint64_t)fmin(fmax(c, 0), res - 1);
+                key = key * 2048 + (uint64_t)vx_fmin(vx_fmax(c, 0), res - 1);
             }
             size_t h = (size_t)((key * 0x9e3779b97f4a7c15ULL) >> 20) & (slots - 1);
             while (set[h] && set[h] != key)
@@ -101,7 +101,7 @@ static double voxel_estimate(const scene *s, int res)
         free(set);
         by_vertex = (double)distinct;
     }
-    return fmin(fmax(by_area, by_vertex), (double)res * res * res);
+    return vx_fmin(vx_fmax(by_area, by_vertex), (double)res * res * res);
 }
 
 static void finish(vx_estimate *e, int threads)
@@ -163,13 +163,13 @@ double estimate_budget_bytes(void)
     }
     struct rlimit rl;
     if (getrlimit(RLIMIT_AS, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY)
-        budget = fmin(budget, (double)rl.rlim_cur);
+        budget = vx_fmin(budget, (double)rl.rlim_cur);
     const char *env = getenv("VOXLAB_MEMORY_BUDGET");
     if (env && *env) {
         char *end;
         double b = strtod(env, &end);
         if (end != env && b > 0)
-            budget = fmin(budget, b);
+            budget = vx_fmin(budget, b);
     }
     return budget;
 }

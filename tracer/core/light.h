@@ -27,7 +27,7 @@ VX_INLINE void light_at(const light *L, vec3 p, vec3 *to_light, vec3 *irradiance
         return;
     }
     vec3 d = v3_sub(L->position, p);
-    float d2 = fmaxf(v3_dot(d, d), 1e-20f);
+    float d2 = vx_fmaxf(v3_dot(d, d), 1e-20f);
     *distance = sqrtf(d2);
     *to_light = v3_scale(d, 1.0f / *distance);
     *irradiance = v3_scale(L->radiance, 1.0f / d2);

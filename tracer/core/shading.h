@@ -16,16 +16,16 @@
  * sigma = 0, large but finite at grazing angles. */
 VX_INLINE float shading_smith_lambda(float cos_theta, float sigma)
 {
-    float c = fminf(fmaxf(cos_theta, 1e-6f), 1.0f);
+    float c = vx_fminf(vx_fmaxf(cos_theta, 1e-6f), 1.0f);
     if (sigma <= 1e-8f)
         return 0.0f;
-    float sin_t = sqrtf(fmaxf(0.0f, 1.0f - c * c));
-    float mu = c / fmaxf(sin_t, 1e-7f);
+    float sin_t = sqrtf(vx_fmaxf(0.0f, 1.0f - c * c));
+    float mu = c / vx_fmaxf(sin_t, 1e-7f);
     float x = mu / (1.41421356237f * sigma);
     if (x > 9.0f)
         return 0.0f; /* both terms underflow below 1e-36 */
     float a = 0.79788456080f * (sigma / mu) * expf(-x * x);
-    return fmaxf(0.0f, 0.5f * (a - erfcf(x)));
+    return vx_fmaxf(0.0f, 0.5f * (a - erfcf(x)));
 }
 
 /* Beckmann normal distribution D(h) for roughness alpha (RMS slope), cos_h = n.h. */

@@ -310,7 +310,7 @@ static int place_scaled(pieces *ps, int n, const double q[3], double sc, int fil
                     if (filter == DYN_NEAREST) /* half-open: neighbours never both claim a cell */
                         w *= (double)c[a] + 0.5 - q[a] >= -h && (double)c[a] + 0.5 - q[a] < h;
                     else
-                        w *= fmax(0.0, fmin((double)c[a] + 1.0, q[a] + h) - fmax((double)c[a], q[a] - h));
+                        w *= vx_fmax(0.0, vx_fmin((double)c[a] + 1.0, q[a] + h) - vx_fmax((double)c[a], q[a] - h));
                 }
                 if (w > 1e-9 && put(ps, n, x, y, z, rec, (float)(w / sc), q))
                     return -1;

@@ -333,8 +333,8 @@ static int mesh_bounds(const mesh *m, double lo[3], double hi[3], vx_err *e)
                 if (!isfinite(p[a]))
                     return vx_fail(e, "grid_build: vertex %u (triangle %zu) has a non-finite coordinate %g", i,
                                    t, (double)p[a]);
-                lo[a] = fmin(lo[a], p[a]);
-                hi[a] = fmax(hi[a], p[a]);
+                lo[a] = vx_fmin(lo[a], p[a]);
+                hi[a] = vx_fmax(hi[a], p[a]);
             }
         }
     return 0;
@@ -344,14 +344,14 @@ static int mesh_bounds(const mesh *m, double lo[3], double hi[3], vx_err *e)
  * (1e6) or smaller than a float ulp there keep exact cell boundaries. */
 static void grid_set_mapping(voxel_grid *g, int n, const double lo[3], const double hi[3])
 {
-    double extent = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
+    double extent = vx_fmax(hi[0] - lo[0], vx_fmax(hi[1] - lo[1], hi[2] - lo[2]));
     if (!(extent > 0.0)) {
         /* Every vertex at one point: only zero-area triangles, nothing to mark, but the mapping
          * must still be valid. */
-        double mag = fmax(fmax(fabs(lo[0]), fabs(lo[1])), fabs(lo[2]));
+        double mag = vx_fmax(vx_fmax(fabs(lo[0]), fabs(lo[1])), fabs(lo[2]));
         extent = mag > 0.0 ? mag * 1e-6 : 1e-6;
     }
-    double pad = fmin(1.5, n / 4.0);
+    double pad = vx_fmin(1.5, n / 4.0);
     g->n = n;
     g->voxel_size_d = extent / (n - 2.0 * pad);
     for (int a = 0; a < 3; a++)

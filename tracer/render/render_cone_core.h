@@ -95,8 +95,8 @@ VX_INLINE int cone_clip_to_grid(const voxel_grid *g, vec3 org, vec3 dir, float *
             u = v;
             v = s;
         }
-        a = fmaxf(a, u);
-        b = fminf(b, v);
+        a = vx_fmaxf(a, u);
+        b = vx_fminf(b, v);
     }
     *t0 = a;
     *t1 = b;
@@ -371,7 +371,7 @@ VX_INLINE float cone_light_transmittance(cone_ctx *x, vec3 p, float r, float sta
         return 1.0f;
     cone_composite comp = {{0, 0, 0, 0}, 0, {0.0f, 0.0f, 0.0f}};
     cone_walk w;
-    cone_walk_start(&w, x->g, to_light, fmaxf(t0, start), fminf(t1, distance));
+    cone_walk_start(&w, x->g, to_light, vx_fmaxf(t0, start), vx_fminf(t1, distance));
     int steps = 0;
     vec3 p_e;
     float r_e, tc_e, level_e;
@@ -508,7 +508,7 @@ VX_INLINE vec3 cone_trace(cone_ctx *x, vec3 org, vec3 dir, float spread, float a
               0.0f,
               spread * 1.12837917f,
               aperture,
-              fmaxf(focus, 1e-6f),
+              vx_fmaxf(focus, 1e-6f),
               v3_dot(dir, forward),
               0.125f * x->g->voxel_size};
     cone_composite comp = {{0, 0, 0, 0}, 0, {0.0f, 0.0f, 0.0f}};

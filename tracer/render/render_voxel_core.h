@@ -119,7 +119,7 @@ VX_INLINE float voxel_shadow_transmittance(voxel_ctx *x, const vx_query *q, int6
             grid_cell_corners(g, 0, h.x, h.y, h.z, &sq.voxel_lo, &hi);
             a = VOXEL_OPACITY(x, voxel_record(x, h.index), &sq);
         }
-        a = fminf(fmaxf(a, 0.0f), 1.0f);
+        a = vx_fminf(vx_fmaxf(a, 0.0f), 1.0f);
         if (VOXEL_HAS_TRANSMIT(x))
             T = VOXEL_TRANSMIT(x, voxel_record(x, h.index), a, T);
         else
@@ -225,7 +225,7 @@ VX_INLINE vec3 voxel_trace_ray(voxel_ctx *x, vec3 org, vec3 dir)
             x->counts.visits++;
             vx_answer a;
             voxel_answer(x, &h, org, dir, &a);
-            float alpha = fminf(fmaxf(a.opacity, 0.0f), 1.0f);
+            float alpha = vx_fminf(vx_fmaxf(a.opacity, 0.0f), 1.0f);
             if (!(alpha > 0.0f))
                 continue;
             if (VOXEL_COMPOSITING(x) == VX_COMPOSITE_FIRST_HIT) {
@@ -234,7 +234,7 @@ VX_INLINE vec3 voxel_trace_ray(voxel_ctx *x, vec3 org, vec3 dir)
                 done = 1;
             } else if (VOXEL_HAS_TRANSMIT(x)) { /* alpha, with the model's own attenuation */
                 float T = 1.0f - A;
-                float T_out = fminf(fmaxf(VOXEL_TRANSMIT(x, voxel_record(x, h.index), alpha, T), 0.0f), T);
+                float T_out = vx_fminf(vx_fmaxf(VOXEL_TRANSMIT(x, voxel_record(x, h.index), alpha, T), 0.0f), T);
                 color = v3_madd(color, a.radiance, T - T_out);
                 A = 1.0f - T_out;
                 done = A >= x->stop_opacity;

@@ -178,8 +178,8 @@ static void grow_bounds(const mesh *m, double lo[3], double hi[3])
         for (int k = 0; k < 3; k++) {
             const float *p = m->positions + 3 * (size_t)m->indices[3 * t + (size_t)k];
             for (int a = 0; a < 3; a++) {
-                lo[a] = fmin(lo[a], p[a]);
-                hi[a] = fmax(hi[a], p[a]);
+                lo[a] = vx_fmin(lo[a], p[a]);
+                hi[a] = vx_fmax(hi[a], p[a]);
             }
         }
 }

@@ -123,5 +123,5 @@ void scene_triangle_bounds(const scene *s, double lo[3], double hi[3])
             grow(lo, hi, &m->positions[3 * (size_t)m->indices[3 * t + (size_t)k]]);
     if (s->inst && s->inst->count)
         for (int a = 0; a < 3; a++)
-            lo[a] = fmin(lo[a], s->inst->lo[a]), hi[a] = fmax(hi[a], s->inst->hi[a]);
+            lo[a] = vx_fmin(lo[a], s->inst->lo[a]), hi[a] = vx_fmax(hi[a], s->inst->hi[a]);
 }

@@ -41,9 +41,9 @@ int shadow_frame(const scene *s, const light *L, int li, int res, int has_opaque
         for (int c = 0; c < 8; c++) {
             vec3 p = v3(c & 1 ? hi.x : lo.x, c & 2 ? hi.y : lo.y, c & 4 ? hi.z : lo.z);
             double u = v3_dot(p, m->u), v = v3_dot(p, m->v), w = v3_dot(p, m->w);
-            umin = fmin(umin, u), umax = fmax(umax, u);
-            vmin = fmin(vmin, v), vmax = fmax(vmax, v);
-            wmin = fmin(wmin, w), wmax = fmax(wmax, w);
+            umin = vx_fmin(umin, u), umax = vx_fmax(umax, u);
+            vmin = vx_fmin(vmin, v), vmax = vx_fmax(vmax, v);
+            wmin = vx_fmin(wmin, w), wmax = vx_fmax(wmax, w);
         }
     } else {
         vec3 centre = v3_scale(v3_add(lo, hi), 0.5f);
@@ -64,21 +64,21 @@ int shadow_frame(const scene *s, const light *L, int li, int res, int has_opaque
         wmax = dist + radius;
     }
     double min_extent = 1e-6 * diag;
-    b->du = fmax(umax - umin, min_extent) / res;
-    b->dv = fmax(vmax - vmin, min_extent) / res;
-    b->len = (float)fmax(wmax - wmin, min_extent);
+    b->du = vx_fmax(umax - umin, min_extent) / res;
+    b->dv = vx_fmax(vmax - vmin, min_extent) / res;
+    b->len = (float)vx_fmax(wmax - wmin, min_extent);
     m->u0 = (float)umin;
     m->v0 = (float)vmin;
     m->inv_du = (float)(1.0 / b->du);
     m->inv_dv = (float)(1.0 / b->dv);
     m->w0 = (float)wmin;
     m->inv_dw = (float)m->slices / b->len;
-    double across = fmax(b->du, b->dv) * (L->type == LIGHT_POINT ? wmax : 1.0);
+    double across = vx_fmax(b->du, b->dv) * (L->type == LIGHT_POINT ? wmax : 1.0);
     /* The opaque map's depth is the surface's at the column's centre: a surface tilted against the
      * light differs across the column by up to its width, hence 1.5 cells. The transmitting cells
      * need only their own slice (the caller's skip keeps a surface from shadowing itself). */
     double slice = (double)b->len / m->slices;
-    m->bias = (float)(has_opaque ? 1.5 * fmax(across, slice) : slice);
+    m->bias = (float)(has_opaque ? 1.5 * vx_fmax(across, slice) : slice);
     size_t cols = (size_t)res * (size_t)res;
     b->bits = calloc(cols * (size_t)m->words, sizeof *b->bits);
     b->opaque = has_opaque ? malloc(cols * sizeof *b->opaque) : NULL;
@@ -124,7 +124,7 @@ void shadow_column_ray(const map_build *b, int i, int j, int from_far, vec3 *org
 
 float shadow_column_radius(const map_build *b, float d)
 {
-    double r = 0.5 * fmax(b->du, b->dv);
+    double r = 0.5 * vx_fmax(b->du, b->dv);
     return (float)(b->m.type == LIGHT_POINT ? r * (b->m.w0 + d) : r);
 }
 

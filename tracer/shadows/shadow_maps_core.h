@@ -119,7 +119,7 @@ VX_INLINE float shadow_maps_transmittance(shadow_maps *sm, int li, vec3 p, float
     float d;
     if (li >= sm->p->count || !shadow_map_locate(m, p, &col, &d))
         return 1.0f;
-    d -= fmaxf(skip, m->bias);
+    d -= vx_fmaxf(skip, m->bias);
     if (m->has_opaque && sm->opaque[m->opaque_off + (uint64_t)col] < d)
         return 0.0f;
     float fs = floorf(d * m->inv_dw);

@@ -86,7 +86,7 @@ static void voxel_column(model_job *j, int i, int jj, float *f, voxel_list *L)
         float d = b->len - 0.5f * (h.t0 + h.t1);
         q.footprint = shadow_column_radius(b, d);
         float a = j->m->voxel->opacity.fn(j->records + (size_t)h.index * j->m->record.bytes, &q);
-        a = fminf(fmaxf(a, 0.0f), 1.0f);
+        a = vx_fminf(vx_fmaxf(a, 0.0f), 1.0f);
         if (!(a > 0.0f))
             continue;
         if (!L) {
@@ -117,13 +117,13 @@ static void transmit_column(model_job *j, const voxel_list *L, float *cum)
     for (size_t n = L->n; n-- > 0;) {
         const column_voxel *v = &L->v[n];
         float t = j->m->voxel->transmit.fn(j->records + (size_t)v->index * j->m->record.bytes, v->a, T);
-        T = fminf(fmaxf(t, 0.0f), T);
+        T = vx_fminf(vx_fmaxf(t, 0.0f), T);
         cum[shadow_slice(b, v->d)] = T;
     }
     T = 1.0f;
     for (int k = 0; k < b->m.slices; k++) {
         if (cum[k] <= 1.0f)
-            T = fminf(T, cum[k]);
+            T = vx_fminf(T, cum[k]);
         cum[k] = T;
     }
 }
@@ -151,7 +151,7 @@ static void cone_column(model_job *j, int i, int jj, element_list *L, float *cum
     float t0, t1;
     if (cone_clip_to_grid(g, org, dir, &t0, &t1)) {
         cone_walk w;
-        cone_walk_start(&w, g, dir, fmaxf(t0, 0.0f), fminf(t1, b->len));
+        cone_walk_start(&w, g, dir, vx_fmaxf(t0, 0.0f), vx_fminf(t1, b->len));
         int steps = 0;
         vec3 p;
         float r, tc, level;
@@ -194,7 +194,7 @@ static void cone_column(model_job *j, int i, int jj, element_list *L, float *cum
     float T = 1.0f;
     for (int k = 0; k < b->m.slices; k++) {
         if (cum[k] <= 1.0f)
-            T = fminf(T, cum[k]);
+            T = vx_fminf(T, cum[k]);
         cum[k] = T;
     }
 }

@@ -57,7 +57,7 @@ static void tri_row(void *p, int64_t row, int thread)
                 break;
             }
             int k = shadow_slice(b, t);
-            att[k] = fmaxf(att[k], sigma);
+            att[k] = vx_fmaxf(att[k], sigma);
             tn = t + eps;
         }
         float T = 1.0f;

@@ -158,7 +158,7 @@ static bool visit_top(struct RTCPointQueryFunctionArguments *args)
         P[a] = pa, P[b] = pb;
     }
     vec3 k = I->x.scale;
-    double smin = fmin(fabs((double)k.x), fmin(fabs((double)k.y), fabs((double)k.z)));
+    double smin = vx_fmin(fabs((double)k.x), vx_fmin(fabs((double)k.y), fabs((double)k.z)));
     struct RTCPointQuery q = {(float)(P[0] / k.x), (float)(P[1] / k.y), (float)(P[2] / k.z), 0.0f,
                               (float)(args->query->radius / smin * 1.0001) + 1e-30f};
     struct RTCPointQueryContext ctx;
