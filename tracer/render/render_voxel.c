@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "pixel_skip.h"
 #include "prefault.h"
 #include "render_internal.h"
 
@@ -23,6 +24,7 @@ typedef struct {
     cache_entry *entries;
     atomic_uint *memo;
     int lights;
+    pixel_skip skip; /* the primary rays' empty-space skip (pixel_skip.h) */
 } voxel_state;
 #define MEMO_EMPTY 0xFFFFFFFFu /* a NaN: an opacity with these bits is simply computed again */
 
@@ -39,12 +41,15 @@ static void cache_put(struct voxel_ctx *x, int64_t index, const vx_answer *a);
 #define VOXEL_SHADOW_MEMO(x, index, light, q) memo_opacity(x, index, light, q)
 #define VOXEL_HAS_TRANSMIT(x) ((x)->eval->transmit.fn != NULL)
 #define VOXEL_TRANSMIT(x, rec, a, T) call_transmit(x, rec, a, T)
+#define VOXEL_PIXEL_SKIP(x, org, dirs, n) pixel_skip_t((x)->skip, org, dirs, n)
+#define VOXEL_SKIP_GROUP 16
 #define VOXEL_CTX_BACKEND_FIELDS \
     const vx_voxel_eval *eval;   \
     int compositing;             \
     cache_entry *entries;        \
     atomic_uint *memo;           \
     int memo_lights;             \
+    const pixel_skip *skip;      \
     uint64_t model_cycles;
 static float memo_opacity(struct voxel_ctx *x, int64_t index, int light, const vx_query *q);
 static float call_transmit(struct voxel_ctx *x, const void *rec, float a, float T);
@@ -136,6 +141,8 @@ static int voxel_prepare(render_job *j, vx_err *e)
         if (!st->memo)
             return vx_fail(e, "out of memory for the shadow opacity memo (%zu voxels)", n);
     }
+    if (j->o->pixel_skip && pixel_skip_build(&st->skip, j->g))
+        return vx_fail(e, "out of memory for the empty-space skip's distance field");
     return 0;
 }
 
@@ -167,6 +174,7 @@ static void voxel_row(void *p, int64_t row, int thread)
     x.memo = st->memo;
     x.memo_lights = st->lights;
     x.opacity_by_direction = st->memo != NULL;
+    x.skip = &st->skip;
     shadow_set_view(j->shadows, &x.shadows);
     int sx, sy;
     truth_strata(o->spp, &sx, &sy);
@@ -191,6 +199,7 @@ static void voxel_release(render_job *j)
     if (st) {
         free(st->entries);
         free(st->memo);
+        pixel_skip_free(&st->skip);
         free(st);
     }
     j->state = NULL;

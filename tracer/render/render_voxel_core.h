@@ -21,7 +21,11 @@
  *   VOXEL_COMPOSITING(x)          the model's VX_COMPOSITE_* rule (a constant in an OpenCL program)
  *   VOXEL_CACHE_GET(x, index, a)  1 with voxel `index`'s cached answer in *a when it is ready, else 0
  *   VOXEL_CACHE_PUT(x, index, a)  publishes *a as that voxel's answer (the first writer wins)
- * It may define, for a model with vx_voxel_eval.transmit,
+ * It may define
+ *   VOXEL_PIXEL_SKIP(x, org, dirs, n)  a t before which none of a pixel's n rays (one origin) meets a
+ *                                 non-empty voxel, and VOXEL_SKIP_GROUP, the most rays asked at once
+ *                                 (an exact skip: the walks from there visit the same cells);
+ * and, for a model with vx_voxel_eval.transmit,
  *   VOXEL_HAS_TRANSMIT(x)          1 when the model declares transmit
  *   VOXEL_TRANSMIT(x, rec, a, T)   the transmittance behind the voxel of opacity a reached with T
  * (without them, the exponential rule T (1 - a), written as it always was),
@@ -48,6 +52,12 @@
 #endif
 #ifndef VOXEL_CTX_BACKEND_FIELDS
 #define VOXEL_CTX_BACKEND_FIELDS
+#endif
+/* Empty-space skipping for a pixel's primary rays (the C backend's pixel_skip.h): by default none,
+ * one ray at a time (the OpenCL kernel keeps its registers). */
+#ifndef VOXEL_PIXEL_SKIP
+#define VOXEL_PIXEL_SKIP(x, org, dirs, n) 0.0f
+#define VOXEL_SKIP_GROUP 1
 #endif
 #ifndef VOXEL_HAS_TRANSMIT
 #define VOXEL_HAS_TRANSMIT(x) 0
@@ -211,8 +221,9 @@ VX_INLINE void voxel_answer(voxel_ctx *x, const grid_hit *h, vec3 org, vec3 dir,
     voxel_evaluate(x, &q, h->index, centre, a);
 }
 
-/* One ray: the voxels' answers composited front to back over the background. */
-VX_INLINE vec3 voxel_trace_ray(voxel_ctx *x, vec3 org, vec3 dir)
+/* One ray: the voxels' answers composited front to back over the background. t_min: where its
+ * walk starts (VOXEL_PIXEL_SKIP's answer; everything before it is known to be empty). */
+VX_INLINE vec3 voxel_trace_ray(voxel_ctx *x, vec3 org, vec3 dir, float t_min)
 {
     vec3 color = v3(0.0f, 0.0f, 0.0f);
     float A = 0.0f;
@@ -220,7 +231,7 @@ VX_INLINE vec3 voxel_trace_ray(voxel_ctx *x, vec3 org, vec3 dir)
     grid_iter it;
     grid_hit h;
     x->counts.rays++;
-    if (gt_iter_init(&it, x->g, 0, org, dir, 0.0f, INFINITY)) {
+    if (gt_iter_init(&it, x->g, 0, org, dir, t_min, INFINITY)) {
         while (!done && gt_iter_next(&it, &h)) {
             x->counts.visits++;
             vx_answer a;
@@ -257,17 +268,25 @@ VX_INLINE void voxel_render_pixel(voxel_ctx *x, uint64_t seed, int px, int py, i
     int dof = (x->effects & VX_EFFECT_DOF) != 0;
     rng r = rng_seed(seed, (uint64_t)py * (uint64_t)width + (uint64_t)px);
     vec3 sum = v3(0.0f, 0.0f, 0.0f);
-    for (int i = 0; i < spp; i++) {
-        float sx, sy, lu = 0, lv = 0;
-        float r1 = rng_float(&r), r2 = rng_float(&r);
-        truth_strata_sample(i, strata_x, strata_y, r1, r2, &sx, &sy);
-        if (dof) {
-            lu = rng_float(&r);
-            lv = rng_float(&r);
+    /* The rays in groups of VOXEL_SKIP_GROUP: a group's rays are made first (the random numbers
+     * drawn in the same order as one by one), so that one empty-space skip serves them all. */
+    for (int first = 0; first < spp; first += VOXEL_SKIP_GROUP) {
+        int n = spp - first < VOXEL_SKIP_GROUP ? spp - first : VOXEL_SKIP_GROUP;
+        vec3 org[VOXEL_SKIP_GROUP], dir[VOXEL_SKIP_GROUP];
+        for (int k = 0; k < n; k++) {
+            float sx, sy, lu = 0, lv = 0;
+            float r1 = rng_float(&r), r2 = rng_float(&r);
+            truth_strata_sample(first + k, strata_x, strata_y, r1, r2, &sx, &sy);
+            if (dof) {
+                lu = rng_float(&r);
+                lv = rng_float(&r);
+            }
+            camera_ray(&x->cam, width, height, (float)px + sx, (float)py + sy, lu, lv, dof, &org[k], &dir[k]);
         }
-        vec3 org, dir;
-        camera_ray(&x->cam, width, height, (float)px + sx, (float)py + sy, lu, lv, dof, &org, &dir);
-        sum = v3_add(sum, voxel_trace_ray(x, org, dir));
+        /* With depth of field the rays leave from different lens points: no shared skip. */
+        float t_min = dof ? 0.0f : VOXEL_PIXEL_SKIP(x, org[0], dir, n);
+        for (int k = 0; k < n; k++)
+            sum = v3_add(sum, voxel_trace_ray(x, org[k], dir[k], t_min));
     }
     dst[0] = sum.x / (float)spp;
     dst[1] = sum.y / (float)spp;
