@@ -55,7 +55,7 @@ static vec3 random_unit(rng *r)
 
 /* Random groups of rays against one grid; returns the rays whose walks differ. *skipped and *ahead
  * add up, over rays that hit something, the skip and the distance to the first non-empty cell. */
-static int exactness(const voxel_grid *g, const pixel_skip *ps, vec3 camera, vec3 look, int groups, uint64_t seed,
+static int exactness(const voxel_grid *g, const grid_distance *ps, vec3 camera, vec3 look, int groups, uint64_t seed,
                      double *skipped, double *ahead, int *rays_out)
 {
     static cell full[MAX_CELLS], part[MAX_CELLS];
@@ -117,8 +117,8 @@ static void scene_checks(const char *path, const int *resolutions, int nres)
     vec3 look = v3_add(s.camera.position, s.camera.forward);
     for (int k = 0; k < nres; k++) {
         voxel_grid g;
-        pixel_skip ps;
-        if (grid_build_scene(&g, &s, resolutions[k], NULL, NULL, &e) || pixel_skip_build(&ps, &g)) {
+        grid_distance ps;
+        if (grid_build_scene(&g, &s, resolutions[k], NULL, NULL, &e) || grid_distance_build(&ps, &g)) {
             printf("not ok %s %d^3: %s\n", path, resolutions[k], e.msg);
             unit_failures++;
             continue;
@@ -132,7 +132,7 @@ static void scene_checks(const char *path, const int *resolutions, int nres)
         snprintf(name, sizeof name, "%s %d^3: the camera's rays skip %.0f %% of the way to their first cell (> 50 %%)", path,
                  resolutions[k], ahead > 0 ? 100.0 * skipped / ahead : 0.0);
         CHECK(name, ahead > 0 && skipped > 0.5 * ahead);
-        pixel_skip_free(&ps);
+        grid_distance_free(&ps);
         grid_free(&g);
     }
     scene_free(&s);
@@ -144,9 +144,9 @@ static void field_checks(void)
     scene s;
     vx_err e;
     voxel_grid g;
-    pixel_skip ps;
+    grid_distance ps;
     if (scene_load("scenes/spheres.json", &s, &e) || grid_build_scene(&g, &s, 20, NULL, NULL, &e) ||
-        pixel_skip_build(&ps, &g)) {
+        grid_distance_build(&ps, &g)) {
         printf("not ok field: %s\n", e.msg);
         unit_failures++;
         return;
@@ -156,7 +156,7 @@ static void field_checks(void)
     for (int x = 0; x < n; x++)
         for (int y = 0; y < n; y++)
             for (int z = 0; z < n; z++) {
-                int best = PIXEL_SKIP_CAP;
+                int best = GRID_DISTANCE_CAP;
                 for (int i = 0; i < n; i++)
                     for (int j = 0; j < n; j++)
                         for (int k = 0; k < n; k++)
@@ -176,7 +176,7 @@ static void field_checks(void)
              ps.level, bad);
     CHECK(name, bad == 0);
     CHECK("field: the grid has non-empty blocks and blocks 3 or more away (the check can fail)", occupied > 0 && far > 0);
-    pixel_skip_free(&ps);
+    grid_distance_free(&ps);
     grid_free(&g);
     scene_free(&s);
 }
@@ -205,7 +205,7 @@ static void render_checks(const char *path, const char *model, int res)
         render_default_options(&o);
         o.width = o.height = 96;
         o.progress = 0;
-        o.pixel_skip = k;
+        o.empty_skip = k;
         ok = render_image(&s, &g, m, rec, &o, &img[k], &c, &e) == 0;
         if (!ok && k == 1)
             image_free(&img[0]);

@@ -1,108 +1,7 @@
-/* The primary rays' empty-space skip (see pixel_skip.h): the distance field and the walk. */
+/* The primary rays' empty-space skip (see pixel_skip.h). */
 #include "pixel_skip.h"
 
 #include <math.h>
-#include <stdlib.h>
-#include <string.h>
-
-/* The finest level with at most PIXEL_SKIP_MAX_N blocks a side: small enough to build in a few
- * milliseconds and to stay in cache, fine enough that the walk stops a few voxels from surfaces. */
-static int skip_level(const voxel_grid *g)
-{
-    for (int k = 0; k < g->levels; k++)
-        if (g->level[k].n <= PIXEL_SKIP_MAX_N)
-            return k;
-    return g->levels - 1;
-}
-
-/* One erosion of the empty mask along an axis (3 wide; outside the grid counts as empty), written
- * as AND-ing whole z rows so that the compiler vectorises it (the build then takes a millisecond or
- * two at 64^3 instead of tens). */
-static void erode(unsigned char *restrict dst, const unsigned char *restrict src, int n, int axis)
-{
-    size_t nn = (size_t)n;
-    if (axis == 2) {
-        for (size_t row = 0; row < nn * nn; row++) {
-            const unsigned char *a = src + row * nn;
-            unsigned char *b = dst + row * nn;
-            b[0] = n > 1 ? (unsigned char)(a[0] & a[1]) : a[0];
-            for (size_t z = 1; z + 1 < nn; z++)
-                b[z] = a[z - 1] & a[z] & a[z + 1];
-            if (n > 1)
-                b[nn - 1] = a[nn - 2] & a[nn - 1];
-        }
-        return;
-    }
-    /* Along x (axis 0) or y (axis 1): a row's neighbours are whole rows `stride` bytes away. */
-    size_t stride = axis == 0 ? nn * nn : nn;
-    for (int x = 0; x < n; x++)
-        for (int y = 0; y < n; y++) {
-            int c = axis == 0 ? x : y;
-            size_t i = ((size_t)x * nn + (size_t)y) * nn;
-            const unsigned char *a = src + i, *lo = c > 0 ? a - stride : a, *hi = c < n - 1 ? a + stride : a;
-            unsigned char *b = dst + i;
-            for (size_t z = 0; z < nn; z++)
-                b[z] = lo[z] & a[z] & hi[z];
-        }
-}
-
-int pixel_skip_build(pixel_skip *s, const voxel_grid *g)
-{
-    memset(s, 0, sizeof *s);
-    if (!g || g->levels < 1)
-        return 0;
-    int k = skip_level(g);
-    const grid_level *L = &g->level[k];
-    int n = L->n;
-    size_t count = (size_t)n * (size_t)n * (size_t)n;
-    unsigned char *mask = malloc(count), *tmp = malloc(count);
-    s->dist = malloc(count);
-    if (!mask || !tmp || !s->dist) {
-        free(mask);
-        free(tmp);
-        pixel_skip_free(s);
-        return -1;
-    }
-    s->level = k;
-    s->n = n;
-    s->block = g->voxel_size_d * (double)(1 << k);
-    for (int a = 0; a < 3; a++) {
-        s->lo[a] = g->origin_d[a];
-        s->hi[a] = g->origin_d[a] + (double)g->n * g->voxel_size_d;
-    }
-    /* Chessboard distance D to the nearest non-empty block: D >= d + 1 exactly where the cube of
-     * half-width d blocks around the block is empty, i.e. the block survives d erosions of the empty
-     * set by the 3x3x3 cube (separable: three 3-wide erosions, one per axis). */
-    for (int x = 0; x < n; x++)
-        for (int y = 0; y < n; y++)
-            for (int z = 0; z < n; z++) {
-                size_t i = ((size_t)x * (size_t)n + (size_t)y) * (size_t)n + (size_t)z;
-                mask[i] = !grid_level_occupied(L, x, y, z);
-                s->dist[i] = mask[i];
-            }
-    for (int d = 1; d < PIXEL_SKIP_CAP; d++) {
-        erode(tmp, mask, n, 0);
-        erode(mask, tmp, n, 1);
-        erode(tmp, mask, n, 2);
-        memcpy(mask, tmp, count);
-        int any = 0;
-        for (size_t i = 0; i < count; i++) {
-            s->dist[i] = (unsigned char)(s->dist[i] + mask[i]);
-            any |= mask[i];
-        }
-        if (!any)
-            break;
-    }
-    free(mask);
-    free(tmp);
-    return 0;
-}
-
-void pixel_skip_free(pixel_skip *s)
-{
-    free(s->dist);
-    s->dist = NULL;
-}
 
 /* Where a ray enters and leaves the box [lo, hi] (t >= 0); 0 when it misses it. */
 static int ray_box(const double o[3], const double d[3], const double lo[3], const double hi[3], double *t_in,
@@ -129,7 +28,7 @@ static int ray_box(const double o[3], const double d[3], const double lo[3], con
     return a <= b;
 }
 
-float pixel_skip_t(const pixel_skip *s, vec3 org, const vec3 *dir, int count)
+float pixel_skip_t(const grid_distance *s, vec3 org, const vec3 *dir, int count)
 {
     if (!s || !s->dist || count < 1)
         return 0.0f;
@@ -169,7 +68,7 @@ float pixel_skip_t(const pixel_skip *s, vec3 org, const vec3 *dir, int count)
      * a rounding error of its own, far inside the margin). */
     const double inv_block = 1.0 / s->block, min_step = 0.25 * s->block / (spread + speed);
     double t = t_lo, verified = t_lo; /* [0, verified]: no ray of the group meets a non-empty voxel */
-    for (int iter = 0; iter < 4 * PIXEL_SKIP_MAX_N && t < t_hi; iter++) {
+    for (int iter = 0; iter < 4 * GRID_DISTANCE_MAX_N && t < t_hi; iter++) {
         /* The first ray's point, brought into the grid's box (out: how far it was outside). */
         double out = 0.0;
         int b[3];

@@ -26,7 +26,7 @@ void render_default_options(render_options *o)
     o->shadow_skip = 1;
     o->stop_opacity = 1.0f - 0.001f;
     o->shadow_method = -1;
-    o->pixel_skip = 1;
+    o->empty_skip = 1;
 }
 
 int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const void *records,

@@ -24,7 +24,7 @@ typedef struct {
     cache_entry *entries;
     atomic_uint *memo;
     int lights;
-    pixel_skip skip; /* the primary rays' empty-space skip (pixel_skip.h) */
+    grid_distance skip; /* the primary rays' empty-space skip (pixel_skip.h); dist NULL: none */
 } voxel_state;
 #define MEMO_EMPTY 0xFFFFFFFFu /* a NaN: an opacity with these bits is simply computed again */
 
@@ -49,7 +49,7 @@ static void cache_put(struct voxel_ctx *x, int64_t index, const vx_answer *a);
     cache_entry *entries;        \
     atomic_uint *memo;           \
     int memo_lights;             \
-    const pixel_skip *skip;      \
+    const grid_distance *skip;   \
     uint64_t model_cycles;
 static float memo_opacity(struct voxel_ctx *x, int64_t index, int light, const vx_query *q);
 static float call_transmit(struct voxel_ctx *x, const void *rec, float a, float T);
@@ -141,7 +141,7 @@ static int voxel_prepare(render_job *j, vx_err *e)
         if (!st->memo)
             return vx_fail(e, "out of memory for the shadow opacity memo (%zu voxels)", n);
     }
-    if (j->o->pixel_skip && pixel_skip_build(&st->skip, j->g))
+    if (j->o->empty_skip && grid_distance_build(&st->skip, j->g))
         return vx_fail(e, "out of memory for the empty-space skip's distance field");
     return 0;
 }
@@ -199,7 +199,7 @@ static void voxel_release(render_job *j)
     if (st) {
         free(st->entries);
         free(st->memo);
-        pixel_skip_free(&st->skip);
+        grid_distance_free(&st->skip);
         free(st);
     }
     j->state = NULL;
