@@ -40,6 +40,12 @@ float pixel_skip_t(const grid_distance *s, vec3 org, const vec3 *dir, int count)
     /* spread: how far apart (max norm) two rays of the group get per unit of t; speed: how far the
      * first ray moves per unit of t. */
     double spread = 0.0, speed = 0.0, t_lo = INFINITY, t_hi = 0.0;
+    /* A margin far above the rounding of these doubles and of the DDA's own (relative 1e-16 of the
+     * coordinates; a thousandth of a block here). The box is widened by it, so that a ray grazing
+     * the grid counts as entering it, no later than its DDA does. */
+    const double margin = 1e-3 * s->block;
+    const double box_lo[3] = {s->lo[0] - margin, s->lo[1] - margin, s->lo[2] - margin};
+    const double box_hi[3] = {s->hi[0] + margin, s->hi[1] + margin, s->hi[2] + margin};
     for (int i = 0; i < count; i++) {
         const double di[3] = {dir[i].x, dir[i].y, dir[i].z};
         for (int a = 0; a < 3; a++) {
@@ -49,7 +55,7 @@ float pixel_skip_t(const grid_distance *s, vec3 org, const vec3 *dir, int count)
             spread = e > spread ? e : spread;
         }
         double a, b;
-        if (ray_box(o, di, s->lo, s->hi, &a, &b)) {
+        if (ray_box(o, di, box_lo, box_hi, &a, &b)) {
             t_lo = a < t_lo ? a : t_lo;
             t_hi = b > t_hi ? b : t_hi;
         }
@@ -60,9 +66,6 @@ float pixel_skip_t(const grid_distance *s, vec3 org, const vec3 *dir, int count)
         speed = fabs(d0[a]) > speed ? fabs(d0[a]) : speed;
     if (!(speed > 0.0))
         return 0.0f;
-    /* A margin far above the rounding of these doubles and of the DDA's own (relative 1e-16 of the
-     * coordinates; a thousandth of a block here). */
-    const double margin = 1e-3 * s->block;
     const int n = s->n;
     /* The block of a point: by a multiplication (a point rounded into the next block is still within
      * a rounding error of its own, far inside the margin). */
