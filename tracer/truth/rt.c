@@ -95,8 +95,6 @@ void rt_free(rt_scene *rt)
         rtcReleaseScene(rt->bvh);
     if (rt->query)
         rtcReleaseScene(rt->query);
-    free(rt->inst_boxes);
-    rt->inst_boxes = NULL;
     rt->query = NULL;
     for (int i = 0; i < rt->proto_count; i++) {
         if (rt->protos[i])

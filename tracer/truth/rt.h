@@ -30,7 +30,6 @@ typedef struct {
     rt_vertex **proto_vertices; /* per prototype: its vertices' attributes, in its own space */
     int proto_count;
     RTCScene query;    /* point queries of an instanced scene (rt_build_queries), else NULL */
-    float *inst_boxes; /* per copy: its world bounds (lo xyz, hi xyz), for `query` */
     long long bvh_live, bvh_peak; /* the memory monitor's running and peak sums */
     size_t bvh_bytes;      /* peak bytes Embree allocated (its memory monitor): BVHs and geometry buffers */
     double bvh_seconds;    /* rt_build's time: the BVHs and the shading attributes */

@@ -124,12 +124,14 @@ typedef struct {
     unsigned inst; /* the copy being visited inside its prototype */
 } query_walk;
 
+/* A copy's box: the exact bounds of its placed corners, computed once at load (inst_compute_bounds),
+ * so every triangle a query may need lies inside it. */
 static void box_bounds(const struct RTCBoundsFunctionArguments *args)
 {
-    const float *b = (const float *)args->geometryUserPtr + 6 * (size_t)args->primID;
+    const inst_instance *I = (const inst_instance *)args->geometryUserPtr + args->primID;
     struct RTCBounds *o = args->bounds_o;
-    o->lower_x = b[0], o->lower_y = b[1], o->lower_z = b[2];
-    o->upper_x = b[3], o->upper_y = b[4], o->upper_z = b[5];
+    o->lower_x = I->lo[0], o->lower_y = I->lo[1], o->lower_z = I->lo[2];
+    o->upper_x = I->hi[0], o->upper_y = I->hi[1], o->upper_z = I->hi[2];
 }
 
 static bool visit_proto_triangle(struct RTCPointQueryFunctionArguments *args)
@@ -194,14 +196,6 @@ int rt_build_queries(rt_scene *rt, vx_err *e)
     const scene_instancing *in = s->inst;
     if (!in || in->count == 0 || rt->query)
         return 0;
-    rt->inst_boxes = malloc(6 * sizeof(float) * in->count);
-    if (!rt->inst_boxes)
-        return vx_fail(e, "out of memory for %zu instance bounds", in->count);
-    /* Each copy's box is the exact bounds of its placed corners, computed once at load
-     * (inst_compute_bounds): every triangle a query may need lies inside it. */
-    for (size_t i = 0; i < in->count; i++)
-        for (int a = 0; a < 3; a++)
-            rt->inst_boxes[6 * i + (size_t)a] = in->inst[i].lo[a], rt->inst_boxes[6 * i + 3 + (size_t)a] = in->inst[i].hi[a];
     rt->query = rtcNewScene(rt->device);
     RTCGeometry plain = s->mesh.triangle_count ? rt_triangle_geometry(rt->device, &s->mesh) : NULL;
     if (s->mesh.triangle_count && !plain)
@@ -212,8 +206,8 @@ int rt_build_queries(rt_scene *rt, vx_err *e)
     }
     RTCGeometry boxes = rtcNewGeometry(rt->device, RTC_GEOMETRY_TYPE_USER);
     rtcSetGeometryUserPrimitiveCount(boxes, (unsigned)in->count);
-    rtcSetGeometryUserData(boxes, rt->inst_boxes);
-    rtcSetGeometryBoundsFunction(boxes, box_bounds, rt->inst_boxes);
+    rtcSetGeometryUserData(boxes, in->inst);
+    rtcSetGeometryBoundsFunction(boxes, box_bounds, in->inst);
     rtcCommitGeometry(boxes);
     rtcAttachGeometryByID(rt->query, boxes, 1);
     rtcReleaseGeometry(boxes);
