@@ -166,7 +166,7 @@ static void field_checks(void)
                                 d = d > dz ? d : dz;
                                 best = d < best ? d : best;
                             }
-                int got = ps.dist[((size_t)x * (size_t)n + (size_t)y) * (size_t)n + (size_t)z];
+                int got = grid_distance_at(&ps, x, y, z);
                 bad += got != best;
                 occupied += best == 0;
                 far += best >= 3;

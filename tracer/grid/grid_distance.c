@@ -64,7 +64,6 @@ int grid_distance_build(grid_distance *s, const voxel_grid *g)
     }
     s->level = k;
     s->n = n;
-    s->block_cells = 1 << k;
     s->block = g->voxel_size_d * (double)(1 << k);
     for (int a = 0; a < 3; a++) {
         s->lo[a] = g->origin_d[a];
@@ -84,7 +83,9 @@ int grid_distance_build(grid_distance *s, const voxel_grid *g)
         erode(tmp, mask, n, 0);
         erode(mask, tmp, n, 1);
         erode(tmp, mask, n, 2);
-        memcpy(mask, tmp, count);
+        unsigned char *eroded = tmp; /* the result is in tmp: the buffers trade places */
+        tmp = mask;
+        mask = eroded;
         int any = 0;
         for (size_t i = 0; i < count; i++) {
             s->dist[i] = (unsigned char)(s->dist[i] + mask[i]);

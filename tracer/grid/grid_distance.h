@@ -21,7 +21,6 @@
 typedef struct grid_distance {
     int level;           /* the MIP level whose blocks the field covers */
     int n;               /* blocks a side */
-    int block_cells;     /* a block's edge in level-0 cells: 2^level */
     double block;        /* a block's edge in world units */
     double lo[3], hi[3]; /* the grid's box in world units */
     unsigned char *dist; /* n^3, index (x * n + y) * n + z; NULL: no field */

@@ -82,7 +82,7 @@ float pixel_skip_t(const grid_distance *s, vec3 org, const vec3 *dir, int count)
             int f = (int)((c - s->lo[a]) * inv_block); /* c >= lo: truncation is floor */
             b[a] = f > n - 1 ? n - 1 : f;
         }
-        int D = s->dist[((size_t)b[0] * (size_t)n + (size_t)b[1]) * (size_t)n + (size_t)b[2]];
+        int D = grid_distance_at(s, b[0], b[1], b[2]);
         /* Empty: every point within (D - 1) blocks (max norm) of the box point c, which lies in block b.
          * Over [t, t + step] every ray of the group stays within t' * spread of the first ray, which
          * moves step * speed from p, itself `out` from c: all inside that cube when the sum is at most
