@@ -82,8 +82,8 @@ def bad_vox(name, data):
     return p
 
 
-# The file ends with the records and an 8-byte checksum (tracer/bake/voxfile.h): damage the last record
-# byte, whatever the header's size.
+# The file ends with the records, the grid's cells and an 8-byte checksum (tracer/bake/voxfile.h):
+# damage the last byte before the checksum, whatever the header's size.
 flipped = bytearray(raw)
 flipped[len(raw) - 8 - 1] ^= 0x10
 # Another scene: a single quad, baked with the same model.
@@ -96,7 +96,7 @@ voxlab("bake", quad_scene, "--model", "alpha", "--res", "8", "--rays", "8", "-o"
 other_model = os.path.join(bad_dir, "other_model.vox")
 voxlab("bake", SPHERES, "--model", "binary", "--res", "24", "--rays", "32", "--seed", "5", "-o", other_model)
 cases = [
-    ("corrupted record byte", bad_vox("corrupt.vox", bytes(flipped)), ["checksum"]),
+    ("corrupted byte", bad_vox("corrupt.vox", bytes(flipped)), ["checksum"]),
     ("truncated", bad_vox("truncated.vox", raw[: len(raw) // 2]), ["truncated"]),
     ("empty file", bad_vox("empty.vox", b""), ["not a voxlab"]),
     ("baked from another scene", other_scene, ["another scene"]),

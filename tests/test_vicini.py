@@ -10,7 +10,7 @@ import struct
 
 from testlib import REPO, TMP, finish, read_image, report, voxlab
 
-HEADER = 360  # 8 magic bytes + voxfile_header (version 3)
+HEADER = 360  # 8 magic bytes + voxfile_header (version 4, the same header as version 3)
 OFF_RECORDS = 8 + 72
 RECORD = 11   # sigma[3], corr[3], density, mix, color[3]
 

@@ -4,9 +4,10 @@ out-of-range fields is refused with the voxel index and the field, exit status 1
 the exit status and exact message of a model mismatch (it once freed the records twice), header
 fields that name the file, and that a bake's file is a pure function of its inputs.
 
-The files are crafted here from the layout in tracer/bake/voxfile.h (magic, header, records, FNV-1a
-checksum), independently of voxlab's reader; the checksum is recomputed so that only the record
-validation can catch them."""
+The files are crafted here from the layout in tracer/bake/voxfile.h (magic, header, records, the
+grid's level-0 cells, FNV-1a checksum over 64-bit words), independently of voxlab's reader; the
+checksum is recomputed so that only the record validation (or the cells' checks) can catch them.
+vicini's 11-byte records make words that straddle records, header and cells."""
 import json
 import os
 import random
@@ -17,7 +18,7 @@ from testlib import REPO, TMP, VOXLAB, finish, report, voxlab
 
 SPHERES = os.path.join(REPO, "scenes", "spheres.json")
 SMALL = ["--size", "16x16", "--spp", "1"]
-HEADER = 360  # 8 magic bytes + voxfile_header (version 3): records start here
+HEADER = 360  # 8 magic bytes + voxfile_header (version 4, same header as 3): records start here
 # voxfile_header offsets (after the magic): n at 48, voxel_bytes 64, record_count 72, voxels 80,
 # layout_version 88, params 96 (256 bytes)
 OFF_N, OFF_VOXEL_BYTES, OFF_RECORDS, OFF_VOXELS = 8 + 48, 8 + 64, 8 + 72, 8 + 80
@@ -29,9 +30,11 @@ def path(name):
 
 
 def fnv1a(data):
+    """FNV-1a over 64-bit little-endian words, the last one completed with zero bytes."""
+    data = data + b"\0" * (-len(data) % 8)
     h = 0xCBF29CE484222325
-    for b in data:
-        h = ((h ^ b) * 0x100000001B3) & 0xFFFFFFFFFFFFFFFF
+    for (w,) in struct.iter_unpack("<Q", data):
+        h = ((h ^ w) * 0x100000001B3) & 0xFFFFFFFFFFFFFFFF
     return h
 
 
@@ -41,6 +44,11 @@ def with_checksum(body):
 
 def u64(raw, off):
     return struct.unpack_from("<Q", raw, off)[0]
+
+
+def records_end(raw):
+    """Where the records end and the grid's cells (uint32 each, `voxels` of them) begin."""
+    return HEADER + u64(raw, OFF_VOXEL_BYTES) * u64(raw, OFF_RECORDS)
 
 
 def craft(name, raw, patch):
@@ -76,6 +84,8 @@ for model in ("binary", "alpha", "vmesh", "heitz-neyret", "vicini"):
     raw = open(bakes[model], "rb").read()
     p = voxlab("render", SPHERES, "--vox", bakes[model], *SMALL, "-o", path(f"{model}_ok.exr"), check=False)
     report(f"a genuine {model} bake passes its record validation", p.returncode == 0, p.stderr)
+    report(f"{model}: the stored checksum is FNV-1a over the file's 64-bit words (computed here)",
+           u64(raw, len(raw) - 8) == fnv1a(raw[:-8]))
 
 # ---------- the model mismatch that freed the records twice ----------
 p = voxlab("render", SPHERES, "--vox", bakes["alpha"], "--model", "binary", *SMALL, "-o", path("mismatch.exr"),
@@ -119,7 +129,7 @@ for model in ("binary", "alpha", "heitz-neyret", "vmesh"):
     raw = open(bakes[model], "rb").read()
 
     def patch(b):
-        for i in range(HEADER, len(b)):
+        for i in range(HEADER, records_end(raw)):
             b[i] = rng.randrange(256)
 
     name = f"random_{model}"
@@ -129,7 +139,7 @@ for model in ("binary", "alpha", "heitz-neyret", "vmesh"):
 raw = open(bakes["vicini"], "rb").read()
 for trial in range(3):
     def patch(b):
-        for i in range(HEADER, len(b)):
+        for i in range(HEADER, records_end(raw)):
             b[i] = rng.randrange(256)
 
     name = f"random_vicini_{trial}"
@@ -147,12 +157,40 @@ raw = open(bakes["alpha"], "rb").read()
 name = "bad_resolution"
 render_fails(name, craft(name + ".vox", raw, lambda b: b.__setitem__(slice(OFF_N, OFF_N + 4), struct.pack("<i", 100000))),
              ["header field n", "100000", "1..1024"])
+# One more cell than records: a valid cell after the last one (the file's size stays consistent).
 name = "voxel_count_mismatch"
-voxels = u64(raw, OFF_VOXELS)
-err = render_fails(name, craft(name + ".vox", raw, lambda b: struct.pack_into("<Q", b, OFF_VOXELS, voxels + 1)),
-                   ["do not match"])
+voxels, n_grid = u64(raw, OFF_VOXELS), struct.unpack_from("<i", raw, OFF_N)[0]
+cells = list(struct.unpack_from(f"<{voxels}I", raw, records_end(raw)))
+last = cells[-1]
+extra = last + 1 if (last & 1023) + 1 < n_grid else ((last >> 20) + 1) << 20
+assert (extra >> 20) < n_grid
+
+
+def add_cell(b):
+    struct.pack_into("<Q", b, OFF_VOXELS, voxels + 1)
+    b.extend(struct.pack("<I", extra))
+
+
+err = render_fails(name, craft(name + ".vox", raw, add_cell), ["do not match"])
 report("count mismatch: says what this grid expects (not 'expected 0')",
-       f"expected {u64(raw, OFF_RECORDS)} of {u64(raw, OFF_VOXEL_BYTES)} for {voxels}" in err, err)
+       f"expected {voxels + 1} of {u64(raw, OFF_VOXEL_BYTES)} for {voxels + 1}" in err, err)
+
+# ---------- the grid's cells, checked as the grid is rebuilt from them ----------
+k = len(cells) // 2
+name = "cells_out_of_order"
+swapped = cells[:k] + [cells[k + 1], cells[k]] + cells[k + 2:]
+render_fails(name, craft(name + ".vox", raw, lambda b: struct.pack_into(f"<{voxels}I", b, records_end(raw), *swapped)),
+             ["level-0 cells", f"cell {k + 1},", "order"])
+name = "cell_repeated"
+twice = cells[:k] + [cells[k - 1]] + cells[k + 1:]
+render_fails(name, craft(name + ".vox", raw, lambda b: struct.pack_into(f"<{voxels}I", b, records_end(raw), *twice)),
+             ["level-0 cells", f"cell {k},", "once each"])
+name = "cell_outside"
+render_fails(name, craft(name + ".vox", raw, lambda b: struct.pack_into("<I", b, len(b) - 4, n_grid << 20)),
+             ["level-0 cells", f"cell {voxels - 1},", f"({n_grid}, 0, 0)", "outside"])
+name = "cells_truncated"
+render_fails(name, craft(name + ".vox", raw, lambda b: b.__delitem__(slice(len(b) - 4, len(b)))),
+             ["truncated", "header promises"])
 
 # ---------- the record layout version and the model parameters in the header ----------
 name = "layout_mismatch"

@@ -1040,6 +1040,109 @@ static void test_plane_memory(void)
           bytes[2] < (size_t)n * n * n / 8 / 5);
 }
 
+/* Every array of every level equal, byte for byte (including the first-word field of empty columns). */
+static int identical_arrays(const voxel_grid *a, const voxel_grid *b)
+{
+    if (a->n != b->n || a->levels != b->levels || a->voxel_size_d != b->voxel_size_d ||
+        memcmp(a->origin_d, b->origin_d, sizeof a->origin_d) != 0)
+        return 0;
+    for (int l = 0; l < a->levels; l++) {
+        const grid_level *A = &a->level[l], *B = &b->level[l];
+        size_t cols = (size_t)A->n * (size_t)A->n;
+        if (A->n != B->n || A->words_per_col != B->words_per_col || A->words != B->words || A->count != B->count ||
+            memcmp(A->cols, B->cols, cols * sizeof *A->cols) || memcmp(A->bits, B->bits, A->words * sizeof *A->bits) ||
+            memcmp(A->prefix, B->prefix, A->words * sizeof *A->prefix) ||
+            memcmp(A->coords, B->coords, A->count * sizeof *A->coords))
+            return 0;
+    }
+    return 1;
+}
+
+static void mesh_lo_hi(const mesh *m, double lo[3], double hi[3])
+{
+    for (int a = 0; a < 3; a++)
+        lo[a] = INFINITY, hi[a] = -INFINITY;
+    for (size_t v = 0; v < m->vertex_count; v++)
+        for (int a = 0; a < 3; a++)
+            lo[a] = fmin(lo[a], m->positions[3 * v + a]), hi[a] = fmax(hi[a], m->positions[3 * v + a]);
+}
+
+/* The grid rebuilt from a grid's level-0 list (a .vox file's) is the voxelised one, array for
+ * array, at sizes that leave partial MIP blocks and partial 64-cell words; a random set of cells
+ * agrees with the dense builder (grid_build_cells) and with brute-force MIP levels; a list out of
+ * order, repeated or outside the grid is refused with the cell named. */
+static void test_sorted_cells(void)
+{
+    mesh m = {0};
+    add_icosphere(&m, v3(0.1f, -0.2f, 0.3f), 1.0f, 3);
+    add_icosphere(&m, v3(1.6f, 0.4f, -0.5f), 0.35f, 2);
+    double lo[3], hi[3];
+    mesh_lo_hi(&m, lo, hi);
+    int ns[] = {1, 2, 3, 5, 7, 64, 65, 100, 129, 300, 1024};
+    for (size_t i = 0; i < sizeof ns / sizeof *ns; i++) {
+        voxel_grid g, r;
+        vx_err e;
+        char name[128];
+        snprintf(name, sizeof name, "grid from sorted cells n=%d: identical to the voxelised grid", ns[i]);
+        int ok = grid_build(&g, &m, ns[i], &e) == 0;
+        ok = ok && grid_build_sorted_cells(&r, ns[i], lo, hi, g.level[0].coords, g.level[0].count, &e) == 0;
+        CHECK(name, ok && identical_arrays(&g, &r));
+        if (ok)
+            grid_free(&r);
+        grid_free(&g);
+    }
+
+    /* Random cells at n = 100: 3 levels of partial blocks, sparse and dense. */
+    voxel_grid like, dense, sparse;
+    vx_err e;
+    int n = 100;
+    if (grid_build(&like, &m, n, &e) != 0) {
+        CHECK("grid from sorted cells: random set (mapping)", 0);
+        mesh_free(&m);
+        return;
+    }
+    size_t count = 0;
+    uint32_t *cells = malloc((size_t)n * n * n / 7 * sizeof *cells);
+    uint64_t state = 12345;
+    for (int x = 0; x < n; x++)
+        for (int y = 0; y < n; y++)
+            for (int z = 0; z < n; z++) {
+                state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+                /* Dense in a slab, sparse elsewhere: full words, single bits and empty columns. */
+                int keep = x > 40 && x < 47 ? (state >> 33) % 2 == 0 : (state >> 33) % 997 == 0;
+                if (keep)
+                    cells[count++] = (uint32_t)x << 20 | (uint32_t)y << 10 | (uint32_t)z;
+            }
+    int ok = grid_build_cells(&dense, &like, cells, count, &e) == 0;
+    ok = ok && grid_build_sorted_cells(&sparse, n, lo, hi, cells, count, &e) == 0;
+    CHECK("grid from sorted cells: a random set equals the dense builder's grid", ok && identical_arrays(&dense, &sparse));
+    CHECK("grid from sorted cells: MIP levels equal brute force, indices round-trip",
+          ok && mip_consistent(&sparse) && index_roundtrip(&sparse) && grid_count(&sparse, 0) == count);
+    if (ok) {
+        grid_free(&dense);
+        grid_free(&sparse);
+    }
+    grid_free(&like);
+
+    uint32_t swapped[3] = {cells[0], cells[2], cells[1]}, twice[2] = {cells[0], cells[0]};
+    uint32_t outside[2] = {cells[0], (uint32_t)5 << 20 | (uint32_t)(n + 1) << 10 | 3u};
+    CHECK("grid from sorted cells: out of order is refused, naming the cell",
+          grid_build_sorted_cells(&sparse, n, lo, hi, swapped, 3, &e) < 0 && strstr(e.msg, "cell 2,") &&
+              strstr(e.msg, "order") && sparse.levels == 0);
+    CHECK("grid from sorted cells: a cell listed twice is refused",
+          grid_build_sorted_cells(&sparse, n, lo, hi, twice, 2, &e) < 0 && strstr(e.msg, "cell 1,"));
+    CHECK("grid from sorted cells: a cell outside the grid is refused",
+          grid_build_sorted_cells(&sparse, n, lo, hi, outside, 2, &e) < 0 && strstr(e.msg, "(5, 101, 3)") &&
+              strstr(e.msg, "outside"));
+    CHECK("grid from sorted cells: n = 1025 is refused", grid_build_sorted_cells(&sparse, 1025, lo, hi, cells, 1, &e) < 0);
+    CHECK("grid from sorted cells: no cells is a valid (empty) grid",
+          grid_build_sorted_cells(&sparse, n, lo, hi, cells, 0, &e) == 0 && grid_count(&sparse, 0) == 0 &&
+              grid_index(&sparse, 0, 1, 2, 3) < 0);
+    grid_free(&sparse);
+    free(cells);
+    mesh_free(&m);
+}
+
 int main(void)
 {
     test_tribox();
@@ -1052,5 +1155,6 @@ int main(void)
     test_dilated();
     test_bunny();
     test_plane_memory();
+    test_sorted_cells();
     return unit_exit();
 }

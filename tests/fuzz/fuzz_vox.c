@@ -3,23 +3,18 @@
  * against accidents only, and a crafted file carries a valid one, so what is fuzzed is everything
  * behind it. Records that pass their model's validation are then evaluated (opacity and shade for
  * a few directions) by voxel-marching models, so that a record the validation lets through cannot
- * make the evaluation misbehave. Grid resolutions above 64 are skipped: rebuilding a 1024^3 grid
- * per input would only slow the search, and the header's range check is tested elsewhere. */
+ * make the evaluation misbehave. The grid is rebuilt from the file's cells (grid_build_sorted_cells),
+ * so their checks are fuzzed too. Grid resolutions above 64 are skipped: a 1024^3 grid per input
+ * would only slow the search, and the header's range check is tested elsewhere. */
 #include "fuzz_common.h"
 #include "grid.h"
 #include "model.h"
 #include "scene.h"
 #include "vox_load.h"
+#include "voxfile.h"
 
 static scene fuzz_scene_;
 static int have_scene;
-
-static uint64_t fnv1a(uint64_t h, const uint8_t *p, size_t n)
-{
-    for (size_t i = 0; i < n; i++)
-        h = (h ^ p[i]) * 0x100000001b3ULL;
-    return h;
-}
 
 int LLVMFuzzerInitialize(int *argc, char ***argv)
 {
@@ -47,7 +42,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         free(copy);
         return 0;
     }
-    uint64_t sum = fnv1a(0xcbf29ce484222325ULL, copy, size - 8);
+    uint64_t sum = voxfile_checksum(copy, size - 8);
     memcpy(copy + size - 8, &sum, sizeof sum);
     const char *path = fuzz_write("f.vox", copy, size);
     free(copy);

@@ -244,7 +244,7 @@ int vxapi_bake_save(const vxapi_bake *b, const char *vox_path, char *err, size_t
     voxfile_header h;
     vx_err e;
     bake_header_fill(&h, &id, b->m, &b->o, &b->g);
-    if (voxfile_write(vox_path, &h, b->records, &e))
+    if (voxfile_write(vox_path, &h, b->records, b->g.level[0].coords, &e))
         return give_error(e.msg, err, err_size);
     return 0;
 }

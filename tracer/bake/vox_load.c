@@ -1,20 +1,21 @@
 #include "vox_load.h"
 
-#include "grid_scene.h"
-
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "bake.h"
 #include "parallel.h"
 #include "record_check.h"
+#include "scene_tris.h"
 
-/* Loads a .vox file for scene s: the model it names, the grid rebuilt at its resolution, its records.
+/* Loads a .vox file for scene s: the model it names, the grid rebuilt from its cells, its records.
  * On failure *records is NULL and nothing is left allocated (see vox_load.h). */
 int vox_load(const scene *s, const char *path, const char *model_name, const vx_model **m,
              voxel_grid *g, void **records, voxfile_header *h, double *grid_seconds, vx_err *e)
 {
-    if (voxfile_read(path, s->identity, h, records, e))
+    uint32_t *cells;
+    if (voxfile_read(path, s->identity, h, records, &cells, e))
         return -1;
     *m = model_find(h->model);
     int rc = 0;
@@ -28,11 +29,18 @@ int vox_load(const scene *s, const char *path, const char *model_name, const vx_
     else if (h->n < 1 || h->n > GRID_MAX_N) /* said here, not by grid_build, so that the file is named */
         rc = vx_fail(e, "%s: header field n (grid resolution) is %d, outside 1..%d", path, (int)h->n, GRID_MAX_N);
     if (rc == 0) {
-        double t0 = now_seconds();
-        if (grid_build_scene(g, s, h->n, NULL, NULL, e))
-            rc = -1;
+        /* The grid from the file's cells over the scene's lattice (the bake's, as grid_build_scene
+         * takes it): the scene identity already ties the file to these triangles. */
+        double t0 = now_seconds(), lo[3], hi[3];
+        scene_triangle_bounds(s, lo, hi);
+        if (grid_build_sorted_cells(g, h->n, lo, hi, cells, (size_t)h->voxels, e)) {
+            char why[sizeof e->msg];
+            snprintf(why, sizeof why, "%s", e->msg);
+            rc = vx_fail(e, "%s: the grid's level-0 cells: %s", path, why);
+        }
         *grid_seconds = now_seconds() - t0;
     }
+    free(cells);
     if (rc == 0) {
         /* Counted before the grid is freed: the message must say what this grid expects. */
         size_t expected = bake_record_count(*m, g);

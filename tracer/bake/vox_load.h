@@ -1,5 +1,5 @@
 /* A baked .vox file loaded for a scene: header and checksum (voxfile.c), the model it names, the
- * grid rebuilt at its resolution, the record count checked against that grid, and every record
+ * grid rebuilt from the cells it stores (no voxelising), the record count checked against that grid, and every record
  * validated by its model (record_check.c). Shared by `voxlab render --vox` and the .vox fuzzer. */
 #ifndef VX_VOX_LOAD_H
 #define VX_VOX_LOAD_H

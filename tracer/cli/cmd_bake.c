@@ -150,7 +150,7 @@ int cmd_bake(int argc, char **argv)
     }
     voxfile_header h;
     bake_header_fill(&h, &s, m, &o, &g);
-    if (voxfile_write(out_path, &h, records, &e)) {
+    if (voxfile_write(out_path, &h, records, g.level[0].coords, &e)) {
         fprintf(stderr, "voxlab bake: %s\n", e.msg);
         goto done;
     }

@@ -7,8 +7,8 @@
 #include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/mman.h>
 
+#include "grid_memory.h"
 #include "tribox.h"
 
 /* Triangles handed to a thread at a time: small enough to balance a mesh whose few huge triangles
@@ -168,54 +168,6 @@ static void mesh_corners(const void *ctx, size_t first, size_t n, float (*out)[9
             memcpy(&out[i][3 * k], m->positions + 3 * (size_t)m->indices[3 * (first + i) + (size_t)k], 3 * sizeof(float));
 }
 
-/* The even bits of x, packed into the low 32 bits (bit 2k -> bit k). */
-static inline uint64_t even_bits(uint64_t x)
-{
-    x &= UINT64_C(0x5555555555555555);
-    x = (x | (x >> 1)) & UINT64_C(0x3333333333333333);
-    x = (x | (x >> 2)) & UINT64_C(0x0f0f0f0f0f0f0f0f);
-    x = (x | (x >> 4)) & UINT64_C(0x00ff00ff00ff00ff);
-    x = (x | (x >> 8)) & UINT64_C(0x0000ffff0000ffff);
-    x = (x | (x >> 16)) & UINT64_C(0x00000000ffffffff);
-    return x;
-}
-
-/* Zeroed memory. Large blocks are mapped with MAP_POPULATE: first-touch page faults cost ~11 us a
- * page on the VMs this runs on, so a fresh 16 MiB array (512^3 bits) took ~45 ms to fault in, as
- * long as voxelising the bunny, against ~3 ms to populate the mapping in one call. Whether a block
- * is mapped depends only on its size, so big_free needs no flag. */
-#define BIG_BYTES ((size_t)1 << 20)
-
-static void *big_alloc(size_t bytes)
-{
-#ifdef MAP_POPULATE
-    if (bytes >= BIG_BYTES) {
-        void *p = mmap(NULL, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS | MAP_POPULATE, -1, 0);
-        return p == MAP_FAILED ? NULL : p;
-    }
-#endif
-    return calloc(1, bytes ? bytes : 1);
-}
-
-static void big_free(void *p, size_t bytes)
-{
-    if (!p)
-        return;
-#ifdef MAP_POPULATE
-    if (bytes >= BIG_BYTES) {
-        munmap(p, bytes);
-        return;
-    }
-#endif
-    free(p);
-}
-
-/* Sizes of a sparse level's arrays (+1 entry so that an empty level still gets non-NULL arrays). */
-static size_t cols_bytes(const grid_level *L) { return (size_t)L->n * (size_t)L->n * sizeof *L->cols; }
-static size_t bits_bytes(const grid_level *L) { return (L->words + 1) * sizeof *L->bits; }
-static size_t prefix_bytes(const grid_level *L) { return (L->words + 1) * sizeof *L->prefix; }
-static size_t coords_bytes(const grid_level *L) { return (L->count + 1) * sizeof *L->coords; }
-
 static int dense_alloc(dense_bits *d, int n)
 {
     d->n = n;
@@ -259,7 +211,7 @@ static void downsample(const dense_bits *src, dense_bits *dst)
                 }
                 uint64_t *out = dst->w + ((((size_t)BX * (size_t)dst->bt + (size_t)BY) * (size_t)dst->W + (size_t)j) << 4);
                 for (int o = 0; o < 16; o++)
-                    out[o] = even_bits(a[o] | (a[o] >> 1)) | (even_bits(b[o] | (b[o] >> 1)) << 32);
+                    out[o] = halve_words(a[o], b[o]);
             }
 }
 
@@ -342,7 +294,7 @@ static int mesh_bounds(const mesh *m, double lo[3], double hi[3], vx_err *e)
 
 /* The mapping documented in grid.h from bounds lo/hi, in double so that scenes far from the origin
  * (1e6) or smaller than a float ulp there keep exact cell boundaries. */
-static void grid_set_mapping(voxel_grid *g, int n, const double lo[3], const double hi[3])
+void grid_set_mapping(voxel_grid *g, int n, const double lo[3], const double hi[3])
 {
     double extent = vx_fmax(hi[0] - lo[0], vx_fmax(hi[1] - lo[1], hi[2] - lo[2]));
     if (!(extent > 0.0)) {

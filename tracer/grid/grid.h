@@ -55,6 +55,13 @@ int grid_build_bounds(voxel_grid *g, const mesh *m, int n, const double lo[3], c
  * (x << 20 | y << 10 | z, as grid_coords reads them), MIP levels as grid_build: moving objects'
  * records put into the world lattice (tracer/dynamic/). */
 int grid_build_cells(voxel_grid *g, const voxel_grid *like, const uint32_t *cells, size_t count, vx_err *e);
+/* The grid over bounds lo/hi (the mapping above) whose level-0 cells are the `count` packed
+ * coordinates `cells`, listed once each in dense-index order (as grid_level.coords holds them): a
+ * baked .vox file's grid, rebuilt without voxelising and without an n^3 bit array. The arrays are
+ * those grid_build writes for the same cells. Errors: n outside 1..GRID_MAX_N, a cell outside the
+ * grid or out of order (the message names it and starts with "cell", for the caller to prefix). */
+int grid_build_sorted_cells(voxel_grid *g, int n, const double lo[3], const double hi[3], const uint32_t *cells,
+                            size_t count, vx_err *e);
 /* Triangles from any source, in batches: corners(ctx, first, n, out) writes the world corners of
  * triangles first .. first + n - 1 (x, y, z of corners 0, 1, 2). An instanced scene's copies are
  * placed on the fly this way, never written out (tracer/scene/scene_tris.h). */
