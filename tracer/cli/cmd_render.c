@@ -203,11 +203,10 @@ int cmd_render(int argc, char **argv)
     backend_counts bcnt = {0};
     if (size && scene_parse_size_string(size, &o.width, &o.height, &e))
         goto fail;
-    /* With --vox the resolution and the model are the file's header's (read alone: the estimate
-     * comes before the records are read); nothing is baked. */
+    /* With --vox the resolution, the model, the voxels and the records are the file's header's (read
+     * alone: the estimate comes before the records are read); nothing is baked or voxelised. */
     vx_estimate est;
     const vx_model *em = m;
-    int eres = res;
     if (vox) {
         voxfile_header vh;
         if (voxfile_read_header(vox, &vh, &e))
@@ -220,9 +219,9 @@ int cmd_render(int argc, char **argv)
             vx_fail(&e, "%s: header field n (grid resolution) is %d, outside 1..%d", vox, (int)vh.n, GRID_MAX_N);
             goto fail;
         }
-        eres = vh.n;
-    }
-    estimate_voxels(&s, em, eres, vox ? 0 : bo.rays, o.width, o.height, o.spp, o.cache, o.threads, &est);
+        estimate_vox(&s, &vh, o.width, o.height, o.spp, o.cache, o.threads, &est);
+    } else
+        estimate_voxels(&s, em, res, bo.rays, o.width, o.height, o.spp, o.cache, o.threads, &est);
     if (dry_run) {
         estimate_print(stdout, "render", &est);
         rc = estimate_check(&est, &e) ? (fprintf(stdout, "  refused: %s\n", e.msg), 1) : 0;

@@ -122,17 +122,20 @@ void estimate_truth(const scene *s, int width, int height, int spp, int threads,
     finish(out, threads);
 }
 
-void estimate_voxels(const scene *s, const vx_model *m, int res, int rays, int width, int height, int spp,
-                     int cache, int threads, vx_estimate *out)
+/* A voxel run with v level-0 voxels at res^3: dense_bits when the grid is voxelised here (a bake, or a
+ * render that bakes), not when it is rebuilt from a .vox file's cells; records: their bytes. */
+static void estimate_grid_run(const scene *s, int res, double v, int dense_bits, double records, int rays, int width,
+                              int height, int spp, int cache, int threads, vx_estimate *out)
 {
     memset(out, 0, sizeof *out);
-    double n = res, v = voxel_estimate(s, res);
+    double n = res;
     out->voxels = v;
     out->scene_bytes = scene_bytes(s);
-    /* The build's dense bits (n^3 bits, plus an eighth for the next level), the columns of every
-     * level (n^2 words, plus a third for the coarser ones), and per voxel its coordinates and bits. */
-    out->grid_bytes = n * n * n / 8 * 1.15 + n * n * 8 * 1.34 + v * 1.15 * 8;
-    out->record_bytes = v * (double)m->record.bytes * (m->record.levels ? 1.15 : 1.0);
+    /* The build's dense bits (n^3 bits, plus an eighth for the next level), or the cells read from a
+     * .vox file (4 bytes a voxel); the columns of every level (n^2 words, plus a third for the coarser
+     * ones), and per voxel its coordinates and bits. */
+    out->grid_bytes = (dense_bits ? n * n * n / 8 * 1.15 : v * 4) + n * n * 8 * 1.34 + v * 1.15 * 8;
+    out->record_bytes = records;
     out->work_bytes = (double)parallel_threads(threads) * rays * sizeof(vx_sample);
     if (width > 0) {
         double px = (double)width * height;
@@ -141,12 +144,27 @@ void estimate_voxels(const scene *s, const vx_model *m, int res, int rays, int w
             out->work_bytes += v * 64; /* the shading cache: one entry per voxel */
         out->rays = px * spp * (1 + shadow_lights(s));
     }
-    out->rays += v * rays; /* the bake (none when rendering a .vox: the caller passes rays = 0) */
+    out->rays += v * rays; /* the bake (none when rendering a .vox) */
     finish(out, threads);
     /* A bake also costs per voxel, whatever its rays: its own triangles' list and the model's fit
      * (about 60 us of one core per voxel on the development machine). */
     if (rays > 0)
         out->seconds += v * ESTIMATE_BAKE_CORE_SECONDS_PER_VOXEL / parallel_threads(threads);
+}
+
+void estimate_voxels(const scene *s, const vx_model *m, int res, int rays, int width, int height, int spp,
+                     int cache, int threads, vx_estimate *out)
+{
+    double v = voxel_estimate(s, res);
+    estimate_grid_run(s, res, v, 1, v * (double)m->record.bytes * (m->record.levels ? 1.15 : 1.0), rays, width,
+                      height, spp, cache, threads, out);
+}
+
+void estimate_vox(const scene *s, const voxfile_header *h, int width, int height, int spp, int cache, int threads,
+                  vx_estimate *out)
+{
+    estimate_grid_run(s, h->n, (double)h->voxels, 0, (double)h->record_count * (double)h->voxel_bytes, 0, width,
+                      height, spp, cache, threads, out);
 }
 
 double estimate_budget_bytes(void)

@@ -2,7 +2,7 @@
  * image before anything large is allocated: `--dry-run` prints them, and a run whose memory
  * estimate exceeds what the machine can give is refused with it instead of being started and then
  * killed by the kernel. Estimates, not bounds: the grid's size is bounded from the triangles'
- * extents (the exact count needs the voxelisation itself). */
+ * extents (the exact count needs the voxelisation itself; a .vox file's header has it). */
 #ifndef VX_ESTIMATE_H
 #define VX_ESTIMATE_H
 
@@ -11,10 +11,11 @@
 #include "error.h"
 #include "model.h"
 #include "scene.h"
+#include "voxfile.h"
 
 typedef struct {
     double scene_bytes;  /* the loaded mesh and Embree's BVH over it */
-    double grid_bytes;   /* the voxel grid, with the dense bit array of its build */
+    double grid_bytes;   /* the voxel grid, with the dense bit array of its build (or a .vox file's cells) */
     double record_bytes; /* the model's records (all MIP levels when it uses them) */
     double work_bytes;   /* per-thread bake samples, the render's shading cache */
     double image_bytes;  /* the float image and its encoding */
@@ -34,6 +35,10 @@ void estimate_truth(const scene *s, int width, int height, int spp, int threads,
 /* bake (width = 0: no image) or render: grid at res, records of m, sample rays per voxel. */
 void estimate_voxels(const scene *s, const vx_model *m, int res, int rays, int width, int height, int spp,
                      int cache, int threads, vx_estimate *out);
+/* render --vox: the voxels and records the file's header gives (exact), its grid rebuilt from the
+ * cells it stores (no dense bits, no bake). */
+void estimate_vox(const scene *s, const voxfile_header *h, int width, int height, int spp, int cache, int threads,
+                  vx_estimate *out);
 
 /* The memory this run may use: the smallest of the machine's available memory (MemAvailable), the
  * address-space limit (ulimit -v) and $VOXLAB_MEMORY_BUDGET (bytes; for shared machines and tests). */
