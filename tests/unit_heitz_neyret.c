@@ -287,6 +287,36 @@ static void constraints_brute_force(const float *smp, const unsigned *table)
     CHECK("... unless the segment reaches back to it", hn_mask_count(m) == 128);
 }
 
+/* The shipped sample positions are the generator's, bit for bit; the table built from them by the
+ * per-angle sweep is the brute-force one (every sample tested against every entry, as the table's
+ * definition reads), and the float positions are the doubles rounded. */
+static void mask_provenance(void)
+{
+    static double gen[HN_MASK_SAMPLES][2];
+    hn_mask_points_generate(gen);
+    CHECK("mask samples: the shipped positions are the generator's, bit for bit",
+          memcmp(gen, hn_mask_points, sizeof gen) == 0);
+    const float *smp = hn_mask_samples();
+    int rounded = 1;
+    for (int s = 0; s < HN_MASK_SAMPLES; s++)
+        rounded &= smp[2 * s] == (float)hn_mask_points[s][0] && smp[2 * s + 1] == (float)hn_mask_points[s][1];
+    CHECK("mask samples: the float positions are the shipped doubles rounded", rounded);
+    const unsigned *table = hn_mask_table();
+    size_t wrong = 0;
+    for (int ti = 0; ti < HN_TABLE_T; ti++) {
+        double t = 2.0 * M_PI * ti / HN_TABLE_T, ct = cos(t), st = sin(t);
+        for (int vi = 0; vi < HN_TABLE_V; vi++) {
+            double v = -1.0 + (vi + 0.5) * 2.0 / HN_TABLE_V;
+            unsigned m[VX_MASK_WORDS] = {0};
+            for (int s = 0; s < HN_MASK_SAMPLES; s++)
+                if (hn_mask_points[s][0] * ct + hn_mask_points[s][1] * st <= v)
+                    m[s / 32] |= 1u << (s % 32);
+            wrong += memcmp(m, &table[((size_t)ti * HN_TABLE_V + (size_t)vi) * VX_MASK_WORDS], sizeof m) != 0;
+        }
+    }
+    CHECK("mask table: every entry equals the brute-force half-plane test", wrong == 0);
+}
+
 static void masks(void)
 {
     const float *smp = hn_mask_samples();
@@ -668,6 +698,7 @@ int main(int argc, char **argv)
     element_table();
     scalar_table();
     fastmath();
+    mask_provenance();
     masks();
     bake();
     grid_cases();

@@ -18,6 +18,7 @@
  * comes out denser than the truth at coarse levels. */
 #include <math.h>
 #include <pthread.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "bake.h"
@@ -42,9 +43,9 @@ static void random_in_disk(rng *r, double *x, double *y)
 /* Poisson-disk samples by Mitchell's best-candidate algorithm (a fixed seed: the masks are the
  * same on every run), relaxed by a few Lloyd iterations over a fine lattice of the disk: best
  * candidate alone crowds the rim (no neighbours beyond it), which biases the covered fractions;
- * the relaxed set is as even inside as at the rim. Then the table: bit s of entry (t, v) is set when sample s satisfies
- * x cos t + y sin t <= v, t = 2 pi i / 256 and v the centre of bin j of [-1, 1]. */
-static void build_tables(void)
+ * the relaxed set is as even inside as at the rim. The render uses the shipped result
+ * (hn_mask_points.c); this is where it comes from, and the unit test's check of it. */
+void hn_mask_points_generate(double points[HN_MASK_SAMPLES][2])
 {
     rng r = rng_seed(0x484e3132ULL /* "HN12" */, 0);
     double px[HN_MASK_SAMPLES], py[HN_MASK_SAMPLES];
@@ -93,17 +94,48 @@ static void build_tables(void)
             }
     }
     for (int s = 0; s < HN_MASK_SAMPLES; s++) {
-        mask_samples[2 * s] = (float)px[s];
-        mask_samples[2 * s + 1] = (float)py[s];
+        points[s][0] = px[s];
+        points[s][1] = py[s];
     }
+}
+
+typedef struct {
+    double along; /* the sample's projection on the angle's direction */
+    int s;
+} projected;
+
+static int by_projection(const void *a, const void *b)
+{
+    double x = ((const projected *)a)->along, y = ((const projected *)b)->along;
+    return (x > y) - (x < y);
+}
+
+/* The table: bit s of entry (t, v) is set when sample s satisfies x cos t + y sin t <= v,
+ * t = 2 pi i / 256 and v the centre of bin j of [-1, 1]. Per angle, the samples sorted by their
+ * projection are swept once as v grows (each entry is the previous one plus the samples passed),
+ * rather than all 128 tested per entry: the same comparisons of the same doubles, a tenth of the
+ * time. */
+static void build_tables(void)
+{
+    for (int s = 0; s < HN_MASK_SAMPLES; s++) {
+        mask_samples[2 * s] = (float)hn_mask_points[s][0];
+        mask_samples[2 * s + 1] = (float)hn_mask_points[s][1];
+    }
+    projected order[HN_MASK_SAMPLES];
     for (int ti = 0; ti < HN_TABLE_T; ti++) {
         double t = 2.0 * M_PI * ti / HN_TABLE_T, ct = cos(t), st = sin(t);
+        for (int s = 0; s < HN_MASK_SAMPLES; s++) {
+            order[s].along = hn_mask_points[s][0] * ct + hn_mask_points[s][1] * st;
+            order[s].s = s;
+        }
+        qsort(order, HN_MASK_SAMPLES, sizeof *order, by_projection);
+        unsigned int m[VX_MASK_WORDS] = {0};
+        int passed = 0;
         for (int vi = 0; vi < HN_TABLE_V; vi++) {
             double v = -1.0 + (vi + 0.5) * 2.0 / HN_TABLE_V;
-            unsigned int *m = &mask_table[((size_t)ti * HN_TABLE_V + (size_t)vi) * VX_MASK_WORDS];
-            for (int s = 0; s < HN_MASK_SAMPLES; s++)
-                if (px[s] * ct + py[s] * st <= v)
-                    m[s / 32] |= 1u << (s % 32);
+            for (; passed < HN_MASK_SAMPLES && order[passed].along <= v; passed++)
+                m[order[passed].s / 32] |= 1u << (order[passed].s % 32);
+            memcpy(&mask_table[((size_t)ti * HN_TABLE_V + (size_t)vi) * VX_MASK_WORDS], m, sizeof m);
         }
     }
 }

@@ -8,10 +8,14 @@
 struct voxel_grid;
 
 /* The 128 Poisson-disk sample positions of the coverage masks (x, y pairs in the unit disk) and the
- * 256 x 256 mask table built from them (HN_TABLE_WORDS words). Both are generated once, on first
- * use, from a fixed seed: the same numbers on every run and every thread. */
+ * 256 x 256 mask table built from them (HN_TABLE_WORDS words), built once, on first use, from the
+ * shipped positions (hn_mask_points): the same numbers on every run and every thread. */
 const float *hn_mask_samples(void);
 const unsigned int *hn_mask_table(void);
+/* The positions, in double (hn_mask_points.c), and the algorithm that made them (heitz_neyret.c:
+ * Mitchell's best candidate from a fixed seed, then Lloyd relaxation; ~30 ms). */
+extern const double hn_mask_points[HN_MASK_SAMPLES][2];
+void hn_mask_points_generate(double points[HN_MASK_SAMPLES][2]);
 
 /* E[(n.N)^2] over the area of a Gaussian-slope surface with per-axis slope variance sigma2, and
  * its inverse (how the bake turns normals' second moments into a slope variance). */
