@@ -8,7 +8,9 @@
  *  (b) bake time at 128^3 and 256^3 (alpha, 150 rays) against our targets and the times Brito et
  *      al. report for their single-threaded baker.
  *  (c) render time with the shading cache on over off (alpha and binary, 128^3, 128x128, 4 spp),
- *      and the MSE the cache costs (cached vs uncached image).
+ *      and the MSE the cache costs (cached vs uncached image);
+ *  (d) every registered model baked in one pass of the sampler (bake_run_models) over the same models
+ *      baked one by one, 128^3 (medians of 3 interleaved).
  * usage: bench_bake [SCENE] */
 #include <math.h>
 #include <stdio.h>
@@ -17,6 +19,7 @@
 
 #include "bench.h"
 #include "bake.h"
+#include "bake_params.h"
 #include "metrics.h"
 #include "parallel.h"
 #include "render.h"
@@ -183,6 +186,51 @@ static int bench_bake_time(const rt_scene *rt, const vx_model *alpha, int thread
     return 0;
 }
 
+/* (d) */
+static int bench_shared(const rt_scene *rt, int threads, int res)
+{
+    enum { RUNS = 3 };
+    const vx_model *m[BAKE_MAX_MODELS];
+    struct vx_bake_params params[BAKE_MAX_MODELS];
+    int count = 0;
+    for (const vx_model *const *all = model_all(); *all && count < BAKE_MAX_MODELS; all++) {
+        m[count] = *all;
+        bake_params_defaults(m[count], &params[count]);
+        count++;
+    }
+    vx_err e;
+    voxel_grid g;
+    if (grid_build(&g, &rt->scene->mesh, res, &e))
+        return die("grid", &e);
+    bake_options o = {.rays = RAYS, .seed = 1, .threads = threads, .progress = 0};
+    double one_by_one[RUNS], shared[RUNS], ratio[RUNS];
+    for (int run = 0; run < RUNS; run++) {
+        void *records[BAKE_MAX_MODELS];
+        bake_counts c[BAKE_MAX_MODELS];
+        double t0 = now_seconds();
+        for (int k = 0; k < count; k++) {
+            if (bake_run_models(rt, &g, 1, &m[k], &params[k], &o, &records[k], &c[k], &e))
+                return die("bake", &e);
+            free(records[k]);
+        }
+        double t1 = now_seconds();
+        if (bake_run_models(rt, &g, count, m, params, &o, records, c, &e))
+            return die("shared bake", &e);
+        double t2 = now_seconds();
+        for (int k = 0; k < count; k++)
+            free(records[k]);
+        one_by_one[run] = t1 - t0;
+        shared[run] = t2 - t1;
+        ratio[run] = shared[run] / one_by_one[run];
+    }
+    printf("bake   %-8s %d^3, %d models, %d rays, %d threads: one pass %.2f s, one by one %.2f s, ratio %.2f "
+           "(median of %d)\n",
+           rt->scene->name, res, count, RAYS, threads, bench_median(shared, RUNS), bench_median(one_by_one, RUNS),
+           bench_median(ratio, RUNS), RUNS);
+    grid_free(&g);
+    return 0;
+}
+
 /* (c) */
 static int bench_cache(const rt_scene *rt, const char *model_name, int threads, int res)
 {
@@ -255,7 +303,7 @@ int main(int argc, char **argv)
     /* Brito et al. report 15 s (128^3) and 66 s (256^3) for the bunny on one thread. */
     int rc = bench_rays(&rt, alpha, threads, 128) || bench_bake_time(&rt, alpha, threads, 128, 2.0, 15.0) ||
              bench_bake_time(&rt, alpha, threads, 256, 8.0, 66.0) || bench_cache(&rt, "alpha", threads, 128) ||
-             bench_cache(&rt, "binary", threads, 128);
+             bench_cache(&rt, "binary", threads, 128) || bench_shared(&rt, threads, 128);
     rt_free(&rt);
     scene_free(&s);
     return rc;

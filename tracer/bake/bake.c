@@ -271,11 +271,12 @@ size_t bake_record_count(const vx_model *m, const voxel_grid *g)
 typedef struct {
     const rt_scene *rt;
     const voxel_grid *g;
-    const vx_model *m;
+    int count; /* models baked from the same samples */
+    const vx_model *const *m;
     const bake_options *o;
-    const struct vx_bake_params *params;
-    unsigned char *records;
-    vx_sample **scratch; /* per thread */
+    const struct vx_bake_params *params; /* one per model */
+    unsigned char **records;             /* one per model */
+    vx_sample **scratch;                 /* per thread */
 } bake_job;
 
 static void bake_item(void *p, int64_t item, int thread)
@@ -294,58 +295,86 @@ static void bake_item(void *p, int64_t item, int thread)
         v.index = (long long)i;
         v.size = j->g->voxel_size;
         v.effects = j->rt->scene->effects;
-        v.params = j->params;
-        j->m->bake_voxel(&v, samples, j->o->rays, j->records + i * j->m->record.bytes);
+        /* Every model reads the same samples (const: none can change them for the next). */
+        for (int k = 0; k < j->count; k++) {
+            v.params = &j->params[k];
+            j->m[k]->bake_voxel(&v, samples, j->o->rays, j->records[k] + i * j->m[k]->record.bytes);
+        }
     }
 }
 
-int bake_run(const rt_scene *rt, const voxel_grid *g, const vx_model *m, const bake_options *o, void **records,
-             bake_counts *counts, vx_err *e)
+static void free_all(void **p, int n)
+{
+    for (int k = 0; p && k < n; k++)
+        free(p[k]);
+}
+
+int bake_run_models(const rt_scene *rt, const voxel_grid *g, int count, const vx_model *const *m,
+                    const struct vx_bake_params *params, const bake_options *o, void **records, bake_counts *counts,
+                    vx_err *e)
 {
     if (o->rays < 1)
         return vx_fail(e, "--rays %d: expected at least 1 ray per voxel", o->rays);
-    size_t nrec = bake_record_count(m, g);
-    unsigned char *rec = calloc(nrec ? nrec : 1, m->record.bytes);
+    if (count < 1 || count > BAKE_MAX_MODELS)
+        return vx_fail(e, "%d models in one bake: expected 1..%d", count, BAKE_MAX_MODELS);
+    unsigned char *rec[BAKE_MAX_MODELS] = {0};
     int threads = parallel_threads(o->threads);
     vx_sample **scratch = calloc((size_t)threads, sizeof *scratch);
-    int ok = rec && scratch;
+    int ok = scratch != NULL, failed = -1;
+    for (int k = 0; ok && k < count; k++) {
+        size_t nrec = bake_record_count(m[k], g);
+        ok = (rec[k] = calloc(nrec ? nrec : 1, m[k]->record.bytes)) != NULL;
+        failed = ok ? failed : k;
+    }
     for (int t = 0; ok && t < threads; t++)
         ok = (scratch[t] = malloc(sizeof(vx_sample) * (size_t)o->rays)) != NULL;
     if (!ok) {
-        for (int t = 0; scratch && t < threads; t++)
-            free(scratch[t]);
+        free_all((void **)scratch, threads);
         free(scratch);
-        free(rec);
-        return vx_fail(e, "out of memory for %zu voxel records of %zu bytes", nrec, m->record.bytes);
+        free_all((void **)rec, count);
+        if (failed >= 0)
+            return vx_fail(e, "out of memory for %zu voxel records of %zu bytes", bake_record_count(m[failed], g),
+                           m[failed]->record.bytes);
+        return vx_fail(e, "out of memory for the bake's samples (%d rays)", o->rays);
     }
-    struct vx_bake_params params;
-    if (o->params_set)
-        params = o->params;
-    else
-        bake_params_defaults(m, &params);
-    bake_job j = {rt, g, m, o, &params, rec, scratch};
+    bake_job j = {rt, g, count, m, o, params, rec, scratch};
     size_t voxels = grid_count(g, 0);
     double t0 = now_seconds();
     parallel_for((int64_t)((voxels + VOXELS_PER_ITEM - 1) / VOXELS_PER_ITEM), threads, bake_item, &j,
                  o->progress ? "bake" : NULL);
     double t1 = now_seconds();
-    for (int t = 0; t < threads; t++)
-        free(scratch[t]);
+    free_all((void **)scratch, threads);
     free(scratch);
-    if (m->bake_finish && m->bake_finish(g, rec, &params)) {
-        free(rec);
-        return vx_fail(e, "model %s: bake_finish failed", m->name);
+    for (int k = 0; k < count; k++) {
+        double f0 = now_seconds();
+        if (m[k]->bake_finish && m[k]->bake_finish(g, rec[k], &params[k])) {
+            free_all((void **)rec, count);
+            return vx_fail(e, "model %s: bake_finish failed", m[k]->name);
+        }
+        counts[k].seconds = t1 - t0;
+        counts[k].finish_seconds = now_seconds() - f0;
+        counts[k].rays = (uint64_t)voxels * (uint64_t)o->rays;
+        counts[k].voxels = voxels;
     }
-    counts->seconds = t1 - t0;
-    counts->finish_seconds = now_seconds() - t1;
-    counts->rays = (uint64_t)voxels * (uint64_t)o->rays;
-    counts->voxels = voxels;
-    *records = rec;
+    for (int k = 0; k < count; k++)
+        records[k] = rec[k];
     return 0;
 }
 
-int bake_scene(const scene *s, const vx_model *m, int res, const bake_options *o, voxel_grid *g, void **records,
-               bake_counts *counts, double *grid_seconds, vx_err *e)
+int bake_run(const rt_scene *rt, const voxel_grid *g, const vx_model *m, const bake_options *o, void **records,
+             bake_counts *counts, vx_err *e)
+{
+    struct vx_bake_params params;
+    if (o->params_set)
+        params = o->params;
+    else
+        bake_params_defaults(m, &params);
+    return bake_run_models(rt, g, 1, &m, &params, o, records, counts, e);
+}
+
+int bake_scene_models(const scene *s, int count, const vx_model *const *m, const struct vx_bake_params *params,
+                      int res, const bake_options *o, voxel_grid *g, void **records, bake_counts *counts,
+                      double *grid_seconds, vx_err *e)
 {
     double t0 = now_seconds();
     double lo[3], hi[3]; /* an animated scene: one lattice for every frame */
@@ -358,9 +387,20 @@ int bake_scene(const scene *s, const vx_model *m, int res, const bake_options *o
         grid_free(g);
         return -1;
     }
-    int rc = bake_run(&rt, g, m, o, records, counts, e);
+    int rc = bake_run_models(&rt, g, count, m, params, o, records, counts, e);
     rt_free(&rt);
     if (rc)
         grid_free(g);
     return rc;
+}
+
+int bake_scene(const scene *s, const vx_model *m, int res, const bake_options *o, voxel_grid *g, void **records,
+               bake_counts *counts, double *grid_seconds, vx_err *e)
+{
+    struct vx_bake_params params;
+    if (o->params_set)
+        params = o->params;
+    else
+        bake_params_defaults(m, &params);
+    return bake_scene_models(s, 1, &m, &params, res, o, g, records, counts, grid_seconds, e);
 }

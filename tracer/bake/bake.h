@@ -69,4 +69,18 @@ int bake_scene(const scene *s, const vx_model *m, int res, const bake_options *o
 int bake_run(const rt_scene *rt, const voxel_grid *g, const vx_model *m, const bake_options *o, void **records,
              bake_counts *counts, vx_err *e);
 
+/* Several models in one pass of the sampler: each voxel's rays are generated and classified once
+ * and handed to every model in turn, so that the tracing, most of a bake's time, is paid once
+ * (issue 15). A model reads only the samples, which do not depend on the model, so each model's
+ * records are those of its own bake, byte for byte. params[k]: model k's parameters (o's params
+ * are not read); records[k], counts[k]: model k's; counts[k].seconds is the shared pass's time,
+ * finish_seconds model k's own bake_finish. */
+#define BAKE_MAX_MODELS 16
+int bake_run_models(const rt_scene *rt, const voxel_grid *g, int count, const vx_model *const *m,
+                    const struct vx_bake_params *params, const bake_options *o, void **records, bake_counts *counts,
+                    vx_err *e);
+int bake_scene_models(const scene *s, int count, const vx_model *const *m, const struct vx_bake_params *params,
+                      int res, const bake_options *o, voxel_grid *g, void **records, bake_counts *counts,
+                      double *grid_seconds, vx_err *e);
+
 #endif
