@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include "fileio.h"
+#include "prefault.h"
 #include "readfile.h"
 
 static const char magic[8] = {'V', 'O', 'X', 'L', 'A', 'B', '\n', 0};
@@ -179,6 +180,8 @@ int voxfile_read(const char *path, uint64_t scene_identity, voxfile_header *h, v
     }
     void *rec = malloc(bytes ? (size_t)bytes : 1);
     uint32_t *cel = malloc(cell_bytes ? (size_t)cell_bytes : 1);
+    vx_populate(rec, (size_t)bytes); /* mapped in one call, not faulted in by read() page by page */
+    vx_populate(cel, (size_t)cell_bytes);
     uint64_t stored;
     if (!rec || !cel || read_full(fd, rec, (size_t)bytes) != (long long)bytes ||
         read_full(fd, cel, (size_t)cell_bytes) != (long long)cell_bytes ||

@@ -11,8 +11,29 @@
 #ifndef VX_PREFAULT_H
 #define VX_PREFAULT_H
 
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+/* Maps every page of [p, p + bytes) in one system call (MADV_POPULATE_WRITE, Linux 5.14) instead of
+ * one fault a page: a fault costs ~11 us on the VMs this runs on, so touching 76 MB of .vox records
+ * page by page took ~0.2 s. Only for blocks of 1 MiB and more (malloc maps those itself); a kernel
+ * without it, or any failure, leaves the pages to fault in as before. */
+static inline void vx_populate(void *p, size_t bytes)
+{
+#ifdef MADV_POPULATE_WRITE
+    if (!p || bytes < ((size_t)1 << 20))
+        return;
+    uintptr_t page = (uintptr_t)sysconf(_SC_PAGESIZE);
+    uintptr_t lo = ((uintptr_t)p + page - 1) & ~(page - 1), hi = ((uintptr_t)p + bytes) & ~(page - 1);
+    if (hi > lo)
+        (void)madvise((void *)lo, hi - lo, MADV_POPULATE_WRITE);
+#else
+    (void)p, (void)bytes;
+#endif
+}
 
 /* `bytes` bytes (at least one), every page written by this thread: all zero (fill 0) or every byte
  * `fill`. NULL when out of memory; free() it. */
@@ -23,6 +44,7 @@ static inline void *vx_alloc_touched(size_t bytes, int fill)
     void *p = malloc(bytes);
     if (!p)
         return NULL;
+    vx_populate(p, bytes);
     if (fill == 0)
         explicit_bzero(p, bytes);
     else
