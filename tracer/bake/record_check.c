@@ -13,7 +13,8 @@ int record_check_all(const vx_model *m, const voxel_grid *g, const void *records
                                .rays = rays};
         size_t n = grid_count(g, level);
         for (size_t i = 0; i < n && index < count; i++, index++) {
-            char why[256] = "";
+            char why[256];
+            why[0] = 0; /* not `= ""`: that clears all 256 bytes for every record (0.5 GB at 1024^3) */
             if (m->validate_record(rec + index * m->record.bytes, &c, why, sizeof why) == 0)
                 continue;
             int x, y, z;
