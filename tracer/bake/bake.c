@@ -9,6 +9,7 @@
 #include "grid_scene.h"
 #include "instancing.h"
 #include "parallel.h"
+#include "prefault.h"
 #include "rng.h"
 #include "rt_instances.h"
 #include "scene_tris.h"
@@ -324,6 +325,9 @@ int bake_run_models(const rt_scene *rt, const voxel_grid *g, int count, const vx
     for (int k = 0; ok && k < count; k++) {
         size_t nrec = bake_record_count(m[k], g);
         ok = (rec[k] = calloc(nrec ? nrec : 1, m[k]->record.bytes)) != NULL;
+        /* Mapped now: pages first written by the bake threads fault one by one (prefault.h). */
+        if (ok)
+            vx_populate(rec[k], (nrec ? nrec : 1) * m[k]->record.bytes);
         failed = ok ? failed : k;
     }
     for (int t = 0; ok && t < threads; t++)
