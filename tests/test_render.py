@@ -222,6 +222,21 @@ for model in ("alpha", "binary"):
     faults = st_on.get("render_page_faults")
     report(f"--stats render_page_faults: few faults inside the render's clock ({model})",
            isinstance(faults, (int, float)) and 0 <= faults < 200, str(faults))
+    # The shading cache is sized by the image (tracer/render/shading_cache.h): 4 slots of 24 B a
+    # pixel, at most one a voxel. Beside it, with or without it, the shadow memo: these models'
+    # opacity does not depend on the direction, and the scene has one directional light with
+    # shadows, so each voxel's opacity toward it is remembered (4 B a voxel).
+    report(f"--stats cache_bytes: one 24-byte slot a voxel when the image has more pixels ({model})",
+           st_on["voxels"] < 4 * 64 * 64 and st_on["cache_bytes"] == (24 + 4) * st_on["voxels"]
+           and st_off["cache_bytes"] == 4 * st_off["voxels"], f"{st_on['cache_bytes']} for {st_on['voxels']} voxels, "
+           f"{st_off['cache_bytes']} with --no-cache")
+
+# A grid with more voxels than 4 a pixel: the cache stays at 4 slots a pixel (16x16: 1024). (That the
+# image does not depend on the cache's size is tests/unit_render.c's check, with a 16-slot cache.)
+small, st_small = render(SPHERES, "cache_small", "--res", "64", "--rays", "16", "--size", "16x16", "--spp", "2")
+report("shading cache sized by the image: 1024 slots for a 16x16 image",
+       st_small["voxels"] > 1024 and st_small["cache_bytes"] == 1024 * 24 + 4 * st_small["voxels"],
+       f"{st_small['cache_bytes']} B for {st_small['voxels']} voxels")
 
 # ---------- (h) bad command lines ----------
 def bad_cli(what, args, words):

@@ -8,7 +8,12 @@
  *  - city 128^3 with shadows, 128x128: binary (the voxel marcher's shading cache and, binary's
  *    opacity being direction-free, no memo) and heitz-neyret (the cone marcher's light cache):
  *    page faults inside the render's clock (render_counts.page_faults, the whole process) below a
- *    bound far under the caches' page count, and 1- and 2-thread images equal word for word. */
+ *    bound far under the caches' page count, and 1- and 2-thread images equal word for word.
+ *  - the shading cache (tracer/render/shading_cache.h) sized by the image: its size rule, slots
+ *    inside the table with runs of 8 voxels side by side, eviction, a voxel's answer never returned
+ *    for another under two threads hammering a 16-slot table, and city rendered with a 16-slot
+ *    cache (heavy eviction) bit-identical to the default, with more model evaluations. */
+#include <pthread.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <malloc.h>
@@ -21,6 +26,7 @@
 #include "bake.h"
 #include "prefault.h"
 #include "render.h"
+#include "shading_cache.h"
 #include "unit.h"
 
 /* Pages of [p, p + bytes) resident now (whole pages inside the block only). */
@@ -106,13 +112,122 @@ static void prefault_checks(void)
     CHECK("vx_populate: NULL and small blocks are left alone", small[0] == 7);
 }
 
-static int render(const scene *s, const voxel_grid *g, const vx_model *m, const void *rec, int threads, image *img,
-                  render_counts *c)
+/* A voxel's answer in these checks: distinct for every index, exact in float. */
+static void cache_value(int64_t index, vec3 *r, float *a)
+{
+    *r = v3((float)index, (float)(2 * index + 1), (float)(3 * index + 2));
+    *a = (float)(index % 1000) / 1024.0f;
+}
+
+typedef struct {
+    const shading_cache *c;
+    uint64_t seed;
+    long hits, misses, wrong;
+} hammer_job;
+
+/* Random gets and puts over 40 voxels in a 16-slot table: every hit must be its own voxel's. */
+static void *hammer(void *p)
+{
+    hammer_job *h = p;
+    uint64_t s = h->seed;
+    for (int i = 0; i < 1000000; i++) {
+        s = s * 6364136223846793005ull + 1442695040888963407ull;
+        int64_t index = (int64_t)((s >> 33) % 40);
+        vec3 r, want_r;
+        float a, want_a;
+        cache_value(index, &want_r, &want_a);
+        if (shading_cache_get(h->c, index, &r, &a)) {
+            h->hits++;
+            h->wrong += r.x != want_r.x || r.y != want_r.y || r.z != want_r.z || a != want_a;
+        } else {
+            h->misses++;
+            shading_cache_put(h->c, index, want_r, want_a);
+        }
+    }
+    return NULL;
+}
+
+static void shading_cache_checks(void)
+{
+    size_t count;
+    int bits;
+    shading_cache_size(100, 1000, 0, &count, &bits);
+    CHECK("shading cache: fewer voxels than 4 slots a pixel: one slot a voxel", count == 100 && bits == 0);
+    shading_cache_size(1000000, 1000, 0, &count, &bits);
+    CHECK("shading cache: more voxels: 4 slots a pixel, rounded up to a power of two", count == 4096 && bits == 12);
+    shading_cache_size(1000, 0, 7, &count, &bits);
+    CHECK("shading cache: 7 slots asked: 16 (the smallest hashed table)", count == 16 && bits == 4);
+    shading_cache_size(0, 0, 0, &count, &bits);
+    CHECK("shading cache: an empty grid: one slot", count == 1 && bits == 0);
+
+    shading_cache c = {NULL, 4096, 12};
+    c.slots = calloc(c.count, sizeof *c.slots);
+    if (!c.slots) {
+        CHECK("shading cache: allocation", 0);
+        return;
+    }
+    int inside = 1, runs = 1, spread = 1;
+    for (int64_t i = 0; i < 1 << 20; i++) {
+        ptrdiff_t k = shading_cache_slot_of(&c, i) - c.slots;
+        inside &= k >= 0 && k < 4096;
+        if (i % 8)
+            runs &= shading_cache_slot_of(&c, i) == shading_cache_slot_of(&c, i - 1) + 1;
+    }
+    /* Consecutive runs of 8 land apart (not on the neighbouring slots, as index modulo 4096 would). */
+    for (int64_t i = 8; i < 4096; i += 8)
+        spread &= shading_cache_slot_of(&c, i) != shading_cache_slot_of(&c, i - 8) + 8;
+    CHECK("shading cache: every voxel's slot inside the table", inside);
+    CHECK("shading cache: runs of 8 consecutive voxels on consecutive slots", runs);
+    CHECK("shading cache: consecutive runs spread over the table", spread);
+
+    /* Eviction: two voxels of the same slot. */
+    int64_t a = 5, b = -1;
+    for (int64_t i = 6; i < 1 << 20 && b < 0; i++)
+        if (shading_cache_slot_of(&c, i) == shading_cache_slot_of(&c, a))
+            b = i;
+    vec3 ra, rb, r;
+    float oa, ob, o;
+    cache_value(a, &ra, &oa);
+    cache_value(b, &rb, &ob);
+    int empty = !shading_cache_get(&c, a, &r, &o);
+    shading_cache_put(&c, a, ra, oa);
+    int got_a = shading_cache_get(&c, a, &r, &o) && r.x == ra.x && r.z == ra.z && o == oa;
+    int miss_b = !shading_cache_get(&c, b, &r, &o);
+    shading_cache_put(&c, b, rb, ob);
+    int got_b = shading_cache_get(&c, b, &r, &o) && r.x == rb.x && r.y == rb.y && o == ob;
+    int evicted_a = !shading_cache_get(&c, a, &r, &o);
+    CHECK("shading cache: empty, then a voxel's own answer", b > 0 && empty && got_a);
+    CHECK("shading cache: another voxel of the same slot misses, then evicts the first", miss_b && got_b && evicted_a);
+    free(c.slots);
+
+    /* Two threads on 16 slots: constant eviction, never another voxel's answer. */
+    shading_cache small = {NULL, 16, 4};
+    small.slots = calloc(16, sizeof *small.slots);
+    hammer_job h[2] = {{&small, 1, 0, 0, 0}, {&small, 2, 0, 0, 0}};
+    pthread_t t[2];
+    int created[2] = {0, 0};
+    for (int i = 0; i < 2 && small.slots; i++)
+        created[i] = pthread_create(&t[i], NULL, hammer, &h[i]) == 0;
+    for (int i = 0; i < 2; i++)
+        if (created[i])
+            pthread_join(t[i], NULL);
+    int started = created[0] && created[1];
+    char name[200];
+    snprintf(name, sizeof name, "shading cache: 2 threads, 16 slots: %ld and %ld hits, %ld and %ld misses, %ld wrong",
+             h[0].hits, h[1].hits, h[0].misses, h[1].misses, h[0].wrong + h[1].wrong);
+    CHECK(name, started && h[0].hits > 0 && h[1].hits > 0 && h[0].misses > 0 && h[1].misses > 0 &&
+                    h[0].wrong + h[1].wrong == 0);
+    free(small.slots);
+}
+
+static int render_slots(const scene *s, const voxel_grid *g, const vx_model *m, const void *rec, int threads,
+                        size_t slots, image *img, render_counts *c)
 {
     render_options o;
     render_default_options(&o);
     o.width = o.height = 128;
     o.threads = threads;
+    o.cache_slots = slots;
     o.progress = 0;
     vx_err e;
     /* Freed memory back to the system first: a block reused from an earlier render is resident
@@ -124,6 +239,12 @@ static int render(const scene *s, const voxel_grid *g, const vx_model *m, const 
         return -1;
     }
     return 0;
+}
+
+static int render(const scene *s, const voxel_grid *g, const vx_model *m, const void *rec, int threads, image *img,
+                  render_counts *c)
+{
+    return render_slots(s, g, m, rec, threads, 0, img, c);
 }
 
 static void render_checks(const scene *s, const char *model)
@@ -152,9 +273,10 @@ static void render_checks(const scene *s, const char *model)
         if (render(s, &g, m, rec, 2, &two, &c2) == 0) {
             snprintf(name, sizeof name, "%s: 1- and 2-thread images bit-identical", model);
             CHECK(name, memcmp(one.data, two.data, (size_t)128 * 128 * 3 * sizeof(float)) == 0);
-            /* The voxel marcher's shading cache alone is grid_count * 20 B (~2 MB, ~500 pages at
-             * 128^3 city); thread start-up (stacks, TLS) costs a few dozen faults per thread. */
-            size_t cache_pages = grid_count(&g, 0) * 20 / 4096;
+            /* The marcher's caches are hundreds of pages (the shading cache alone 65,536 slots of
+             * 24 B at 128x128, ~380 pages); thread start-up (stacks, TLS) costs a few dozen faults
+             * per thread. */
+            size_t cache_pages = c2.cache_bytes / 4096;
             snprintf(name, sizeof name, "%s: page faults inside the timed render (%ld and %ld) < 200 (cache: %zu pages)",
                      model, c1.page_faults, c2.page_faults, cache_pages);
 #ifdef __SANITIZE_ADDRESS__
@@ -164,6 +286,25 @@ static void render_checks(const scene *s, const char *model)
 #else
             CHECK(name, c1.page_faults < 200 && c2.page_faults < 200);
 #endif
+            if (!m->cone) {
+                /* The shading cache: 4 slots a pixel (128x128: 65,536) at most one a voxel, 24 B each;
+                 * a 16-slot table evicts all the time and must not change the image. */
+                size_t voxels = grid_count(&g, 0), slots = voxels < 65536 ? voxels : 65536;
+                size_t memo = m->voxel->opacity_by_direction ? voxels * sizeof(float) : 0;
+                snprintf(name, sizeof name, "%s: cache bytes %zu = %zu slots of 24 B (+ %zu B of shadow memo)",
+                         model, c2.cache_bytes, slots, memo);
+                CHECK(name, c2.cache_bytes == slots * 24 + memo);
+                image small;
+                render_counts cs;
+                if (render_slots(s, &g, m, rec, 2, 7, &small, &cs) == 0) {
+                    snprintf(name, sizeof name, "%s: a 16-slot shading cache gives the same image (2 threads)", model);
+                    CHECK(name, memcmp(small.data, two.data, (size_t)128 * 128 * 3 * sizeof(float)) == 0);
+                    snprintf(name, sizeof name, "%s: ... with evictions: %llu model evaluations, %llu with the default",
+                             model, (unsigned long long)cs.model_evals, (unsigned long long)c2.model_evals);
+                    CHECK(name, cs.model_evals > c2.model_evals + c2.model_evals / 10 && cs.cache_hits > 0);
+                    image_free(&small);
+                }
+            }
             image_free(&two);
         }
         image_free(&one);
@@ -175,6 +316,7 @@ static void render_checks(const scene *s, const char *model)
 int main(void)
 {
     prefault_checks();
+    shading_cache_checks();
     scene s;
     vx_err e;
     const char *path = "scenes/city.json";

@@ -9,6 +9,7 @@
 #include "grid.h"
 #include "instancing.h"
 #include "parallel.h"
+#include "shading_cache.h"
 
 /* Embree's BVH over triangles costs of the order of 100 bytes a triangle; with the mesh's own
  * arrays (positions, normals, uvs, colours, indices, materials) about 200 in all. */
@@ -140,8 +141,12 @@ static void estimate_grid_run(const scene *s, int res, double v, int dense_bits,
     if (width > 0) {
         double px = (double)width * height;
         out->image_bytes = px * 4 * sizeof(float) + px * 4;
-        if (cache)
-            out->work_bytes += v * 64; /* the shading cache: one entry per voxel */
+        if (cache) { /* the shading cache: sized by the image, at most one slot a voxel */
+            size_t slots;
+            int hash_bits;
+            shading_cache_size((size_t)v, (size_t)px, 0, &slots, &hash_bits);
+            out->work_bytes += (double)slots * sizeof(shading_cache_slot);
+        }
         out->rays = px * spp * (1 + shadow_lights(s));
     }
     out->rays += v * rays; /* the bake (none when rendering a .vox) */

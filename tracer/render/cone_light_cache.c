@@ -40,6 +40,14 @@ int cone_light_cache_init(cone_light_cache *c, size_t cells, int lights)
     return 0;
 }
 
+size_t cone_light_cache_bytes(const cone_light_cache *c)
+{
+    if (!c->keys)
+        return 0;
+    size_t slots = (size_t)c->mask + 1;
+    return slots * (sizeof *c->keys + sizeof *c->state + (size_t)(c->lights > 0 ? c->lights : 1) * sizeof *c->T);
+}
+
 void cone_light_cache_free(cone_light_cache *c)
 {
     free(c->keys);

@@ -138,6 +138,8 @@ size_t cone_light_cache_cells(size_t level0_cells, size_t pixels);
 /* The table's slots for about `cells` cells (what cone_light_cache_init allocates; the OpenCL
  * backend sizes its buffers alike). */
 size_t cone_light_cache_slots(size_t cells);
+/* The bytes an initialised table holds (keys, states, transmittances). */
+size_t cone_light_cache_bytes(const cone_light_cache *c);
 void cone_light_cache_free(cone_light_cache *c);
 #endif
 

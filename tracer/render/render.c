@@ -48,7 +48,7 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
         return -1;
     }
     render_job j = {s, g, m, records, o, out, calloc((size_t)threads, sizeof(thread_counts)),
-                    camera_pixel_spread(&s->camera, o->height), NULL, maps};
+                    camera_pixel_spread(&s->camera, o->height), NULL, maps, 0};
     if (!j.tc || marcher->prepare(&j, e)) {
         if (!j.tc)
             vx_fail(e, "out of memory for the render");
@@ -69,6 +69,7 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
     counts->seconds = t1 - t0;
     counts->page_faults = minor_faults() - f0;
     counts->shadows = sst;
+    counts->cache_bytes = j.cache_bytes;
     uint64_t model_cycles = 0, total_cycles = 0;
     for (int t = 0; t < threads; t++) {
         counts->rays += j.tc[t].rays;

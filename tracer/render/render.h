@@ -20,6 +20,8 @@ typedef struct {
     int threads;         /* 0 = every core */
     int progress;        /* progress on stderr when it is a terminal */
     int cache;           /* cache each voxel's shading and opacity for the direction voxel -> camera */
+    size_t cache_slots;  /* the C backend's shading cache's slots; 0 (default): sized by the image
+                          * (shading_cache.h); the image is the same for any size */
     int shadow_skip;     /* shadow rays ignore voxels closer than 1.5 voxel sizes (Brito et al. §4) */
     float stop_opacity;  /* stop marching at this accumulated opacity (default 1 - 0.001) */
     int shadow_method;   /* SHADOW_* (shadow_maps_core.h), or -1 (default): the scene's */
@@ -37,6 +39,8 @@ typedef struct {
     shadow_stats shadows;     /* the shadow method, its precomputation (outside `seconds`), its queries */
     long page_faults;         /* the process's minor page faults during `seconds` (getrusage): memory
                                * first touched by the render threads (issue 15; tests/unit_render.c) */
+    size_t cache_bytes;       /* the marcher's caches: the shading cache and the shadow opacity memo,
+                               * or the cone marcher's light cache */
 } render_counts;
 
 void render_default_options(render_options *o);

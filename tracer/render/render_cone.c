@@ -49,6 +49,7 @@ static int cone_prepare(render_job *j, vx_err *e)
             free(st);
             return vx_fail(e, "out of memory for the cone light cache");
         }
+        j->cache_bytes = cone_light_cache_bytes(&st->lc);
     }
     if (dilated_build(&st->skip, j->g)) {
         if (st->use_lc)

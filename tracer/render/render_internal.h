@@ -32,6 +32,7 @@ typedef struct render_job {
     float spread; /* footprint radius per unit distance */
     void *state;  /* the marcher's own (its caches) */
     const shadow_set *shadows; /* precomputed shadow maps, or NULL: shadows are marched */
+    size_t cache_bytes;        /* the marcher's caches, set by prepare (render_counts.cache_bytes) */
 } render_job;
 
 /* A way of marching the pixels of a model's protocol. prepare allocates the marcher's state before

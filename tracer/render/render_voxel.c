@@ -1,6 +1,6 @@
 /* Voxel marching on the C backend: render_voxel_core.h (the portable marcher, shared with the
  * OpenCL kernel) with the model's opacity and shade called through their function pointers, timed
- * for --stats, and the shading cache as C11 atomics. */
+ * for --stats, and the shading cache (shading_cache.h). */
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
@@ -8,20 +8,13 @@
 #include "pixel_skip.h"
 #include "prefault.h"
 #include "render_internal.h"
+#include "shading_cache.h"
 
-/* A voxel's cached answer for the direction voxel -> camera. state: 0 empty, 1 being computed,
- * 2 ready. The value depends only on the voxel, so whichever thread computes it writes the same
- * numbers: the image stays independent of the thread count. */
+/* The marcher's state: the shading cache (shading_cache.h) and the directional lights' opacity memo
+ * (per voxel and light, MEMO_EMPTY until computed; written by whoever computes it first, always the
+ * same bits). */
 typedef struct {
-    vec3 radiance;
-    float opacity;
-    atomic_int state;
-} cache_entry;
-
-/* The marcher's state: the shading cache and the directional lights' opacity memo (per voxel and
- * light, MEMO_EMPTY until computed; written by whoever computes it first, always the same bits). */
-typedef struct {
-    cache_entry *entries;
+    shading_cache cache;
     atomic_uint *memo;
     int lights;
     grid_distance skip; /* the primary rays' empty-space skip (pixel_skip.h); dist NULL: none */
@@ -46,7 +39,7 @@ static void cache_put(struct voxel_ctx *x, int64_t index, const vx_answer *a);
 #define VOXEL_CTX_BACKEND_FIELDS \
     const vx_voxel_eval *eval;   \
     int compositing;             \
-    cache_entry *entries;        \
+    const shading_cache *shading; \
     atomic_uint *memo;           \
     int memo_lights;             \
     const grid_distance *skip;   \
@@ -95,23 +88,12 @@ static float memo_opacity(voxel_ctx *x, int64_t index, int light, const vx_query
 
 static int cache_get(voxel_ctx *x, int64_t index, vx_answer *a)
 {
-    cache_entry *ce = &x->entries[index];
-    if (atomic_load_explicit(&ce->state, memory_order_acquire) != 2)
-        return 0;
-    a->radiance = ce->radiance;
-    a->opacity = ce->opacity;
-    return 1;
+    return shading_cache_get(x->shading, index, &a->radiance, &a->opacity);
 }
 
 static void cache_put(voxel_ctx *x, int64_t index, const vx_answer *a)
 {
-    cache_entry *ce = &x->entries[index];
-    int expected = 0;
-    if (atomic_compare_exchange_strong(&ce->state, &expected, 1)) {
-        ce->radiance = a->radiance;
-        ce->opacity = a->opacity;
-        atomic_store_explicit(&ce->state, 2, memory_order_release);
-    }
+    shading_cache_put(x->shading, index, a->radiance, a->opacity);
 }
 
 /* Allocated and touched here, before the threads start and outside the render's clock: pages first
@@ -127,9 +109,12 @@ static int voxel_prepare(render_job *j, vx_err *e)
         return vx_fail(e, "out of memory for the render");
     j->state = st;
     if (j->o->cache) {
-        st->entries = vx_alloc_touched(n * sizeof(cache_entry), 0); /* state 0: empty */
-        if (!st->entries)
-            return vx_fail(e, "out of memory for the shading cache (%zu voxels)", n);
+        shading_cache_size(n, (size_t)j->o->width * (size_t)j->o->height, j->o->cache_slots, &st->cache.count,
+                           &st->cache.hash_bits);
+        st->cache.slots = vx_alloc_touched(st->cache.count * sizeof(shading_cache_slot), 0); /* tag 0: empty */
+        if (!st->cache.slots)
+            return vx_fail(e, "out of memory for the shading cache (%zu slots)", st->cache.count);
+        j->cache_bytes += st->cache.count * sizeof(shading_cache_slot);
     }
     int directional = 0;
     for (int li = 0; li < s->light_count && li < VX_MAX_LIGHTS; li++)
@@ -140,6 +125,7 @@ static int voxel_prepare(render_job *j, vx_err *e)
         st->memo = vx_alloc_touched(slots * sizeof *st->memo, 0xFF); /* MEMO_EMPTY */
         if (!st->memo)
             return vx_fail(e, "out of memory for the shadow opacity memo (%zu voxels)", n);
+        j->cache_bytes += slots * sizeof *st->memo;
     }
     if (j->o->empty_skip && grid_distance_build(&st->skip, j->g))
         return vx_fail(e, "out of memory for the empty-space skip's distance field");
@@ -170,7 +156,7 @@ static void voxel_row(void *p, int64_t row, int thread)
     const voxel_state *st = j->state;
     x.eval = j->m->voxel;
     x.compositing = j->m->voxel->compositing;
-    x.entries = st->entries;
+    x.shading = &st->cache;
     x.memo = st->memo;
     x.memo_lights = st->lights;
     x.opacity_by_direction = st->memo != NULL;
@@ -197,7 +183,7 @@ static void voxel_release(render_job *j)
 {
     voxel_state *st = j->state;
     if (st) {
-        free(st->entries);
+        free(st->cache.slots);
         free(st->memo);
         grid_distance_free(&st->skip);
         free(st);
