@@ -1069,8 +1069,10 @@ static void mesh_lo_hi(const mesh *m, double lo[3], double hi[3])
 
 /* The grid rebuilt from a grid's level-0 list (a .vox file's) is the voxelised one, array for
  * array, at sizes that leave partial MIP blocks and partial 64-cell words; a random set of cells
- * agrees with the dense builder (grid_build_cells) and with brute-force MIP levels; a list out of
- * order, repeated or outside the grid is refused with the cell named. */
+ * agrees with the dense builder (grid_build_cells given the cells out of order and some twice, which
+ * takes its n^3 bit array) and with brute-force MIP levels, and grid_build_cells given them in order
+ * (its sparse path, tracer/dynamic/'s case) builds the same; a list out of order, repeated or
+ * outside the grid is refused by grid_build_sorted_cells with the cell named. */
 static void test_sorted_cells(void)
 {
     mesh m = {0};
@@ -1113,15 +1115,31 @@ static void test_sorted_cells(void)
                 if (keep)
                     cells[count++] = (uint32_t)x << 20 | (uint32_t)y << 10 | (uint32_t)z;
             }
-    int ok = grid_build_cells(&dense, &like, cells, count, &e) == 0;
+    /* The dense builder's input: reversed, with every tenth cell listed twice. */
+    uint32_t *shuffled = malloc((count + count / 10 + 1) * sizeof *shuffled);
+    size_t shuffled_count = 0;
+    for (size_t i = count; shuffled && i-- > 0;) {
+        shuffled[shuffled_count++] = cells[i];
+        if (i % 10 == 0)
+            shuffled[shuffled_count++] = cells[i];
+    }
+    voxel_grid in_order;
+    int ok = shuffled && grid_build_cells(&dense, &like, shuffled, shuffled_count, &e) == 0;
     ok = ok && grid_build_sorted_cells(&sparse, n, lo, hi, cells, count, &e) == 0;
+    int ok_in_order = ok && grid_build_cells(&in_order, &like, cells, count, &e) == 0;
     CHECK("grid from sorted cells: a random set equals the dense builder's grid", ok && identical_arrays(&dense, &sparse));
     CHECK("grid from sorted cells: MIP levels equal brute force, indices round-trip",
           ok && mip_consistent(&sparse) && index_roundtrip(&sparse) && grid_count(&sparse, 0) == count);
+    CHECK("grid_build_cells: cells in order (built sparse) give the dense builder's grid",
+          ok_in_order && identical_arrays(&dense, &in_order) && in_order.voxel_size_d == like.voxel_size_d &&
+              memcmp(in_order.origin_d, like.origin_d, sizeof like.origin_d) == 0);
+    if (ok_in_order)
+        grid_free(&in_order);
     if (ok) {
         grid_free(&dense);
         grid_free(&sparse);
     }
+    free(shuffled);
     grid_free(&like);
 
     uint32_t swapped[3] = {cells[0], cells[2], cells[1]}, twice[2] = {cells[0], cells[0]};

@@ -52,8 +52,10 @@ int grid_build_threads(voxel_grid *g, const mesh *m, int n, int threads, vx_err 
  * an animated scene's frames share the lattice of the whole animation's bounds. */
 int grid_build_bounds(voxel_grid *g, const mesh *m, int n, const double lo[3], const double hi[3], vx_err *e);
 /* A grid with the mapping of `like` whose level-0 cells are the `count` packed coordinates
- * (x << 20 | y << 10 | z, as grid_coords reads them), MIP levels as grid_build: moving objects'
- * records put into the world lattice (tracer/dynamic/). */
+ * (x << 20 | y << 10 | z, as grid_coords reads them), in any order and repeated or not, MIP levels as
+ * grid_build: moving objects' records put into the world lattice (tracer/dynamic/). Cells listed
+ * once each in order are built sparse (grid_build_sorted_cells' way), others through an n^3 bit
+ * array; the grid is the same. */
 int grid_build_cells(voxel_grid *g, const voxel_grid *like, const uint32_t *cells, size_t count, vx_err *e);
 /* The grid over bounds lo/hi (the mapping above) whose level-0 cells are the `count` packed
  * coordinates `cells`, listed once each in dense-index order (as grid_level.coords holds them): a

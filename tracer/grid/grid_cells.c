@@ -137,7 +137,12 @@ int grid_build_sorted_cells(voxel_grid *g, int n, const double lo[3], const doub
                            i, x, y, z, i - 1);
     }
     grid_set_mapping(g, n, lo, hi);
-    int rc = level_from_cells(&g->level[0], n, cells, count, e);
+    return grid_levels_from_sorted_cells(g, cells, count, e);
+}
+
+int grid_levels_from_sorted_cells(voxel_grid *g, const uint32_t *cells, size_t count, vx_err *e)
+{
+    int rc = level_from_cells(&g->level[0], g->n, cells, count, e);
     for (int l = 1; rc == 0 && l < g->levels; l++)
         rc = level_from_children(&g->level[l], &g->level[l - 1], e);
     if (rc)
