@@ -10,7 +10,7 @@
  *
  * Losing an answer is always safe: a cached answer depends only on the voxel, so whichever thread
  * computes it again writes the same bits, and the image never depends on what was evicted, on the
- * thread count or on the table's size (tests/unit_render.c renders with a 7-slot table).
+ * thread count or on the table's size (tests/unit_render.c renders city with a 16-slot table).
  *
  * A slot is a sequence lock (Boehm, "Can seqlocks get along with programming language memory
  * models?", 2012): its tag holds the voxel (index + 1, 0: none) in the high 32 bits and a counter in
