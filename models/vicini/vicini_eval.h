@@ -160,12 +160,17 @@ VX_INLINE float vicini_eval_transmit(VX_GLOBAL const void *record, float opacity
     return vicini_step(T, vicini_f_inv(1.0f - opacity, gamma), gamma);
 }
 
-/* A visible normal of the distribution S seen from wi (Heitz et al. 2015, Appendix: the ellipsoid
- * projected into the frame (wk, wj, wi)), for the uniform pair (u1, u2). */
-VX_INLINE vec3 vicini_sample_visible_normal(const float S[9], vec3 wi, float u1, float u2)
+/* The visible normals of the distribution S seen from wi (Heitz et al. 2015, Appendix: the ellipsoid
+ * projected into the frame (wk, wj, wi)): the part that does not depend on the sample, computed once
+ * for all of vicini_phase_diffuse's samples (it was computed again for each of the 16: the same
+ * expressions on the same numbers, so the same bits). */
+typedef struct {
+    vec3 wk, wj, wi;
+    vec3 Mk, Mj, Mi;
+} vicini_visible_frame;
+
+VX_INLINE void vicini_visible_frame_of(const float S[9], vec3 wi, vicini_visible_frame *fr)
 {
-    float rad = sqrtf(u1), phi = 2.0f * VX_PI * u2;
-    float u = rad * cosf(phi), v = rad * sinf(phi), w = sqrtf(vx_fmaxf(1.0f - u * u - v * v, 0.0f));
     vec3 wk, wj;
     v3_basis(wi, &wk, &wj);
     vec3 Sk = v3(S[0] * wk.x + S[1] * wk.y + S[2] * wk.z, S[3] * wk.x + S[4] * wk.y + S[5] * wk.z,
@@ -181,11 +186,21 @@ VX_INLINE vec3 vicini_sample_visible_normal(const float S[9], vec3 wi, float u1,
     float sqrt_det = sqrtf(fabsf(det));
     float inv_sqrt_ii = 1.0f / sqrtf(vx_fmaxf(S_ii, 1e-12f));
     float tmp = sqrtf(vx_fmaxf(S_jj * S_ii - S_ji * S_ji, 1e-12f));
-    vec3 Mk = v3(sqrt_det / tmp, 0.0f, 0.0f);
-    vec3 Mj = v3(-inv_sqrt_ii * (S_ki * S_ji - S_kj * S_ii) / tmp, inv_sqrt_ii * tmp, 0.0f);
-    vec3 Mi = v3(inv_sqrt_ii * S_ki, inv_sqrt_ii * S_ji, inv_sqrt_ii * S_ii);
-    vec3 m = v3_normalize(v3_add(v3_add(v3_scale(Mk, u), v3_scale(Mj, v)), v3_scale(Mi, w)));
-    return v3_add(v3_add(v3_scale(wk, m.x), v3_scale(wj, m.y)), v3_scale(wi, m.z));
+    fr->wk = wk;
+    fr->wj = wj;
+    fr->wi = wi;
+    fr->Mk = v3(sqrt_det / tmp, 0.0f, 0.0f);
+    fr->Mj = v3(-inv_sqrt_ii * (S_ki * S_ji - S_kj * S_ii) / tmp, inv_sqrt_ii * tmp, 0.0f);
+    fr->Mi = v3(inv_sqrt_ii * S_ki, inv_sqrt_ii * S_ji, inv_sqrt_ii * S_ii);
+}
+
+/* A visible normal of the frame's distribution for the uniform pair (u1, u2). */
+VX_INLINE vec3 vicini_visible_normal(const vicini_visible_frame *fr, float u1, float u2)
+{
+    float rad = sqrtf(u1), phi = 2.0f * VX_PI * u2;
+    float u = rad * cosf(phi), v = rad * sinf(phi), w = sqrtf(vx_fmaxf(1.0f - u * u - v * v, 0.0f));
+    vec3 m = v3_normalize(v3_add(v3_add(v3_scale(fr->Mk, u), v3_scale(fr->Mj, v)), v3_scale(fr->Mi, w)));
+    return v3_add(v3_add(v3_scale(fr->wk, m.x), v3_scale(fr->wj, m.y)), v3_scale(fr->wi, m.z));
 }
 
 #define VICINI_DIFFUSE_STRATA 4 /* 4 x 4 visible-normal samples per light */
@@ -194,10 +209,12 @@ VX_INLINE vec3 vicini_sample_visible_normal(const float S[9], vec3 wi, float u1,
 VX_INLINE float vicini_phase_diffuse(const float S[9], vec3 wi, vec3 wo)
 {
     float sum = 0.0f;
+    vicini_visible_frame fr;
+    vicini_visible_frame_of(S, wi, &fr);
     for (int a = 0; a < VICINI_DIFFUSE_STRATA; a++)
         for (int b = 0; b < VICINI_DIFFUSE_STRATA; b++) {
-            vec3 m = vicini_sample_visible_normal(S, wi, ((float)a + 0.5f) / VICINI_DIFFUSE_STRATA,
-                                                  ((float)b + 0.5f) / VICINI_DIFFUSE_STRATA);
+            vec3 m = vicini_visible_normal(&fr, ((float)a + 0.5f) / VICINI_DIFFUSE_STRATA,
+                                           ((float)b + 0.5f) / VICINI_DIFFUSE_STRATA);
             sum += vx_fmaxf(v3_dot(wo, m), 0.0f);
         }
     return sum / (VX_PI * (float)(VICINI_DIFFUSE_STRATA * VICINI_DIFFUSE_STRATA));
