@@ -5,8 +5,8 @@
  *    the requested bytes; calloc's block of the same size is checked not to be, so that this test
  *    can tell the difference (GCC folds malloc + memset(0) into calloc: the bug this guards).
  *    vx_populate: a fresh block resident after it, and written afterwards without page faults.
- *  - city 128^3 with shadows, 128x128: binary (the voxel marcher's shading cache and, binary's
- *    opacity being direction-free, no memo) and heitz-neyret (the cone marcher's light cache):
+ *  - city 128^3 with shadows, 128x128: binary and vmesh (the voxel marcher's shading cache and
+ *    shadow opacity memo) and heitz-neyret (the cone marcher's light cache):
  *    page faults inside the render's clock (render_counts.page_faults, the whole process) below a
  *    bound far under the caches' page count, and 1- and 2-thread images equal word for word.
  *  - the shading cache (tracer/render/shading_cache.h) sized by the image: its size rule, slots
