@@ -102,11 +102,14 @@ VX_INLINE float vicini_mean_chord(vec3 w)
     return 1.0f / vx_fmaxf(fabsf(w.x) + fabsf(w.y) + fabsf(w.z), 1.0f);
 }
 
-/* Vicini's transmittance after optical depth tau, for the mix gamma. */
-VX_INLINE float vicini_f(float tau, float gamma)
+/* vicini_f with expf(-tau) given as e (the Newton step below needs it twice). */
+VX_INLINE float vicini_f_with_exp(float e, float tau, float gamma)
 {
-    return gamma * expf(-tau) + (1.0f - gamma) * vx_fmaxf(1.0f - 0.5f * tau, 0.0f);
+    return gamma * e + (1.0f - gamma) * vx_fmaxf(1.0f - 0.5f * tau, 0.0f);
 }
+
+/* Vicini's transmittance after optical depth tau, for the mix gamma. */
+VX_INLINE float vicini_f(float tau, float gamma) { return vicini_f_with_exp(expf(-tau), tau, gamma); }
 
 /* The optical depth at which f(., gamma) falls to y: f^-1(y, gamma). Beyond tau = 2 only the
  * exponential part is left, so there the inverse is closed form; below, f is convex and
@@ -123,8 +126,11 @@ VX_INLINE float vicini_f_inv(float y, float gamma)
         return y > 0.0f ? vx_fminf(-logf(y / gamma), 104.0f) : 104.0f;
     float tau = 0.0f;
     for (int i = 0; i < 8; i++) {
-        float slope = gamma * expf(-tau) + 0.5f * (1.0f - gamma); /* -df/dtau below tau = 2 */
-        float step = (vicini_f(tau, gamma) - y) / slope;
+        /* One expf for the slope and the value: C's expf may set errno, so the compiler does not
+         * merge two calls itself (it computed it twice per step). */
+        float e = expf(-tau);
+        float slope = gamma * e + 0.5f * (1.0f - gamma); /* -df/dtau below tau = 2 */
+        float step = (vicini_f_with_exp(e, tau, gamma) - y) / slope;
         if (!(step > 1e-7f))
             break;
         tau = vx_fminf(tau + step, 2.0f);
