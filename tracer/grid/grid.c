@@ -412,29 +412,8 @@ int grid_build_bounds(voxel_grid *g, const mesh *m, int n, const double lo[3], c
     return grid_build_impl(g, m, n, lo, hi, 2, e);
 }
 
-int grid_build_cells(voxel_grid *g, const voxel_grid *like, const uint32_t *cells, size_t count, vx_err *e)
+int grid_build_dense_cells(voxel_grid *g, const uint32_t *cells, size_t count, vx_err *e)
 {
-    memset(g, 0, sizeof *g);
-    g->n = like->n;
-    memcpy(g->origin_d, like->origin_d, sizeof g->origin_d);
-    g->voxel_size_d = like->voxel_size_d;
-    g->origin = like->origin;
-    g->voxel_size = like->voxel_size;
-    g->levels = like->levels;
-    int sorted = 1;
-    for (size_t i = 0; i < count; i++) {
-        int x = (int)(cells[i] >> 20), y = (int)((cells[i] >> 10) & 1023u), z = (int)(cells[i] & 1023u);
-        if (x >= g->n || y >= g->n || z >= g->n) {
-            memset(g, 0, sizeof *g);
-            return vx_fail(e, "grid_build: cell (%d, %d, %d) outside the %d^3 grid", x, y, z, g->n);
-        }
-        sorted &= i == 0 || cells[i] > cells[i - 1];
-    }
-    /* Listed once each in order (what tracer/dynamic/ hands over: its pieces are sorted by cell):
-     * built sparse, without the n^3 bit array (128 MB a frame at 1024^3). The arrays are the same
-     * either way (tests/unit_grid.c). */
-    if (sorted)
-        return grid_levels_from_sorted_cells(g, cells, count, e);
     dense_bits dense;
     if (dense_alloc(&dense, g->n)) {
         memset(g, 0, sizeof *g);

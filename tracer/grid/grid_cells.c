@@ -2,7 +2,8 @@
  * sparse level by level: no N^3 bit array (128 MB at 1024^3) and no voxelisation, so that a render
  * of a baked file does not redo the bake's grid. The arrays come out byte for byte as grid.c's
  * compaction of the same cells writes them (tests/unit_grid.c compares them), including the first-word
- * field of empty columns. */
+ * field of empty columns. Also grid_build_cells (a moving object's frame, tracer/dynamic/): its cells
+ * come in order too, and only a list out of order or with repeats goes through grid.c's bit array. */
 #include "grid.h"
 
 #include <string.h>
@@ -120,6 +121,18 @@ static int level_from_children(grid_level *L, const grid_level *C, vx_err *e)
     return 0;
 }
 
+/* Every level of g (its n, levels and mapping set) from level 0's cells, listed once each in order
+ * and inside the grid (the caller checked). On error g is freed. */
+static int levels_from_sorted_cells(voxel_grid *g, const uint32_t *cells, size_t count, vx_err *e)
+{
+    int rc = level_from_cells(&g->level[0], g->n, cells, count, e);
+    for (int l = 1; rc == 0 && l < g->levels; l++)
+        rc = level_from_children(&g->level[l], &g->level[l - 1], e);
+    if (rc)
+        grid_free(g);
+    return rc;
+}
+
 int grid_build_sorted_cells(voxel_grid *g, int n, const double lo[3], const double hi[3], const uint32_t *cells,
                             size_t count, vx_err *e)
 {
@@ -137,15 +150,31 @@ int grid_build_sorted_cells(voxel_grid *g, int n, const double lo[3], const doub
                            i, x, y, z, i - 1);
     }
     grid_set_mapping(g, n, lo, hi);
-    return grid_levels_from_sorted_cells(g, cells, count, e);
+    return levels_from_sorted_cells(g, cells, count, e);
 }
 
-int grid_levels_from_sorted_cells(voxel_grid *g, const uint32_t *cells, size_t count, vx_err *e)
+int grid_build_cells(voxel_grid *g, const voxel_grid *like, const uint32_t *cells, size_t count, vx_err *e)
 {
-    int rc = level_from_cells(&g->level[0], g->n, cells, count, e);
-    for (int l = 1; rc == 0 && l < g->levels; l++)
-        rc = level_from_children(&g->level[l], &g->level[l - 1], e);
-    if (rc)
-        grid_free(g);
-    return rc;
+    memset(g, 0, sizeof *g);
+    g->n = like->n;
+    memcpy(g->origin_d, like->origin_d, sizeof g->origin_d);
+    g->voxel_size_d = like->voxel_size_d;
+    g->origin = like->origin;
+    g->voxel_size = like->voxel_size;
+    g->levels = like->levels;
+    int sorted = 1;
+    for (size_t i = 0; i < count; i++) {
+        int x = (int)(cells[i] >> 20), y = (int)((cells[i] >> 10) & 1023u), z = (int)(cells[i] & 1023u);
+        if (x >= g->n || y >= g->n || z >= g->n) {
+            memset(g, 0, sizeof *g);
+            return vx_fail(e, "grid_build: cell (%d, %d, %d) outside the %d^3 grid", x, y, z, g->n);
+        }
+        sorted &= i == 0 || cells[i] > cells[i - 1];
+    }
+    /* Listed once each in order (what tracer/dynamic/ hands over: its pieces are sorted by cell):
+     * built sparse, without the n^3 bit array (128 MB a frame at 1024^3). Otherwise through that
+     * array (grid.c). The arrays are the same either way (tests/unit_grid.c). */
+    if (sorted)
+        return levels_from_sorted_cells(g, cells, count, e);
+    return grid_build_dense_cells(g, cells, count, e);
 }

@@ -68,9 +68,9 @@ static inline size_t coords_bytes(const grid_level *L) { return (L->count + 1) *
 /* The mapping documented in grid.h for n cells a side over bounds lo/hi, and the level count. */
 void grid_set_mapping(voxel_grid *g, int n, const double lo[3], const double hi[3]);
 
-/* Every level of g (its n, levels and mapping set, its arrays not yet) from level 0's cells, listed
- * once each in dense-index order and inside the grid (the caller checked): grid_cells.c, sparse,
- * without an n^3 bit array. On error g is freed. */
-int grid_levels_from_sorted_cells(voxel_grid *g, const uint32_t *cells, size_t count, vx_err *e);
+/* Every level of g (its n, levels and mapping set, its arrays not yet) from level 0's cells, inside
+ * the grid (the caller checked), in any order and repeated or not: grid.c's compaction of an n^3
+ * bit array. On error g is zeroed. */
+int grid_build_dense_cells(voxel_grid *g, const uint32_t *cells, size_t count, vx_err *e);
 
 #endif
