@@ -39,7 +39,7 @@ static void cache_put(struct voxel_ctx *x, int64_t index, const vx_answer *a);
 #define VOXEL_CTX_BACKEND_FIELDS \
     const vx_voxel_eval *eval;   \
     int compositing;             \
-    const shading_cache *shading; \
+    shading_cache shading;       \
     atomic_uint *memo;           \
     int memo_lights;             \
     const grid_distance *skip;   \
@@ -88,12 +88,12 @@ static float memo_opacity(voxel_ctx *x, int64_t index, int light, const vx_query
 
 static int cache_get(voxel_ctx *x, int64_t index, vx_answer *a)
 {
-    return shading_cache_get(x->shading, index, &a->radiance, &a->opacity);
+    return shading_cache_get(&x->shading, index, &a->radiance, &a->opacity);
 }
 
 static void cache_put(voxel_ctx *x, int64_t index, const vx_answer *a)
 {
-    shading_cache_put(x->shading, index, a->radiance, a->opacity);
+    shading_cache_put(&x->shading, index, a->radiance, a->opacity);
 }
 
 /* Allocated and touched here, before the threads start and outside the render's clock: pages first
@@ -156,7 +156,7 @@ static void voxel_row(void *p, int64_t row, int thread)
     const voxel_state *st = j->state;
     x.eval = j->m->voxel;
     x.compositing = j->m->voxel->compositing;
-    x.shading = &st->cache;
+    x.shading = st->cache;
     x.memo = st->memo;
     x.memo_lights = st->lights;
     x.opacity_by_direction = st->memo != NULL;

@@ -89,9 +89,13 @@ static inline int shading_cache_get(const shading_cache *c, int64_t index, vec3 
     unsigned v[4];
     for (int i = 0; i < 4; i++)
         v[i] = atomic_load_explicit(&s->value[i], memory_order_relaxed);
-    atomic_thread_fence(memory_order_acquire);
-    if (atomic_load_explicit(&s->tag, memory_order_relaxed) != t)
-        return 0; /* a writer came by during the read */
+    /* With one slot a voxel (hash_bits 0) a slot is written once, by its own voxel, and never again
+     * (a writer leaves a slot that holds its voxel): the tag seen above already covers the values. */
+    if (c->hash_bits) {
+        atomic_thread_fence(memory_order_acquire);
+        if (atomic_load_explicit(&s->tag, memory_order_relaxed) != t)
+            return 0; /* a writer came by during the read */
+    }
     memcpy(&radiance->x, &v[0], 4);
     memcpy(&radiance->y, &v[1], 4);
     memcpy(&radiance->z, &v[2], 4);
