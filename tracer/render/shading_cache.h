@@ -36,7 +36,7 @@
 #define SHADING_CACHE_RUN_BITS 3 /* runs of 8 voxels kept together (see shading_cache_slot_of) */
 
 typedef struct {
-    atomic_ullong tag;     /* (index + 1) << 32 | counter (odd: being written) */
+    _Atomic uint64_t tag;  /* (index + 1) << 32 | counter (odd: being written) */
     atomic_uint value[4];  /* radiance x, y, z, opacity: the floats' bits */
 } shading_cache_slot;
 
