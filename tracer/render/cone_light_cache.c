@@ -16,6 +16,9 @@ size_t cone_light_cache_slots(size_t cells)
     return slots;
 }
 
+/* Transmittances a slot holds: one a light (one even without lights, so the block is never empty). */
+static size_t values_per_slot(int lights) { return (size_t)(lights > 0 ? lights : 1); }
+
 size_t cone_light_cache_cells(size_t level0_cells, size_t pixels)
 {
     size_t per_pixels = 2 * pixels;
@@ -30,7 +33,7 @@ int cone_light_cache_init(cone_light_cache *c, size_t cells, int lights)
      * the render's clock). Zero keys and states: every slot free and empty. */
     c->keys = vx_alloc_touched(slots * sizeof *c->keys, 0);
     c->state = vx_alloc_touched(slots * sizeof *c->state, 0);
-    c->T = vx_alloc_touched(slots * (size_t)(lights > 0 ? lights : 1) * sizeof *c->T, 0);
+    c->T = vx_alloc_touched(slots * values_per_slot(lights) * sizeof *c->T, 0);
     if (!c->keys || !c->state || !c->T) {
         cone_light_cache_free(c);
         return -1;
@@ -45,7 +48,7 @@ size_t cone_light_cache_bytes(const cone_light_cache *c)
     if (!c->keys)
         return 0;
     size_t slots = (size_t)c->mask + 1;
-    return slots * (sizeof *c->keys + sizeof *c->state + (size_t)(c->lights > 0 ? c->lights : 1) * sizeof *c->T);
+    return slots * (sizeof *c->keys + sizeof *c->state + values_per_slot(c->lights) * sizeof *c->T);
 }
 
 void cone_light_cache_free(cone_light_cache *c)

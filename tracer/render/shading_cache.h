@@ -70,7 +70,7 @@ static inline shading_cache_slot *shading_cache_slot_of(const shading_cache *c, 
 {
     if (!c->hash_bits)
         return &c->slots[index];
-    /* Runs of SHADING_CACHE_RUN consecutive voxels (neighbours along z) stay side by side, as they
+    /* Runs of 2^SHADING_CACHE_RUN_BITS consecutive voxels (neighbours along z) stay side by side, as they
      * are in the records, and the runs are spread by Fibonacci hashing, so that the voxels a few rows
      * of pixels share rarely evict each other (hashing each voxel alone made 512^3 frames 5 % slower
      * than one slot a voxel: every lookup a cache miss). */
