@@ -8,7 +8,9 @@
  *  - city 128^3 with shadows, 128x128: binary and vmesh (the voxel marcher's shading cache and
  *    shadow opacity memo) and heitz-neyret (the cone marcher's light cache):
  *    page faults inside the render's clock (render_counts.page_faults, the whole process) below a
- *    bound far under the caches' page count, and 1- and 2-thread images equal word for word.
+ *    bound far under the caches' page count, and 1- and 2-thread images equal word for word;
+ *    small images (heights 1 to 33, not multiples of the threads' 8-row bands) with every ray
+ *    traced once and the same image on 1 and 3 threads.
  *  - the shading cache (tracer/render/shading_cache.h) sized by the image: its size rule, slots
  *    inside the table with runs of 8 voxels side by side, eviction, a voxel's answer never returned
  *    for another under two threads hammering a 16-slot table, and city rendered with a 16-slot
@@ -247,6 +249,46 @@ static int render(const scene *s, const voxel_grid *g, const vx_model *m, const 
     return render_slots(s, g, m, rec, threads, 0, img, c);
 }
 
+/* The threads take the image in bands of rows (render.c): images whose height is not a multiple of
+ * a band, or is below one, must still have every row rendered, once (the rays counted: spp per
+ * pixel, one per pixel for a cone model), the same with 1 and 3 threads. */
+static void band_checks(const scene *s, const voxel_grid *g, const vx_model *m, const void *rec)
+{
+    static const int heights[] = {1, 7, 9, 17, 33};
+    for (size_t k = 0; k < sizeof heights / sizeof *heights; k++) {
+        image img[2];
+        render_counts c[2];
+        int ok = 0;
+        for (int r = 0; r < 2; r++) {
+            render_options o;
+            render_default_options(&o);
+            o.width = 24;
+            o.height = heights[k];
+            o.threads = r ? 3 : 1;
+            o.progress = 0;
+            vx_err e;
+            if (render_image(s, g, m, rec, &o, &img[r], &c[r], &e)) {
+                printf("not ok render %s %dx%d: %s\n", m->name, o.width, o.height, e.msg);
+                unit_failures++;
+                break;
+            }
+            ok++;
+        }
+        if (ok == 2) {
+            uint64_t expected = (uint64_t)24 * (uint64_t)heights[k] * (m->cone ? 1u : 4u);
+            char name[160];
+            snprintf(name, sizeof name, "%s: 24x%d image: %llu and %llu rays with 1 and 3 threads, %llu expected",
+                     m->name, heights[k], (unsigned long long)c[0].rays, (unsigned long long)c[1].rays,
+                     (unsigned long long)expected);
+            CHECK(name, c[0].rays == expected && c[1].rays == expected);
+            snprintf(name, sizeof name, "%s: 24x%d image: 1- and 3-thread images bit-identical", m->name, heights[k]);
+            CHECK(name, memcmp(img[0].data, img[1].data, (size_t)24 * (size_t)heights[k] * 3 * sizeof(float)) == 0);
+        }
+        for (int r = 0; r < ok; r++)
+            image_free(&img[r]);
+    }
+}
+
 static void render_checks(const scene *s, const char *model)
 {
     const vx_model *m = model_find(model);
@@ -267,6 +309,7 @@ static void render_checks(const scene *s, const char *model)
         unit_failures++;
         return;
     }
+    band_checks(s, &g, m, rec);
     image one, two;
     render_counts c1, c2;
     if (render(s, &g, m, rec, 1, &one, &c1) == 0) {

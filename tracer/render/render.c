@@ -1,4 +1,4 @@
-/* The C backend's render driver: the options' defaults, the threads (one image row at a time, as
+/* The C backend's render driver: the options' defaults, the threads (bands of image rows, as
  * parallel_for hands them out), the counters; the marching itself is the model's protocol's
  * marcher (render_voxel.c or render_cone.c). */
 #include "render.h"
@@ -27,6 +27,26 @@ void render_default_options(render_options *o)
     o->stop_opacity = 1.0f - 0.001f;
     o->shadow_method = -1;
     o->empty_skip = 1;
+}
+
+/* The threads take the image in bands of this many rows, not row by row. Neighbouring rows see
+ * mostly the same voxels: when two threads render them at the same time, the shading cache's slots
+ * that one thread writes are read by the other a moment later, and the cache lines bounce between
+ * the cores (binary on city 256^3, 256x256: 1.68x from a second thread with single rows, 1.87x with
+ * bands of 8, and the 2-thread frame 10 % shorter; 32 bands still balance the two threads). */
+#define RENDER_BAND_ROWS 8
+
+typedef struct {
+    render_job *j;
+    void (*row)(void *job, int64_t row, int thread);
+    int height;
+} band_job;
+
+static void render_band(void *p, int64_t band, int thread)
+{
+    const band_job *b = p;
+    for (int64_t r = band * RENDER_BAND_ROWS; r < (band + 1) * RENDER_BAND_ROWS && r < b->height; r++)
+        b->row(b->j, r, thread);
 }
 
 int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const void *records,
@@ -63,7 +83,9 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
     memset(out->data, 0, (size_t)o->width * (size_t)o->height * 3 * sizeof *out->data);
     long f0 = minor_faults();
     double t0 = now_seconds();
-    parallel_for(o->height, threads, marcher->row, &j, o->progress ? "render" : NULL);
+    band_job bands = {&j, marcher->row, o->height};
+    parallel_for((o->height + RENDER_BAND_ROWS - 1) / RENDER_BAND_ROWS, threads, render_band, &bands,
+                 o->progress ? "render" : NULL);
     double t1 = now_seconds();
     memset(counts, 0, sizeof *counts);
     counts->seconds = t1 - t0;
