@@ -1,7 +1,9 @@
 """`voxlab bake --model a,b,c`: several models baked from one pass of the sampler (issue 15: the
 tracing of the sample rays is most of a bake, and every model reads the same rays). Checked against
 the independent reference of separate bakes: each model's .vox is byte-identical to its own bake's,
-whatever the thread count; each model gets its own --stats, which says the pass was shared; bad
+whatever the thread count; each model gets its own --stats, which says the pass was shared and
+splits the pass's time between the samples and each model (the parts add up to the pass; a model
+baked alone has the whole pass as its time); bad
 lists and paths are refused before anything is written; a failed write leaves none of the run's
 files."""
 import json
@@ -32,7 +34,25 @@ def read(p):
 single = {}
 for m in MODELS:
     single[m] = path(f"single_{m}.vox")
-    voxlab("bake", SPHERES, "--model", m, *BAKE, "--threads", "1", "-o", single[m])
+    voxlab("bake", SPHERES, "--model", m, *BAKE, "--threads", "1", "-o", single[m], "--stats", path(f"single_{m}.json"))
+
+
+def close(a, b):
+    return abs(a - b) <= 1e-9 * max(abs(a), abs(b), 1e-6)
+
+
+def times(j):
+    return [j.get(k) for k in ("bake_seconds", "bake_pass_seconds", "bake_sampling_seconds", "bake_finish_seconds")]
+
+
+for m in MODELS:
+    j = json.load(open(path(f"single_{m}.json")))
+    total, pass_s, sampling, own_finish = times(j)
+    report(f"{m} baked alone: bake_seconds {total} = the pass {pass_s} + its bake_finish {own_finish}, and the "
+           f"samples {sampling} are part of the pass", None not in (total, pass_s, sampling, own_finish)
+           and close(total, pass_s + own_finish) and 0 < sampling <= pass_s and own_finish >= 0
+           and j.get("seconds") == total,
+           str(j))
 
 # ---------- one pass, every model ----------
 for threads in (1, 2):
@@ -50,6 +70,18 @@ for threads in (1, 2):
         j = json.load(open(st)) if ok else {}
         report(f"shared bake ({threads} threads): {m}'s --stats names it and the models baked with it",
                ok and j.get("model") == m and j.get("baked_together") == MODELS and j.get("bake_rays", 0) > 0, str(j))
+    # The pass's time: the same pass and samples in every model's stats; each model's own part
+    # (bake_seconds without its finish and the samples) between 0 and the pass, and the parts and
+    # the samples adding up to the pass (not every model charged the whole pass).
+    st = [json.load(open(os.path.join(d, f"{m}.json"))) for m in MODELS]
+    t = [times(j) for j in st]
+    ok = all(None not in x for x in t)
+    pass_s, sampling = (t[0][1], t[0][2]) if ok else (None, None)
+    own = [x[0] - x[3] - x[2] for x in t] if ok else []
+    report(f"shared bake ({threads} threads): one pass ({pass_s} s) and one sampling time ({sampling} s) in every "
+           f"model's stats", ok and all(x[1] == pass_s and x[2] == sampling for x in t) and 0 < sampling <= pass_s)
+    report(f"shared bake ({threads} threads): the models' own parts {[round(o, 6) for o in own]} and the samples add "
+           f"up to the pass", ok and all(-1e-9 <= o <= pass_s for o in own) and close(sampling + sum(own), pass_s))
 
 # A subset, in another order, with a path that is not only {model}.
 d = path("subset")

@@ -6,6 +6,7 @@
 
 #include "animation.h"
 #include "bake_params.h"
+#include "cycles.h"
 #include "grid_scene.h"
 #include "instancing.h"
 #include "parallel.h"
@@ -278,7 +279,14 @@ typedef struct {
     const struct vx_bake_params *params; /* one per model */
     unsigned char **records;             /* one per model */
     vx_sample **scratch;                 /* per thread */
+    uint64_t *cycles;                    /* per thread, BAKE_CYCLE_STRIDE apart: see bake_item */
 } bake_job;
+
+/* Each thread's cycle counts: [0] the whole of its items, [1 + k] model k's bake_voxel calls (the
+ * rest of [0] is the samples' part). At least a cache line (8 words) between the words two threads
+ * write, so that the counting does not make them fight over a line. */
+#define BAKE_CYCLE_STRIDE 32
+_Static_assert(BAKE_CYCLE_STRIDE >= 1 + BAKE_MAX_MODELS + 8, "a thread's counts and a line of space");
 
 static void bake_item(void *p, int64_t item, int thread)
 {
@@ -286,6 +294,8 @@ static void bake_item(void *p, int64_t item, int thread)
     size_t count = grid_count(j->g, 0);
     size_t first = (size_t)item * VOXELS_PER_ITEM;
     vx_sample *samples = j->scratch[thread];
+    uint64_t *cyc = j->cycles + (size_t)thread * BAKE_CYCLE_STRIDE;
+    uint64_t c_item = cycles();
     for (size_t i = first; i < first + VOXELS_PER_ITEM && i < count; i++) {
         bake_generate_rays(j->rt, j->g, i, j->o->seed, j->o->rays, samples);
         bake_trace(j->rt, j->g, i, samples, j->o->rays);
@@ -299,9 +309,12 @@ static void bake_item(void *p, int64_t item, int thread)
         /* Every model reads the same samples (const: none can change them for the next). */
         for (int k = 0; k < j->count; k++) {
             v.params = &j->params[k];
+            uint64_t c0 = cycles();
             j->m[k]->bake_voxel(&v, samples, j->o->rays, j->records[k] + i * j->m[k]->record.bytes);
+            cyc[1 + k] += cycles() - c0;
         }
     }
+    cyc[0] += cycles() - c_item;
 }
 
 static void free_all(void **p, int n)
@@ -321,7 +334,8 @@ int bake_run_models(const rt_scene *rt, const voxel_grid *g, int count, const vx
     unsigned char *rec[BAKE_MAX_MODELS] = {0};
     int threads = parallel_threads(o->threads);
     vx_sample **scratch = calloc((size_t)threads, sizeof *scratch);
-    int ok = scratch != NULL, failed = -1;
+    uint64_t *cyc = calloc((size_t)threads * BAKE_CYCLE_STRIDE, sizeof *cyc);
+    int ok = scratch != NULL && cyc != NULL, failed = -1;
     for (int k = 0; ok && k < count; k++) {
         size_t nrec = bake_record_count(m[k], g);
         ok = (rec[k] = calloc(nrec ? nrec : 1, m[k]->record.bytes)) != NULL;
@@ -335,13 +349,14 @@ int bake_run_models(const rt_scene *rt, const voxel_grid *g, int count, const vx
     if (!ok) {
         free_all((void **)scratch, threads);
         free(scratch);
+        free(cyc);
         free_all((void **)rec, count);
         if (failed >= 0)
             return vx_fail(e, "out of memory for %zu voxel records of %zu bytes", bake_record_count(m[failed], g),
                            m[failed]->record.bytes);
         return vx_fail(e, "out of memory for the bake's samples (%d rays)", o->rays);
     }
-    bake_job j = {rt, g, count, m, o, params, rec, scratch};
+    bake_job j = {rt, g, count, m, o, params, rec, scratch, cyc};
     size_t voxels = grid_count(g, 0);
     double t0 = now_seconds();
     parallel_for((int64_t)((voxels + VOXELS_PER_ITEM - 1) / VOXELS_PER_ITEM), threads, bake_item, &j,
@@ -349,13 +364,30 @@ int bake_run_models(const rt_scene *rt, const voxel_grid *g, int count, const vx
     double t1 = now_seconds();
     free_all((void **)scratch, threads);
     free(scratch);
+    /* The pass's wall time split in the proportions of the threads' cycles (the threads ran side by
+     * side for the whole pass, so shares of their summed cycles are shares of the wall time). */
+    uint64_t all = 0, own[BAKE_MAX_MODELS] = {0};
+    for (int t = 0; t < threads; t++) {
+        all += cyc[(size_t)t * BAKE_CYCLE_STRIDE];
+        for (int k = 0; k < count; k++)
+            own[k] += cyc[(size_t)t * BAKE_CYCLE_STRIDE + 1 + (size_t)k];
+    }
+    free(cyc);
+    uint64_t models = 0;
+    for (int k = 0; k < count; k++)
+        models += own[k];
+    double pass = t1 - t0, per_cycle = all ? pass / (double)all : 0.0;
+    double sampling = models <= all ? (double)(all - models) * per_cycle : 0.0;
     for (int k = 0; k < count; k++) {
         double f0 = now_seconds();
         if (m[k]->bake_finish && m[k]->bake_finish(g, rec[k], &params[k])) {
             free_all((void **)rec, count);
             return vx_fail(e, "model %s: bake_finish failed", m[k]->name);
         }
-        counts[k].seconds = t1 - t0;
+        counts[k].pass_seconds = pass;
+        counts[k].sampling_seconds = sampling;
+        /* Alone: exactly the pass (its cycles are all of them). */
+        counts[k].seconds = count == 1 ? pass : sampling + (double)own[k] * per_cycle;
         counts[k].finish_seconds = now_seconds() - f0;
         counts[k].rays = (uint64_t)voxels * (uint64_t)o->rays;
         counts[k].voxels = voxels;

@@ -42,8 +42,14 @@ typedef struct {
 } bake_options;
 
 typedef struct {
-    double seconds;        /* sampling + model bake */
-    double finish_seconds; /* the model's bake_finish pass */
+    /* This model's part of the sampling pass: the sampling (generating and classifying each voxel's
+     * rays) plus its own bake_voxel calls. Baked alone, that is the whole pass; baked with other
+     * models (bake_run_models), the others' bake_voxel time is left out, so that it estimates what
+     * the model's own bake costs and models baked together are still told apart. */
+    double seconds;
+    double pass_seconds;     /* the pass's wall time, shared by every model baked in it */
+    double sampling_seconds; /* the part of the pass spent on the samples (shared by the models) */
+    double finish_seconds;   /* the model's bake_finish pass */
     uint64_t rays;
     size_t voxels;
 } bake_counts;
@@ -73,8 +79,9 @@ int bake_run(const rt_scene *rt, const voxel_grid *g, const vx_model *m, const b
  * and handed to every model in turn, so that the tracing, most of a bake's time, is paid once
  * (issue 15). A model reads only the samples, which do not depend on the model, so each model's
  * records are those of its own bake, byte for byte. params[k]: model k's parameters (o's params
- * are not read); records[k], counts[k]: model k's; counts[k].seconds is the shared pass's time,
- * finish_seconds model k's own bake_finish. */
+ * are not read); records[k], counts[k]: model k's. The pass is timed once (pass_seconds) and split
+ * by each thread's cycle counts between the samples and each model's bake_voxel: counts[k].seconds
+ * is the samples' part plus model k's (see bake_counts); finish_seconds model k's own bake_finish. */
 #define BAKE_MAX_MODELS 16
 int bake_run_models(const rt_scene *rt, const voxel_grid *g, int count, const vx_model *const *m,
                     const struct vx_bake_params *params, const bake_options *o, void **records, bake_counts *counts,

@@ -248,7 +248,8 @@ int cmd_bake(int argc, char **argv)
         if (stats_path) {
             cJSON *j = stats_bake(&s, m[written], &o, &g, &c[written], grid_seconds);
             if (count > 1) {
-                /* The pass's time is shared: bake_seconds is not this model's alone. */
+                /* One pass for all of them: bake_pass_seconds is the pass's, bake_seconds this
+                 * model's part of it (the samples and its own calls; bake_counts). */
                 cJSON *with = cJSON_AddArrayToObject(j, "baked_together");
                 for (int k = 0; k < count; k++)
                     cJSON_AddItemToArray(with, cJSON_CreateString(m[k]->name));

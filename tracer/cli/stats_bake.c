@@ -23,10 +23,18 @@ void stats_add_bake(cJSON *j, const vx_model *m, const struct vx_bake_params *pa
     cJSON_AddNumberToObject(j, "model_bytes", (double)(bake_record_count(m, g) * m->record.bytes));
     cJSON_AddNumberToObject(j, "grid_bytes", (double)grid_bytes(g));
     cJSON_AddNumberToObject(j, "grid_seconds", grid_seconds);
-    if (c->seconds < 0) /* rendered from a .vox file: the bake's time is in that bake's --stats */
+    if (c->seconds < 0) { /* rendered from a .vox file: the bake's time is in that bake's --stats */
         cJSON_AddNullToObject(j, "bake_seconds");
-    else
+        cJSON_AddNullToObject(j, "bake_pass_seconds");
+        cJSON_AddNullToObject(j, "bake_sampling_seconds");
+        cJSON_AddNullToObject(j, "bake_finish_seconds");
+    } else {
+        /* The model's own: its part of the sampling pass (bake_counts.seconds) and its bake_finish. */
         cJSON_AddNumberToObject(j, "bake_seconds", c->seconds + c->finish_seconds);
+        cJSON_AddNumberToObject(j, "bake_pass_seconds", c->pass_seconds);
+        cJSON_AddNumberToObject(j, "bake_sampling_seconds", c->sampling_seconds);
+        cJSON_AddNumberToObject(j, "bake_finish_seconds", c->finish_seconds);
+    }
     cJSON_AddNumberToObject(j, "bake_rays", (double)c->rays);
     cJSON_AddNumberToObject(j, "rays_per_voxel", rays);
 }

@@ -4,15 +4,9 @@
 #ifndef VX_RENDER_INTERNAL_H
 #define VX_RENDER_INTERNAL_H
 
+#include "cycles.h"
 #include "parallel.h"
 #include "render.h"
-
-#if defined(__x86_64__) || defined(__i386__)
-#include <x86intrin.h>
-static inline uint64_t cycles(void) { return __rdtsc(); }
-#else
-static inline uint64_t cycles(void) { return (uint64_t)(now_seconds() * 1e9); }
-#endif
 
 /* One thread's counters, on its own cache line. */
 typedef struct {
