@@ -431,7 +431,8 @@ def main(argv=None):
         loaded = {k: load_declaration(decls[k]) for k in only}  # every declaration checked before any work
         cache = a.cache or os.path.join(results, "cache")
         sw = Sweep(a.voxlab, cache, jobs=a.jobs, fresh=a.fresh, name="figures", executor=a.executor,
-                      scheduler=a.scheduler, slurm_args=a.slurm_args, repeats=a.repeats)
+                      scheduler=a.scheduler, slurm_args=a.slurm_args, repeats=a.repeats,
+                      group_bakes=not a.separate_bakes)
         md = ["# Figures", ""]
         for k in only:
             decl = loaded[k]

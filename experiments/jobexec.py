@@ -13,7 +13,14 @@ A timed job gets every core of the machine it runs on (the scheduler never runs 
 and runs its voxlab command R times; the first run's outputs are kept (renders are deterministic), the
 timing field of every run's --stats (seconds, or bake_seconds for a bake) is recorded with its min,
 median and spread (max - min), and so is the machine's 1-minute load average before and after: a
-measurement taken under a load above the core count is flagged ("loaded")."""
+measurement taken under a load above the core count is flagged ("loaded").
+
+A bake spec may instead carry "group": the specs of several bake jobs of the same scene, resolution,
+rays and seed, run as one `voxlab bake --model a,b,...` (one pass of the sampler for all of them;
+each model's .vox is byte for byte its own bake's). Its command writes "{model}"'s files, which voxlab
+names per model; each member gets its own cache entry, as its own run would have written it, with
+its own timing field (a model's bake_seconds from the shared pass: the samples' part plus its own),
+and execute returns the members' records in order."""
 import json
 import os
 import platform
@@ -165,13 +172,81 @@ def _fail_message(kind, rc, wall, timeout, err):
     return f"voxlab {kind} {why}: " + (msg[-1] if msg else "(no message)")
 
 
+def _run_repeats(spec, tmp, threads, repeats, stats_files):
+    """Runs spec's command `repeats` times (the first into tmp, the others into scratch folders);
+    returns (stdout of the first, walls, peak RSS, {stats file: [timing field per run]})."""
+    runs = {f: [] for f in stats_files}
+    walls, rss_max, out = [], None, ""
+    for i in range(repeats):
+        where = tmp if i == 0 else os.path.join(tmp, f".repeat{i}")
+        os.makedirs(where, exist_ok=True)
+        cmd = _fill(spec["cmd"], where, threads)
+        out_i, err, rc, wall, rss = run_measured(cmd, spec.get("timeout"))
+        if rc != 0:
+            raise JobFailed(_fail_message(spec["kind"], rc, wall, spec.get("timeout"), err), " ".join(cmd),
+                            err.strip())
+        if i == 0:
+            out = out_i
+        walls.append(wall)
+        rss_max = rss if rss_max is None else max(rss_max, rss or 0)
+        if spec.get("timing_field"):
+            for name in stats_files:
+                with open(os.path.join(where, name)) as f:
+                    runs[name].append(float(json.load(f)[spec["timing_field"]]))
+        if i:
+            shutil.rmtree(where, ignore_errors=True)
+    return out, walls, rss_max, runs
+
+
+def _record(spec, run_spec, threads, walls, rss_max, runs, timing, started_at, load_before, load_after):
+    """job.json of spec, run by run_spec's command (the same spec, or the group it was run in)."""
+    cores = os.cpu_count() or 1
+    rec = {"key": spec["key"], "identity": spec["identity"], "kind": spec["kind"], "label": spec["label"],
+           "inputs": spec["inputs"], "code_files": spec.get("code_files", {}),
+           "command": [os.path.basename(run_spec["cmd"][0]), *_fill(run_spec["cmd"][1:], "<out>", threads)],
+           "outputs": list(spec["outputs"]), "wall_seconds": walls[0], "peak_rss_bytes": rss_max, "threads": threads,
+           "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"), "host": platform.node(),
+           "voxlab_sha256": spec.get("voxlab_sha256"), "executor": spec.get("executor", "local"),
+           "timed": timing, "started_at": started_at, "finished_at": time.time(), "cores": cores,
+           "load_average": load_before, "load_after": load_after,
+           # The 1-minute average includes our own job (at most `threads` runnable): above the
+           # core count, something else was competing for the cores while we measured.
+           "loaded": max(load_before, load_after) > cores}
+    if runs:
+        rec["timing"] = {"field": run_spec["timing_field"], "runs": runs, "min": min(runs),
+                         "median": statistics.median(runs), "spread": max(runs) - min(runs)}
+    return rec
+
+
+def _tmp_for(job_dir):
+    return f"{job_dir}.tmp.{platform.node()}.{os.getpid()}.{threading.get_ident()}"
+
+
+def _install(spec, tmp, rec):
+    """Writes job.json into tmp (last: an entry without it is incomplete) and renames tmp into place."""
+    job_dir = spec["dir"]
+    _write_json(os.path.join(tmp, "job.json"), rec)
+    if os.path.exists(job_dir):  # --force, or an incomplete entry: replace it
+        trash = f"{job_dir}.old.{platform.node()}.{os.getpid()}.{threading.get_ident()}"
+        os.rename(job_dir, trash)
+        shutil.rmtree(trash, ignore_errors=True)
+    try:
+        os.rename(tmp, job_dir)
+    except OSError:
+        if complete(spec) is None:  # nobody else completed it either
+            raise
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
 def execute(spec):
     """Runs the job into a temporary directory and renames it into place when everything is written
-    (job.json last), so a killed run never leaves an entry that looks complete. Returns the record;
-    raises JobFailed when voxlab fails."""
+    (job.json last), so a killed run never leaves an entry that looks complete. Returns the record
+    (a group's: the list of its members' records); raises JobFailed when voxlab fails."""
+    if spec.get("group"):
+        return _execute_group(spec)
     job_dir = spec["dir"]
     os.makedirs(os.path.dirname(job_dir), exist_ok=True)
-    tmp = f"{job_dir}.tmp.{platform.node()}.{os.getpid()}.{threading.get_ident()}"
+    tmp = _tmp_for(job_dir)
     shutil.rmtree(tmp, ignore_errors=True)
     os.makedirs(tmp)
     timed = spec.get("timed", False)
@@ -181,56 +256,54 @@ def execute(spec):
     try:
         started_at = time.time()  # wall clock: tests check that no job ran beside a timed one
         load_before = os.getloadavg()[0]
-        runs, walls, rss_max, out = [], [], None, ""
-        for i in range(repeats):
-            where = tmp if i == 0 else os.path.join(tmp, f".repeat{i}")
-            os.makedirs(where, exist_ok=True)
-            cmd = _fill(spec["cmd"], where, threads)
-            out_i, err, rc, wall, rss = run_measured(cmd, spec.get("timeout"))
-            if rc != 0:
-                raise JobFailed(_fail_message(spec["kind"], rc, wall, spec.get("timeout"), err), " ".join(cmd),
-                                err.strip())
-            if i == 0:
-                out = out_i
-            walls.append(wall)
-            rss_max = rss if rss_max is None else max(rss_max, rss or 0)
-            if spec.get("timing_field"):
-                with open(os.path.join(where, "stats.json")) as f:
-                    runs.append(float(json.load(f)[spec["timing_field"]]))
-            if i:
-                shutil.rmtree(where, ignore_errors=True)
+        out, walls, rss_max, runs = _run_repeats(spec, tmp, threads, repeats, ["stats.json"])
         load_after = os.getloadavg()[0]
-        outputs = list(spec["outputs"])
         if spec["kind"] in ("truth", "render"):
             exr_to_png(os.path.join(tmp, "image.exr"), os.path.join(tmp, "image.png"))
         elif spec["kind"] == "compare":
             _write_json(os.path.join(tmp, "metrics.json"), json.loads(out))
-        cores = os.cpu_count() or 1
-        rec = {"key": spec["key"], "identity": spec["identity"], "kind": spec["kind"], "label": spec["label"],
-               "inputs": spec["inputs"], "code_files": spec.get("code_files", {}),
-               "command": [os.path.basename(spec["cmd"][0]), *_fill(spec["cmd"][1:], "<out>", threads)],
-               "outputs": outputs, "wall_seconds": walls[0], "peak_rss_bytes": rss_max, "threads": threads,
-               "date": datetime.datetime.now().astimezone().isoformat(timespec="seconds"), "host": platform.node(),
-               "voxlab_sha256": spec.get("voxlab_sha256"), "executor": spec.get("executor", "local"),
-               "timed": timed, "started_at": started_at, "finished_at": time.time(), "cores": cores, "load_average": load_before, "load_after": load_after,
-               # The 1-minute average includes our own job (at most `threads` runnable): above the
-               # core count, something else was competing for the cores while we measured.
-               "loaded": max(load_before, load_after) > cores}
-        if runs:
-            rec["timing"] = {"field": spec["timing_field"], "runs": runs, "min": min(runs),
-                             "median": statistics.median(runs), "spread": max(runs) - min(runs)}
-        _write_json(os.path.join(tmp, "job.json"), rec)
-        if os.path.exists(job_dir):  # --force, or an incomplete entry: replace it
-            trash = f"{job_dir}.old.{platform.node()}.{os.getpid()}.{threading.get_ident()}"
-            os.rename(job_dir, trash)
-            shutil.rmtree(trash, ignore_errors=True)
-        try:
-            os.rename(tmp, job_dir)
-        except OSError:
-            if complete(spec) is None:  # nobody else completed it either
-                raise
-            shutil.rmtree(tmp, ignore_errors=True)
+        rec = _record(spec, spec, threads, walls, rss_max, runs["stats.json"], timed, started_at, load_before,
+                      load_after)
+        _install(spec, tmp, rec)
         return rec
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
+
+
+def _execute_group(spec):
+    """A group of bakes (see the top of this file): one run of the shared command per repeat, then
+    each member's .vox and stats moved into its own entry. Every member fails together."""
+    members = spec["group"]
+    os.makedirs(os.path.dirname(members[0]["dir"]), exist_ok=True)
+    tmp = _tmp_for(members[0]["dir"] + ".group")
+    shutil.rmtree(tmp, ignore_errors=True)
+    os.makedirs(tmp)
+    threads = os.cpu_count() or 1  # timed, as every bake: the machine to itself
+    made = []
+    try:
+        started_at = time.time()
+        load_before = os.getloadavg()[0]
+        names = [f"{m['model']}.json" for m in members]
+        _, walls, rss_max, runs = _run_repeats(spec, tmp, threads, spec.get("repeats", 1), names)
+        load_after = os.getloadavg()[0]
+        records = []
+        for m, name in zip(members, names):
+            mtmp = _tmp_for(m["dir"])
+            shutil.rmtree(mtmp, ignore_errors=True)
+            os.makedirs(mtmp)
+            made.append(mtmp)
+            os.rename(os.path.join(tmp, f"{m['model']}.vox"), os.path.join(mtmp, "model.vox"))
+            os.rename(os.path.join(tmp, name), os.path.join(mtmp, "stats.json"))
+            rec = _record(m, spec, threads, walls, rss_max, runs[name], True, started_at, load_before, load_after)
+            rec["baked_with"] = [o["label"] for o in members if o is not m]  # one pass of the sampler
+            records.append(rec)
+        for m, mtmp, rec in zip(members, made, records):
+            _install(m, mtmp, rec)
+        return records
+    except BaseException:
+        for d in made:
+            shutil.rmtree(d, ignore_errors=True)
+        raise
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)

@@ -221,7 +221,7 @@ def main():
     cache_dir = os.path.abspath(kw["cache_dir"] or os.path.join(results, "cache"))
     sw = Sweep(kw["voxlab"], cache_dir, jobs=kw["jobs"], fresh=kw["fresh"], name=decl["name"],
                timeout=decl["timeout_s"], executor=kw["executor"], scheduler=kw["scheduler"],
-               slurm_args=kw["slurm_args"], repeats=kw["repeats"])
+               slurm_args=kw["slurm_args"], repeats=kw["repeats"], group_bakes=kw["group_bakes"])
     try:
         meta, rows = run_experiment(decl, results=results, cache_dir=cache_dir, sweep=sw)
         out = os.path.join(results, decl["name"])

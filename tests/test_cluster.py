@@ -78,13 +78,16 @@ def records(results):
 
 
 def overlaps(recs):
-    """Pairs (timed job, other job) whose run times overlap."""
+    """Pairs (timed job, other job) whose run times overlap. Bakes of one pass of the sampler (each
+    names the others in baked_with) are one voxlab run, not jobs beside each other."""
     out = []
     for a in recs:
         if not a.get("timed"):
             continue
         for b in recs:
-            if b is not a and b["started_at"] < a["finished_at"] and a["started_at"] < b["finished_at"]:
+            if b is a or b["label"] in a.get("baked_with", []):
+                continue
+            if b["started_at"] < a["finished_at"] and a["started_at"] < b["finished_at"]:
                 out.append((a["label"], b["label"]))
     return out
 

@@ -29,12 +29,17 @@ def add_common_args(ap, experiment=None):
                     help="where jobs run: this machine (default), a Dask scheduler, a SLURM cluster")
     ap.add_argument("--scheduler", help="--executor dask: the scheduler's address, tcp://HOST:PORT")
     ap.add_argument("--slurm-args", default="", help="--executor slurm: extra sbatch options, one string")
+    ap.add_argument("--separate-bakes", action="store_true",
+                    help="bake each model in its own voxlab run (its bake time measured alone) instead of the "
+                         "models of one scene, resolution, rays and seed in one pass of the sampler (each "
+                         "model's time estimated from its part of the pass)")
 
 
 def sweep_args(a):
     """run_experiment's keyword arguments from add_common_args' options."""
     return {"results": a.results, "cache_dir": a.cache, "voxlab": a.voxlab, "jobs": a.jobs, "fresh": a.fresh,
-            "executor": a.executor, "scheduler": a.scheduler, "slurm_args": a.slurm_args, "repeats": a.repeats}
+            "executor": a.executor, "scheduler": a.scheduler, "slurm_args": a.slurm_args, "repeats": a.repeats,
+            "group_bakes": not getattr(a, "separate_bakes", False)}
 
 
 def experiment_from_args(a, **kw):

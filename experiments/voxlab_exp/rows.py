@@ -94,7 +94,7 @@ def load_columns(*jobs):
 
 
 def run_experiment(decl, results=DEFAULT_RESULTS, cache_dir=None, voxlab=None, jobs=2, fresh=False, out_dir=None,
-                   sweep=None, executor="local", scheduler=None, slurm_args="", repeats=None):
+                   sweep=None, executor="local", scheduler=None, slurm_args="", repeats=None, group_bakes=True):
     """Runs a loaded declaration; writes <results>/<name>/rows.csv and rows.json; returns (meta, rows).
 
     Row paths are relative to `results`. Nothing is appended to results/history.csv here: `make
@@ -106,7 +106,7 @@ def run_experiment(decl, results=DEFAULT_RESULTS, cache_dir=None, voxlab=None, j
     own = sweep is None
     sw = sweep or Sweep(voxlab or os.path.join(REPO, "build", "voxlab"), cache_dir, jobs=jobs, fresh=fresh,
                         name=decl["name"], timeout=decl["timeout_s"], executor=executor, scheduler=scheduler,
-                        slurm_args=slurm_args, repeats=repeats)
+                        slurm_args=slurm_args, repeats=repeats, group_bakes=group_bakes)
     try:
         return _run_experiment(decl, sw, results, cache_dir, out_dir, started, date)
     finally:

@@ -6,7 +6,9 @@ the sources of the job's code path: code_keys.py), so a second run with the same
 work, adding a model reruns only its jobs, and the expensive ground truth is computed once per
 scene, size, spp and seed and shared by every experiment. Jobs run through an executor
 (executors.py: this machine, Dask or SLURM; jobexec.py runs one job); a timed job (truth, bake,
-render) runs alone on its machine with every core and repeats R times; progress for the whole sweep
+render) runs alone on its machine with every core and repeats R times; the bakes of one scene,
+resolution, rays and seed that are ready together run as one `voxlab bake --model a,b,...` (one pass
+of the sampler, each model's own cache entry and own bake time); progress for the whole sweep
 (done / total, elapsed, estimate) goes to stderr; a failing job is recorded (status "failed" and
 voxlab's message) and never aborts the sweep.
 """
@@ -35,6 +37,7 @@ from .schema import slug
 
 TIMED_KINDS = ("truth", "bake", "render")  # their times enter tables and plots: measured alone
 TIMING_FIELD = {"truth": "seconds", "bake": "bake_seconds", "render": "seconds"}  # in voxlab's --stats
+BAKE_MAX_MODELS = 16  # the most models `voxlab bake --model a,b,...` takes (tracer/bake/bake.h)
 
 
 class Job:
@@ -126,8 +129,11 @@ class Sweep:
     binaries, nor hash one binary and run another."""
 
     def __init__(self, voxlab, cache_dir, jobs=2, fresh=False, name="sweep", timeout=1800, executor="local",
-                 scheduler=None, slurm_args="", repeats=None):
+                 scheduler=None, slurm_args="", repeats=None, group_bakes=True):
         self.cache_dir = os.path.abspath(cache_dir)
+        # Bakes that differ only by model share one pass of the sampler (issue 15: bakes were 84 % of
+        # table1's CPU time, and every model reads the same sample rays).
+        self.group_bakes = group_bakes
         self.jobs = max(1, jobs)
         # Untimed jobs (compares) run with one thread; a timed job has its machine to itself and
         # every core of it (jobexec).
@@ -275,7 +281,43 @@ class Sweep:
                 "repeats": job.repeats if job.timed else 1, "timing_field": TIMING_FIELD.get(job.kind),
                 "threads": 1, "timeout": self.timeout, "code_files": job.code_files,
                 "inputs": {k: v for k, v in job.inputs.items() if not k.startswith("_")},
-                "voxlab_sha256": self.voxlab_sha256, "executor": self.executor_name}
+                "voxlab_sha256": self.voxlab_sha256, "executor": self.executor_name,
+                **({"model": job.inputs["model"]} if job.kind == "bake" else {})}
+
+    def _bake_group_key(self, job):
+        i = job.inputs
+        return (i["scene"], i["_scene_path"], i["res"], i["rays"], i["seed"])
+
+    def units(self, ready):
+        """The ready jobs as the lists that run together, in `ready`'s order: a bake with the other
+        ready bakes of its scene, resolution, rays and seed (one per model: a model's parameters are
+        in its name's code key, not in these inputs), every other job alone."""
+        out, bakes = [], {}
+        for j in ready:
+            if not (self.group_bakes and j.kind == "bake"):
+                out.append([j])
+                continue
+            unit = bakes.get(self._bake_group_key(j))
+            if unit is not None and len(unit) < BAKE_MAX_MODELS:
+                unit.append(j)
+            else:
+                bakes[self._bake_group_key(j)] = unit = [j]
+                out.append(unit)
+        return out
+
+    def unit_spec(self, unit):
+        """A unit's spec: the job's own, or for several bakes one `voxlab bake --model a,b,...` whose
+        outputs jobexec moves into each member's entry."""
+        if len(unit) == 1:
+            return self.spec(unit[0])
+        lead, members = unit[0], [self.spec(j) for j in unit]
+        i = lead.inputs
+        cmd = ["bake", i["_scene_path"], "--model", ",".join(j.inputs["model"] for j in unit), "--res", i["res"],
+               "--rays", i["rays"], "--seed", i["seed"], "--threads", "{threads}", "-o", "{tmp}/{model}.vox",
+               "--stats", "{tmp}/{model}.json"]
+        return {**members[0], "key": sha256_of([m["key"] for m in members]),
+                "label": f"{len(unit)} bakes in one pass: {', '.join(j.label for j in unit)}",
+                "cmd": [self.voxlab, *map(str, cmd)], "repeats": max(j.repeats for j in unit), "group": members}
 
     def _complete(self, job):
         return jobexec.complete({"dir": job.dir, "key": job.key, "repeats": job.repeats if job.timed else 1})
@@ -399,54 +441,68 @@ class Sweep:
                                key=lambda j: -j.cost)
                 if ex.exclusive_by_sweep:
                     draining = set()
-                    for j in ready:
+                    for unit in self.units(ready):
+                        j = unit[0]
                         p = self._place(j, places, busy, draining)
                         if p is None:
                             if j.timed and not draining:
                                 # Empty the least busy place for it: nothing new starts there.
                                 draining.add(min(places, key=lambda q: len(busy[q]["jobs"])))
                             continue
-                        pending.remove(j)
+                        for u in unit:
+                            pending.remove(u)
                         busy[p]["jobs"].add(j.key)
                         busy[p]["timed"] = busy[p]["timed"] or j.timed
-                        running[ex.submit(self.spec(j), p)] = (j, p)
+                        running[ex.submit(self.unit_spec(unit), p)] = (unit, p)
                 elif ready:  # SLURM: one array per kind and timing class; --exclusive for the timed
                     groups = {}
-                    for j in ready:
-                        groups.setdefault((j.kind, j.timed), []).append(j)
-                    for (kind, timed), js in groups.items():
-                        for j, f in zip(js, ex.submit_batch([self.spec(j) for j in js], exclusive=timed)):
-                            pending.remove(j)
-                            running[f] = (j, "slurm")
+                    for unit in self.units(ready):
+                        groups.setdefault((unit[0].kind, unit[0].timed), []).append(unit)
+                    for (kind, timed), us in groups.items():
+                        for unit, f in zip(us, ex.submit_batch([self.unit_spec(u) for u in us], exclusive=timed)):
+                            for u in unit:
+                                pending.remove(u)
+                            running[f] = (unit, "slurm")
                 if not running:
                     if pending:  # cannot happen with a dependency-ordered list; never spin
                         raise AssertionError(f"jobs stuck: {[j.label for j in pending]}")
                     continue
                 for f in ex.wait(list(running)):
-                    j, p = running.pop(f)
+                    unit, p = running.pop(f)
                     if p in busy:
-                        busy[p]["jobs"].discard(j.key)
-                        if j.timed:
+                        busy[p]["jobs"].discard(unit[0].key)
+                        if unit[0].timed:
                             busy[p]["timed"] = False
-                    j.ran = True
                     try:
-                        j.record = f.result()
-                        wall = j.record["wall_seconds"]
+                        result = f.result()
+                        records = result if len(unit) > 1 else [result]
+                        if len(records) != len(unit):
+                            raise AssertionError(f"{len(records)} records for {len(unit)} jobs")
+                    except (VoxlabError, jobexec.JobFailed) as e:
+                        detail = f"\n    command: {e.args[1]}\n    " + e.args[2].replace("\n", "\n    ") \
+                            if len(e.args) > 2 else ""
+                        self._failed(unit, str(e.args[0]), detail, prog)
+                        continue
+                    except Exception as e:  # a broken image or stats file, a lost worker: this job's failure
+                        self._failed(unit, f"{type(e).__name__}: {e}", "", prog)
+                        continue
+                    own = [(r.get("timing") or {}).get("median") or 0.0 for r in records]
+                    shares = {j.key: (o / sum(own) if sum(own) > 0 else 1.0 / len(unit)) for j, o in zip(unit, own)}
+                    for j, rec in zip(unit, records):
+                        j.ran = True
+                        j.record = rec
+                        wall = rec["wall_seconds"]
                         j.status = "ok"
                         t = j.timing()
                         shown = (f"median {t['median']:.3g} s of {len(t['runs'])}, spread {t['spread']:.2g} s"
                                  if t else f"{wall:.1f} s")
-                        flag = f"; LOAD {j.record['load_average']:.1f} > {j.record['cores']} cores" \
-                            if j.record.get("loaded") and j.timed else ""
-                        prog.finished(j, wall * (len(t["runs"]) if t else 1), f"{j.kind} {j.label} ({shown}{flag})")
-                    except (VoxlabError, jobexec.JobFailed) as e:
-                        j.status, j.error = "failed", str(e.args[0])
-                        detail = f"\n    command: {e.args[1]}\n    " + e.args[2].replace("\n", "\n    ") \
-                            if len(e.args) > 2 else ""
-                        prog.finished(j, None, f"FAILED {j.kind} {j.label}: {j.error}{detail}")
-                    except Exception as e:  # a broken image or stats file, a lost worker: this job's failure
-                        j.status, j.error = "failed", f"{type(e).__name__}: {e}"
-                        prog.finished(j, None, f"FAILED {j.kind} {j.label}: {j.error}")
+                        flag = f"; LOAD {rec['load_average']:.1f} > {rec['cores']} cores" \
+                            if rec.get("loaded") and j.timed else ""
+                        shared = f"; one pass with {len(unit) - 1} other model(s)" if len(unit) > 1 else ""
+                        # The estimate's speeds: a shared pass's wall time split between its jobs in
+                        # the proportions of their own times (so it is counted once).
+                        ran = wall * (len(t["runs"]) if t else 1) * shares[j.key]
+                        prog.finished(j, ran, f"{j.kind} {j.label} ({shown}{flag}{shared})")
         except BaseException:
             # Interrupted (Ctrl-C) or broken: the children run in their own sessions and would
             # otherwise go on rendering after we exit.
@@ -455,6 +511,13 @@ class Sweep:
         failed = sum(j.status in ("failed", "skipped") for j in todo)
         return {"jobs": len(order), "ran": sum(j.ran for j in todo), "cached": len(order) - len(todo),
                 "failed": failed, "invalidated": len(inv), "seconds": time.monotonic() - prog.start}
+
+    @staticmethod
+    def _failed(unit, error, detail, prog):
+        for j in unit:
+            j.ran = True
+            j.status, j.error = "failed", error
+            prog.finished(j, None, f"FAILED {j.kind} {j.label}: {j.error}{detail}")
 
     def close(self):
         if self.executor is not None:
