@@ -290,8 +290,8 @@ class Sweep:
 
     def units(self, ready):
         """The ready jobs as the lists that run together, in `ready`'s order: a bake with the other
-        ready bakes of its scene, resolution, rays and seed (one per model: a model's parameters are
-        in its name's code key, not in these inputs), every other job alone."""
+        ready bakes of its scene, resolution, rays and seed (at most BAKE_MAX_MODELS to a pass), every
+        other job alone."""
         out, bakes = [], {}
         for j in ready:
             if not (self.group_bakes and j.kind == "bake"):
