@@ -1,7 +1,8 @@
 /* vmesh's direction-only work reused across calls (models/vmesh/vmesh_opacity.h, issue 15): the
- * C build keeps the last two directions' views per thread. A view reused for the wrong direction,
- * or a slot overwritten while in use, would change opacities; so every answer of an interleaved
- * sequence (a shadow direction repeated between changing primary directions, as the tracer asks,
+ * C build keeps the last two directions' views per thread, and a view asked again (a light's)
+ * remembers its cell/sub-cell overlap ratios. A view reused for the wrong direction, a slot
+ * overwritten while in use or a remembered ratio for the wrong pair would change opacities; so
+ * every answer of an interleaved sequence (a shadow direction repeated between changing primary directions, as the tracer asks,
  * plus repeats, opposite signs, -0.0 and non-unit lengths) is compared, bit for bit, with the same
  * call made after both slots were filled with other directions (a view computed afresh). */
 #include <math.h>
@@ -14,12 +15,16 @@
 
 static float fresh(const vmesh_record *r, vec3 dir)
 {
-    /* Two other directions first: both slots now hold views of something else. */
+    /* Two other directions first, each asked twice: both slots now hold views of something else
+     * (a view asked twice keeps its ratios and is not pushed out by a view asked once, so a single
+     * call each could leave the light's view, ratios and all, in place). */
     vmesh_record full;
     memset(&full, 0, sizeof full);
     memset(full.opacity, 255, sizeof full.opacity);
-    (void)vmesh_opacity_along(&full, v3(0.123f, -0.456f, 0.789f));
-    (void)vmesh_opacity_along(&full, v3(-0.9f, 0.1f, 0.2f));
+    for (int k = 0; k < 2; k++)
+        (void)vmesh_opacity_along(&full, v3(0.123f, -0.456f, 0.789f));
+    for (int k = 0; k < 2; k++)
+        (void)vmesh_opacity_along(&full, v3(-0.9f, 0.1f, 0.2f));
     return vmesh_opacity_along(r, dir);
 }
 

@@ -58,6 +58,14 @@ typedef struct {
     /* One entry past the 27 sub-cells, far outside the window: vmesh_view_setup's SSE loop reads the
      * centres four at a time, and the pad is never the nearest. */
     float pu[VMESH_SUBCELLS + 1], pv[VMESH_SUBCELLS + 1];
+#ifndef __OPENCL_VERSION__
+    /* The C build's views kept across calls (vmesh_view_of) also remember each window cell's ratio
+     * with each sub-cell (vmesh_cell_ratio), NaN until first needed: `ratios` is 0 until the view is
+     * asked for a second time (a light's view, asked by every voxel its shadow rays cross), so that a
+     * view used once (a voxel's own direction toward the camera) does not pay for filling it. */
+    int ratios;
+    float ratio[16][VMESH_SUBCELLS];
+#endif
 } vmesh_view;
 
 #define VMESH_RS 0.28867513f /* sphere around a sub-cell of edge 1/3: sqrt(3)/6 */
@@ -128,6 +136,17 @@ VX_INLINE void vmesh_view_setup(vec3 dir, vmesh_view *w)
     w->den = den;
 }
 
+/* The overlap ratio of window cell (cx, cy) with sub-cell s's disk, 0 where they do not meet: a
+ * function of the view alone (the one expression, whether computed in the loop or remembered). */
+VX_INLINE float vmesh_cell_ratio(const vmesh_view *w, int cx, int cy, int s)
+{
+    float u = -w->half_side + ((float)cx + 0.5f) * w->cell, v = -w->half_side + ((float)cy + 0.5f) * w->cell;
+    float du = w->pu[s] - u, dv = w->pv[s] - v, d2 = du * du + dv * dv;
+    if (d2 >= w->far2)
+        return 0.0f;
+    return d2 <= w->near2 ? 1.0f : vmesh_disk_overlap(VMESH_RS, 0.5f * w->cell, sqrtf(d2)) * w->inv_cell_disk;
+}
+
 #ifndef __OPENCL_VERSION__
 /* The view of `dir`, computed again only when dir's bits differ from those of the two views this
  * thread used last (least recently used replaced). Why: a shadow ray toward a directional light
@@ -143,7 +162,7 @@ typedef union {
     unsigned int u[3];
 } vmesh_view_key;
 
-VX_INLINE const vmesh_view *vmesh_view_of(vec3 dir, vmesh_view *scratch)
+VX_INLINE vmesh_view *vmesh_view_of(vec3 dir, vmesh_view *scratch)
 {
     static _Thread_local vmesh_view slot[2];
     static _Thread_local vmesh_view_key key[2];
@@ -154,21 +173,45 @@ VX_INLINE const vmesh_view *vmesh_view_of(vec3 dir, vmesh_view *scratch)
     for (int i = 0; i < 2; i++)
         if (valid[i] && k.u[0] == key[i].u[0] && k.u[1] == key[i].u[1] && k.u[2] == key[i].u[2]) {
             recent = i;
+            if (!slot[i].ratios) { /* asked again: worth remembering its ratios */
+                for (int c = 0; c < 16; c++)
+                    for (int s = 0; s < VMESH_SUBCELLS; s++)
+                        slot[i].ratio[c][s] = NAN;
+                slot[i].ratios = 1;
+            }
             return &slot[i];
         }
+    /* The least recently used slot, unless that one keeps ratios and the other does not: a view
+     * asked once does not push out the light's. */
     int i = recent ^ 1;
+    if (valid[i] && slot[i].ratios && !slot[recent].ratios)
+        i = recent;
     vmesh_view_setup(dir, &slot[i]);
+    slot[i].ratios = 0;
     key[i] = k;
     valid[i] = 1;
     recent = i;
     return &slot[i];
 }
+
+/* vmesh_cell_ratio, remembered in the view when it keeps its ratios. */
+VX_INLINE float vmesh_view_ratio(vmesh_view *w, int cx, int cy, int s)
+{
+    if (!w->ratios)
+        return vmesh_cell_ratio(w, cx, cy, s);
+    float *r = &w->ratio[cy * 4 + cx][s];
+    if (*r != *r)
+        *r = vmesh_cell_ratio(w, cx, cy, s);
+    return *r;
+}
 #else
-VX_INLINE const vmesh_view *vmesh_view_of(vec3 dir, vmesh_view *scratch)
+VX_INLINE vmesh_view *vmesh_view_of(vec3 dir, vmesh_view *scratch)
 {
     vmesh_view_setup(dir, scratch);
     return scratch;
 }
+
+VX_INLINE float vmesh_view_ratio(vmesh_view *w, int cx, int cy, int s) { return vmesh_cell_ratio(w, cx, cy, s); }
 #endif
 
 /* Directional opacity of a record seen along `dir` (either sign: a projection does not depend on
@@ -190,22 +233,17 @@ VX_INLINE float vmesh_opacity_along(VX_GLOBAL const vmesh_record *r, vec3 dir)
     if (!count)
         return 0.0f;
     vmesh_view scratch;
-    const vmesh_view *w = vmesh_view_of(dir, &scratch);
-    const float rs = VMESH_RS, rc = 0.5f * w->cell, half_side = w->half_side, cell = w->cell;
+    vmesh_view *w = vmesh_view_of(dir, &scratch);
     float num = 0.0f;
     for (int cy = 0; cy < 4; cy++)
         for (int cx = 0; cx < 4; cx++) {
-            float u = -half_side + ((float)cx + 0.5f) * cell, v = -half_side + ((float)cy + 0.5f) * cell;
             float best = 0.0f;
             for (int o = 0; o < count; o++) {
                 int s = order[o];
                 float a = vmesh_decode_unorm(r->opacity[s]);
                 if (a <= best)
                     break;
-                float du = w->pu[s] - u, dv = w->pv[s] - v, d2 = du * du + dv * dv;
-                if (d2 >= w->far2)
-                    continue;
-                float ratio = d2 <= w->near2 ? 1.0f : vmesh_disk_overlap(rs, rc, sqrtf(d2)) * w->inv_cell_disk;
+                float ratio = vmesh_view_ratio(w, cx, cy, s);
                 best = a * ratio > best ? a * ratio : best;
             }
             num += best;
