@@ -9,13 +9,17 @@
  *  (d) binary's speed-up from 1 to 2 threads on city 256^3 (goal >= 1.8);
  *  (e) `render --vox`'s grid at MAX^3: rebuilt from the file's level-0 cells (grid_build_sorted_cells)
  *      over voxelising the scene again (what it did before .vox version 4), and the bit array that
- *      the voxelisation needs and the rebuild does not.
- * usage: bench_frame [BUNNY_SCENE [CITY_SCENE [MAX_RES]]] */
+ *      the voxelisation needs and the rebuild does not;
+ *  (f) (a) on the other scenes the issue is checked on, city and trees: every model's frame time at
+ *      256^3, 256x256, 4 spp, and over the Embree truth's at 4 spp on the same image (medians of RUNS
+ *      interleaved), the models baked together in one pass of the sampler.
+ * usage: bench_frame [BUNNY_SCENE [CITY_SCENE [MAX_RES [TREES_SCENE]]]] */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "bake.h"
+#include "bake_params.h"
 #include "bench.h"
 #include "grid_scene.h"
 #include "parallel.h"
@@ -103,11 +107,57 @@ static double truth_frame(const rt_scene *rt, int size)
     return c.seconds;
 }
 
+/* (f): every model of scene s at 256^3 (baked in one pass) and its truth, interleaved. */
+static int scene_frames(const scene *s)
+{
+    const vx_model *const *all = model_all();
+    const vx_model *m[BAKE_MAX_MODELS];
+    struct vx_bake_params params[BAKE_MAX_MODELS];
+    int n = 0;
+    for (; all[n] && n < BAKE_MAX_MODELS; n++) {
+        m[n] = all[n];
+        bake_params_defaults(m[n], &params[n]);
+    }
+    vx_err e;
+    rt_scene rt;
+    if (rt_build(&rt, s, &e))
+        return die("embree", &e);
+    bake_options o = {.rays = RAYS, .seed = 1, .threads = 0, .progress = 0};
+    voxel_grid g;
+    void *records[BAKE_MAX_MODELS];
+    bake_counts c[BAKE_MAX_MODELS];
+    double gs;
+    if (bake_scene_models(s, n, m, params, 256, &o, &g, records, c, &gs, &e)) {
+        rt_free(&rt);
+        return die("bake", &e);
+    }
+    double t[BAKE_MAX_MODELS + 1][RUNS];
+    for (int run = 0; run < RUNS; run++) {
+        for (int k = 0; k < n; k++) {
+            baked b = {m[k], g, records[k]};
+            t[k][run] = frame(s, &b, 256, 0);
+        }
+        t[n][run] = truth_frame(&rt, 256);
+    }
+    double truth = bench_median(t[n], RUNS);
+    printf("(f) frame time, %s 256^3, 256x256, 4 spp (medians of %d; truth at 4 spp %.1f ms):", s->name, RUNS,
+           1e3 * truth);
+    for (int k = 0; k < n; k++)
+        printf(" %s %.1f ms (x%.1f)", m[k]->name, 1e3 * bench_median(t[k], RUNS), bench_median(t[k], RUNS) / truth);
+    printf("\n");
+    for (int k = 0; k < n; k++)
+        free(records[k]);
+    grid_free(&g);
+    rt_free(&rt);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     const char *bunny_path = argc > 1 ? argv[1] : "scenes/bunny.json";
     const char *city_path = argc > 2 ? argv[2] : "scenes/city.json";
     int max_res = argc > 3 ? atoi(argv[3]) : 1024;
+    const char *trees_path = argc > 4 ? argv[4] : "scenes/trees.json";
     vx_err e;
     scene bunny, city;
     if (scene_load(bunny_path, &bunny, &e) || scene_load(city_path, &city, &e))
@@ -214,6 +264,13 @@ int main(int argc, char **argv)
            max_res, grid_count(&from_cells, 0), 1e3 * bench_median(cells, RUNS), 1e3 * bench_median(vox, RUNS),
            bench_median(cells, RUNS) / bench_median(vox, RUNS), (double)max_res * max_res * max_res / 8 / 1e6);
     grid_free(&from_cells);
+    /* (f) */
+    scene trees;
+    if (scene_load(trees_path, &trees, &e))
+        return die("scene", &e);
+    if (scene_frames(&city) || scene_frames(&trees))
+        return 1;
+    scene_free(&trees);
     printf("bench_frame: load average %.2f at the end\n", load_average());
     free(t);
     free(b);
