@@ -134,6 +134,9 @@ VX_INLINE void vmesh_view_setup(vec3 dir, vmesh_view *w)
             den += 2.0f * (dmin2 <= near2 ? 1.0f : vmesh_disk_overlap(rs, rc, sqrtf(dmin2)) * inv_cell_disk);
         }
     w->den = den;
+#ifndef __OPENCL_VERSION__
+    w->ratios = 0;
+#endif
 }
 
 /* The overlap ratio of window cell (cx, cy) with sub-cell s's disk, 0 where they do not meet: a
@@ -187,7 +190,6 @@ VX_INLINE vmesh_view *vmesh_view_of(vec3 dir, vmesh_view *scratch)
     if (valid[i] && slot[i].ratios && !slot[recent].ratios)
         i = recent;
     vmesh_view_setup(dir, &slot[i]);
-    slot[i].ratios = 0;
     key[i] = k;
     valid[i] = 1;
     recent = i;
