@@ -35,6 +35,9 @@ import time
 import datetime
 
 GNU_TIME = "/usr/bin/time"  # Debian's `time` package (experiments.mk adds it to DEPS)
+# The files a group's command (see the top of this file) writes into its folder for each model; voxlab
+# replaces {model} with the model's name.
+GROUP_VOX, GROUP_STATS = "{model}.vox", "{model}.json"
 _running = set()  # process groups of running children, killed if the script is interrupted
 _running_lock = threading.Lock()
 
@@ -284,7 +287,7 @@ def _execute_group(spec):
     try:
         started_at = time.time()
         load_before = os.getloadavg()[0]
-        names = [f"{m['model']}.json" for m in members]
+        names = [GROUP_STATS.replace("{model}", m["model"]) for m in members]
         _, walls, rss_max, runs = _run_repeats(spec, tmp, threads, spec.get("repeats", 1), names)
         load_after = os.getloadavg()[0]
         records = []
@@ -293,7 +296,7 @@ def _execute_group(spec):
             shutil.rmtree(mtmp, ignore_errors=True)
             os.makedirs(mtmp)
             made.append(mtmp)
-            os.rename(os.path.join(tmp, f"{m['model']}.vox"), os.path.join(mtmp, "model.vox"))
+            os.rename(os.path.join(tmp, GROUP_VOX.replace("{model}", m["model"])), os.path.join(mtmp, "model.vox"))
             os.rename(os.path.join(tmp, name), os.path.join(mtmp, "stats.json"))
             rec = _record(m, spec, threads, walls, rss_max, runs[name], True, started_at, load_before, load_after)
             rec["baked_with"] = [o["label"] for o in members if o is not m]  # one pass of the sampler

@@ -222,12 +222,14 @@ static void shading_cache_checks(void)
     free(small.slots);
 }
 
-static int render_slots(const scene *s, const voxel_grid *g, const vx_model *m, const void *rec, int threads,
-                        size_t slots, image *img, render_counts *c)
+/* A width x height render with `threads` threads and `slots` shading-cache slots (0: by the image). */
+static int render_sized(const scene *s, const voxel_grid *g, const vx_model *m, const void *rec, int threads,
+                        size_t slots, int width, int height, image *img, render_counts *c)
 {
     render_options o;
     render_default_options(&o);
-    o.width = o.height = 128;
+    o.width = width;
+    o.height = height;
     o.threads = threads;
     o.cache_slots = slots;
     o.progress = 0;
@@ -236,11 +238,17 @@ static int render_slots(const scene *s, const voxel_grid *g, const vx_model *m, 
      * already and would hide a cache that is not touched before the clock. */
     malloc_trim(0);
     if (render_image(s, g, m, rec, &o, img, c, &e)) {
-        printf("not ok render %s: %s\n", m->name, e.msg);
+        printf("not ok render %s %dx%d: %s\n", m->name, width, height, e.msg);
         unit_failures++;
         return -1;
     }
     return 0;
+}
+
+static int render_slots(const scene *s, const voxel_grid *g, const vx_model *m, const void *rec, int threads,
+                        size_t slots, image *img, render_counts *c)
+{
+    return render_sized(s, g, m, rec, threads, slots, 128, 128, img, c);
 }
 
 static int render(const scene *s, const voxel_grid *g, const vx_model *m, const void *rec, int threads, image *img,
@@ -259,21 +267,8 @@ static void band_checks(const scene *s, const voxel_grid *g, const vx_model *m, 
         image img[2];
         render_counts c[2];
         int ok = 0;
-        for (int r = 0; r < 2; r++) {
-            render_options o;
-            render_default_options(&o);
-            o.width = 24;
-            o.height = heights[k];
-            o.threads = r ? 3 : 1;
-            o.progress = 0;
-            vx_err e;
-            if (render_image(s, g, m, rec, &o, &img[r], &c[r], &e)) {
-                printf("not ok render %s %dx%d: %s\n", m->name, o.width, o.height, e.msg);
-                unit_failures++;
-                break;
-            }
+        for (int r = 0; r < 2 && render_sized(s, g, m, rec, r ? 3 : 1, 0, 24, heights[k], &img[r], &c[r]) == 0; r++)
             ok++;
-        }
         if (ok == 2) {
             uint64_t expected = (uint64_t)24 * (uint64_t)heights[k] * (m->cone ? 1u : 4u);
             char name[160];

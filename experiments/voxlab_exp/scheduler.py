@@ -258,8 +258,7 @@ class Sweep:
             return ["truth", i["_scene_path"], "--spp", i["spp"], "--size", f"{w}x{h}", "--seed", i["seed"], *t,
                     *(["--shadows", i["shadows"]] if "shadows" in i else []), "-o", out, "--stats", stats]
         if job.kind == "bake":
-            return ["bake", i["_scene_path"], "--model", i["model"], "--res", i["res"], "--rays", i["rays"],
-                    "--seed", i["seed"], *t, "-o", "{tmp}/model.vox", "--stats", stats]
+            return self._bake_command(i, [i["model"]], "{tmp}/model.vox", stats)
         if job.kind == "render":
             w, h = i["size"]
             return ["render", i["_scene_path"], "--model", i["_model"], "--vox", job.deps[0].path("model.vox"),
@@ -284,6 +283,13 @@ class Sweep:
                 "voxlab_sha256": self.voxlab_sha256, "executor": self.executor_name,
                 **({"model": job.inputs["model"]} if job.kind == "bake" else {})}
 
+    @staticmethod
+    def _bake_command(i, models, vox, stats):
+        """`voxlab bake` of the bake inputs i for these models, into vox and stats (with {model} in
+        them when there are several)."""
+        return ["bake", i["_scene_path"], "--model", ",".join(models), "--res", i["res"], "--rays", i["rays"],
+                "--seed", i["seed"], "--threads", "{threads}", "-o", vox, "--stats", stats]
+
     def _bake_group_key(self, job):
         i = job.inputs
         return (i["scene"], i["_scene_path"], i["res"], i["rays"], i["seed"])
@@ -297,11 +303,12 @@ class Sweep:
             if not (self.group_bakes and j.kind == "bake"):
                 out.append([j])
                 continue
-            unit = bakes.get(self._bake_group_key(j))
+            key = self._bake_group_key(j)
+            unit = bakes.get(key)
             if unit is not None and len(unit) < BAKE_MAX_MODELS:
                 unit.append(j)
             else:
-                bakes[self._bake_group_key(j)] = unit = [j]
+                bakes[key] = unit = [j]
                 out.append(unit)
         return out
 
@@ -310,11 +317,9 @@ class Sweep:
         outputs jobexec moves into each member's entry."""
         if len(unit) == 1:
             return self.spec(unit[0])
-        lead, members = unit[0], [self.spec(j) for j in unit]
-        i = lead.inputs
-        cmd = ["bake", i["_scene_path"], "--model", ",".join(j.inputs["model"] for j in unit), "--res", i["res"],
-               "--rays", i["rays"], "--seed", i["seed"], "--threads", "{threads}", "-o", "{tmp}/{model}.vox",
-               "--stats", "{tmp}/{model}.json"]
+        members = [self.spec(j) for j in unit]
+        cmd = self._bake_command(unit[0].inputs, [j.inputs["model"] for j in unit], f"{{tmp}}/{jobexec.GROUP_VOX}",
+                                 f"{{tmp}}/{jobexec.GROUP_STATS}")
         return {**members[0], "key": sha256_of([m["key"] for m in members]),
                 "label": f"{len(unit)} bakes in one pass: {', '.join(j.label for j in unit)}",
                 "cmd": [self.voxlab, *map(str, cmd)], "repeats": max(j.repeats for j in unit), "group": members}
