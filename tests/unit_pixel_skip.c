@@ -7,7 +7,8 @@
  *    (capped), checked against a direct search on a small grid;
  *  - the skip skips: from the scenes' cameras most of the distance to the first non-empty cell;
  *  - render_image gives the same image, word for word, with and without it (binary, alpha and
- *    vmesh, bunny and trees, shadows declared). */
+ *    vmesh, bunny and trees, shadows declared), whether four pixels share a skip (1 and 4 spp, a
+ *    row ending in a shorter span) or each pixel skips alone (5 spp). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -78,8 +79,9 @@ static int exactness(const voxel_grid *g, const grid_distance *ps, vec3 camera, 
         }
         int count = 1 + (int)(rng_float(&r) * 16.0f);
         count = count > 16 ? 16 : count;
-        /* A pixel's rays: within a few thousandths of a radian; one group in eight far apart. */
-        float spread = k % 8 == 7 ? 0.3f : 0.004f * rng_float(&r);
+        /* A few neighbouring pixels' rays (voxel_render_span): within a few hundredths of a radian; one group in
+         * eight far apart. */
+        float spread = k % 8 == 7 ? 0.3f : 0.04f * rng_float(&r);
         vec3 dir[16];
         for (int i = 0; i < count; i++)
             dir[i] = i == 0 ? centre : v3_normalize(v3_add(centre, v3_scale(random_unit(&r), spread)));
@@ -197,26 +199,37 @@ static void render_checks(const char *path, const char *model, int res)
     double gs;
     voxel_grid g;
     void *rec = NULL;
-    image img[2];
     render_counts c;
     int ok = bake_scene(&s, m, res, &bo, &g, &rec, &bc, &gs, &e) == 0;
-    for (int k = 0; ok && k < 2; k++) {
-        render_options o;
-        render_default_options(&o);
-        o.width = o.height = 96;
-        o.progress = 0;
-        o.empty_skip = k;
-        ok = render_image(&s, &g, m, rec, &o, &img[k], &c, &e) == 0;
-        if (!ok && k == 1)
+    /* 4 spp: four pixels' rays share a skip (voxel_render_span), 98 wide so that a row ends with a
+     * span of two; 1 spp: four rays; 5 spp: a span's rays do not fit a group, each pixel skips alone. */
+    const int spps[] = {4, 1, 5}, widths[] = {98, 96, 50};
+    for (int v = 0; ok && v < 3; v++) {
+        image img[2];
+        int w = widths[v], h = 40;
+        for (int k = 0; ok && k < 2; k++) {
+            render_options o;
+            render_default_options(&o);
+            o.width = w;
+            o.height = h;
+            o.spp = spps[v];
+            o.progress = 0;
+            o.empty_skip = k;
+            ok = render_image(&s, &g, m, rec, &o, &img[k], &c, &e) == 0;
+            if (!ok && k == 1)
+                image_free(&img[0]);
+        }
+        char name[300];
+        snprintf(name, sizeof name,
+                 "%s %s %d^3, %dx%d, %d spp: the image with the skip equals the image without, word for word", path,
+                 model, res, w, h, spps[v]);
+        CHECK(name, ok && memcmp(img[0].data, img[1].data, (size_t)w * h * 3 * sizeof(float)) == 0);
+        if (ok) {
             image_free(&img[0]);
+            image_free(&img[1]);
+        }
     }
-    char name[300];
-    snprintf(name, sizeof name, "%s %s %d^3, 96x96: the image with the skip equals the image without, word for word", path,
-             model, res);
-    CHECK(name, ok && memcmp(img[0].data, img[1].data, (size_t)96 * 96 * 3 * sizeof(float)) == 0);
     if (ok) {
-        image_free(&img[0]);
-        image_free(&img[1]);
         free(rec);
         grid_free(&g);
     }

@@ -3,9 +3,10 @@
  *
  * Why: issue 15's profile. A primary ray spent most of its time approaching the surface through
  * empty space: about 16 hierarchical DDA steps at ~20 ns each on bunny 256^3, 4 rays per pixel
- * taking nearly the same path. Here one walk per pixel, along its first ray, jumps by the grid's
- * distance field (grid_distance.h) and stops where any of the pixel's rays could be near a
- * non-empty block; every ray then starts its DDA there.
+ * taking nearly the same path. Here one walk per group of rays (a few neighbouring pixels' rays, see
+ * voxel_render_span), along its first ray, jumps by the grid's distance field (grid_distance.h) and
+ * stops where any of the group's rays could be near a non-empty block; every ray then starts its
+ * DDA there.
  *
  * Exact, not an approximation: each jump is sized so that every ray of the group stays inside a
  * cube of blocks known to be empty (the distance at the walk's point, less the rays' spread from

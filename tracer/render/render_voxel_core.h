@@ -22,9 +22,10 @@
  *   VOXEL_CACHE_GET(x, index, a)  1 with voxel `index`'s cached answer in *a when it is ready, else 0
  *   VOXEL_CACHE_PUT(x, index, a)  publishes *a as that voxel's answer (the first writer wins)
  * It may define
- *   VOXEL_PIXEL_SKIP(x, org, dirs, n)  a t before which none of a pixel's n rays (one origin) meets a
- *                                 non-empty voxel, and VOXEL_SKIP_GROUP, the most rays asked at once
- *                                 (an exact skip: the walks from there visit the same cells);
+ *   VOXEL_PIXEL_SKIP(x, org, dirs, n)  a t before which none of n rays (one origin: one pixel's or a
+ *                                 few neighbouring pixels', see voxel_render_span) meets a non-empty
+ *                                 voxel, and VOXEL_SKIP_GROUP, the most rays asked at once (an exact
+ *                                 skip: the walks from there visit the same cells);
  * and, for a model with vx_voxel_eval.transmit,
  *   VOXEL_HAS_TRANSMIT(x)          1 when the model declares transmit
  *   VOXEL_TRANSMIT(x, rec, a, T)   the transmittance behind the voxel of opacity a reached with T
@@ -259,38 +260,79 @@ VX_INLINE vec3 voxel_trace_ray(voxel_ctx *x, vec3 org, vec3 dir, float t_min)
     return v3_madd(color, x->background, 1.0f - A);
 }
 
-/* Pixel (px, py) of a width x height image: spp stratified jittered rays (the random stream of
- * the pixel's index, as the ground truth's), with lens samples under depth of field; the box
- * filter's mean into dst[0..2]. strata_x * strata_y = truth_strata(spp). */
+/* Ray k of pixel (px, py): a stratified jittered sample (the ground truth's strata.h), with a lens
+ * sample under depth of field, its random numbers drawn from the pixel's stream r in the order of k.
+ * strata_x * strata_y = truth_strata(spp). */
+VX_INLINE void voxel_pixel_ray(const voxel_ctx *x, rng *r, int k, int px, int py, int width, int height, int strata_x,
+                               int strata_y, int dof, vec3 *org, vec3 *dir)
+{
+    float sx, sy, lu = 0, lv = 0;
+    float r1 = rng_float(r), r2 = rng_float(r);
+    truth_strata_sample(k, strata_x, strata_y, r1, r2, &sx, &sy);
+    if (dof) {
+        lu = rng_float(r);
+        lv = rng_float(r);
+    }
+    camera_ray(&x->cam, width, height, (float)px + sx, (float)py + sy, lu, lv, dof, org, dir);
+}
+
+/* Pixels px .. px + count - 1 of row py of a width x height image, each the box filter's mean of
+ * its spp rays (the random stream of the pixel's index, as the ground truth's), into
+ * dst[0 .. 3 count - 1].
+ *
+ * The empty-space skip (VOXEL_PIXEL_SKIP) is shared by as many rays as it can take at once
+ * (VOXEL_SKIP_GROUP, one origin, so not under depth of field): all the span's rays when they fit,
+ * else each pixel's rays in groups. Neighbouring pixels' rays take nearly the same path to the
+ * surface, so one walk for a few pixels costs less than one per pixel for a jump that is only a
+ * little shorter (the wider spread). A group's rays are made first, each pixel's random numbers
+ * drawn in the same order as one ray at a time, and each pixel adds its rays in their order: the
+ * pixels do not depend on the grouping. */
+VX_INLINE void voxel_render_span(voxel_ctx *x, uint64_t seed, int px, int count, int py, int width, int height,
+                                 int spp, int strata_x, int strata_y, VX_GLOBAL float *dst)
+{
+    int dof = (x->effects & VX_EFFECT_DOF) != 0;
+    vec3 org[VOXEL_SKIP_GROUP], dir[VOXEL_SKIP_GROUP];
+    if (!dof && count > 1 && count * spp <= VOXEL_SKIP_GROUP) {
+        for (int p = 0; p < count; p++) {
+            rng r = rng_seed(seed, (uint64_t)py * (uint64_t)width + (uint64_t)(px + p));
+            for (int k = 0; k < spp; k++)
+                voxel_pixel_ray(x, &r, k, px + p, py, width, height, strata_x, strata_y, 0, &org[p * spp + k],
+                                &dir[p * spp + k]);
+        }
+        float t_min = VOXEL_PIXEL_SKIP(x, org[0], dir, count * spp);
+        for (int p = 0; p < count; p++) {
+            vec3 sum = v3(0.0f, 0.0f, 0.0f);
+            for (int k = 0; k < spp; k++)
+                sum = v3_add(sum, voxel_trace_ray(x, org[p * spp + k], dir[p * spp + k], t_min));
+            dst[3 * p + 0] = sum.x / (float)spp;
+            dst[3 * p + 1] = sum.y / (float)spp;
+            dst[3 * p + 2] = sum.z / (float)spp;
+        }
+        return;
+    }
+    for (int p = 0; p < count; p++) {
+        rng r = rng_seed(seed, (uint64_t)py * (uint64_t)width + (uint64_t)(px + p));
+        vec3 sum = v3(0.0f, 0.0f, 0.0f);
+        for (int first = 0; first < spp; first += VOXEL_SKIP_GROUP) {
+            int n = spp - first < VOXEL_SKIP_GROUP ? spp - first : VOXEL_SKIP_GROUP;
+            for (int k = 0; k < n; k++)
+                voxel_pixel_ray(x, &r, first + k, px + p, py, width, height, strata_x, strata_y, dof, &org[k], &dir[k]);
+            /* With depth of field the rays leave from different lens points: no shared skip. */
+            float t_min = dof ? 0.0f : VOXEL_PIXEL_SKIP(x, org[0], dir, n);
+            for (int k = 0; k < n; k++)
+                sum = v3_add(sum, voxel_trace_ray(x, org[k], dir[k], t_min));
+        }
+        dst[3 * p + 0] = sum.x / (float)spp;
+        dst[3 * p + 1] = sum.y / (float)spp;
+        dst[3 * p + 2] = sum.z / (float)spp;
+    }
+}
+
+/* Pixel (px, py) alone (the OpenCL kernel's work-item). */
 VX_INLINE void voxel_render_pixel(voxel_ctx *x, uint64_t seed, int px, int py, int width, int height, int spp,
                                   int strata_x, int strata_y, VX_GLOBAL float *dst)
 {
-    int dof = (x->effects & VX_EFFECT_DOF) != 0;
-    rng r = rng_seed(seed, (uint64_t)py * (uint64_t)width + (uint64_t)px);
-    vec3 sum = v3(0.0f, 0.0f, 0.0f);
-    /* The rays in groups of VOXEL_SKIP_GROUP: a group's rays are made first (the random numbers
-     * drawn in the same order as one by one), so that one empty-space skip serves them all. */
-    for (int first = 0; first < spp; first += VOXEL_SKIP_GROUP) {
-        int n = spp - first < VOXEL_SKIP_GROUP ? spp - first : VOXEL_SKIP_GROUP;
-        vec3 org[VOXEL_SKIP_GROUP], dir[VOXEL_SKIP_GROUP];
-        for (int k = 0; k < n; k++) {
-            float sx, sy, lu = 0, lv = 0;
-            float r1 = rng_float(&r), r2 = rng_float(&r);
-            truth_strata_sample(first + k, strata_x, strata_y, r1, r2, &sx, &sy);
-            if (dof) {
-                lu = rng_float(&r);
-                lv = rng_float(&r);
-            }
-            camera_ray(&x->cam, width, height, (float)px + sx, (float)py + sy, lu, lv, dof, &org[k], &dir[k]);
-        }
-        /* With depth of field the rays leave from different lens points: no shared skip. */
-        float t_min = dof ? 0.0f : VOXEL_PIXEL_SKIP(x, org[0], dir, n);
-        for (int k = 0; k < n; k++)
-            sum = v3_add(sum, voxel_trace_ray(x, org[k], dir[k], t_min));
-    }
-    dst[0] = sum.x / (float)spp;
-    dst[1] = sum.y / (float)spp;
-    dst[2] = sum.z / (float)spp;
+    voxel_render_span(x, seed, px, 1, py, width, height, spp, strata_x, strata_y, dst);
 }
 
 #endif
