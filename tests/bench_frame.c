@@ -5,7 +5,9 @@
  *  (b) binary's frame time over the Embree truth's at 4 spp on the same image (goal <= 1);
  *  (c) frame time growth per doubling of the grid (128^3 -> ... -> MAX^3) for each model, the image
  *      fixed (goal <= 2 per doubling); the growth grids are baked with GROWTH_RAYS rays per voxel,
- *      which changes the records a little, not the marching;
+ *      which changes the records a little, not the marching. Beside each, the growth of the model's
+ *      evaluations (render_counts.model_evals: voxels shaded, or cone elements), which is what a
+ *      model whose own work dominates grows with;
  *  (d) binary's speed-up from 1 to 2 threads on city 256^3 (goal >= 1.8);
  *  (e) `render --vox`'s grid at MAX^3: rebuilt from the file's level-0 cells (grid_build_sorted_cells)
  *      over voxelising the scene again (what it did before .vox version 4), and the bit array that
@@ -72,6 +74,7 @@ static void unbake(baked *b)
 }
 
 static long last_page_faults; /* the last frame's page faults inside its clock (render_counts) */
+static uint64_t last_evals;   /* the last frame's model evaluations (render_counts.model_evals) */
 
 /* One frame of b at size x size, 4 spp; its seconds (render_counts.seconds: the render alone). */
 static double frame(const scene *s, const baked *b, int size, int threads)
@@ -90,6 +93,7 @@ static double frame(const scene *s, const baked *b, int size, int threads)
     }
     image_free(&img);
     last_page_faults = c.page_faults;
+    last_evals = c.model_evals;
     return c.seconds;
 }
 
@@ -201,9 +205,11 @@ int main(int argc, char **argv)
         unbake(&b[k]);
 
     /* (c) */
-    printf("(c) frame time growth per doubling, bunny 256x256 (grids baked with %d rays):\n", GROWTH_RAYS);
+    printf("(c) frame time growth per doubling, bunny 256x256 (grids baked with %d rays; in brackets the growth of "
+           "the model's evaluations):\n",
+           GROWTH_RAYS);
     for (int k = 0; k < n; k++) {
-        double prev = 0;
+        double prev = 0, prev_evals = 0;
         printf("    %-14s", all[k]->name);
         for (int res = 128; res <= max_res; res *= 2) {
             baked g;
@@ -212,12 +218,13 @@ int main(int argc, char **argv)
             double v[3];
             for (int run = 0; run < 3; run++)
                 v[run] = frame(&bunny, &g, 256, 0);
-            double m = bench_median(v, 3);
+            double m = bench_median(v, 3), evals = (double)last_evals;
             if (prev > 0)
-                printf("  %d^3 x%.2f%s", res, m / prev, m / prev <= 2.0 ? "" : "!");
+                printf("  %d^3 x%.2f%s (x%.2f)", res, m / prev, m / prev <= 2.0 ? "" : "!", evals / prev_evals);
             else
-                printf("  %d^3 %.1f ms", res, 1e3 * m);
+                printf("  %d^3 %.1f ms (%.0fk evals)", res, 1e3 * m, 1e-3 * evals);
             prev = m;
+            prev_evals = evals > 0 ? evals : 1;
             unbake(&g);
         }
         printf("\n");

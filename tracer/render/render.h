@@ -26,7 +26,7 @@ typedef struct {
     float stop_opacity;  /* stop marching at this accumulated opacity (default 1 - 0.001) */
     int shadow_method;   /* SHADOW_* (shadow_maps_core.h), or -1 (default): the scene's */
     int shadow_res;      /* columns per side of the precomputed shadow maps (0: the method's default) */
-    int empty_skip;      /* C backend: a pixel's primary rays jump the empty space before their DDA
+    int empty_skip;      /* C backend: primary rays (a few neighbouring pixels' at once) jump the empty space before their DDA
                           * by the grid's distance field (pixel_skip.h); exact: the image is the
                           * same without it */
 } render_options;
