@@ -276,6 +276,14 @@ VX_INLINE void voxel_pixel_ray(const voxel_ctx *x, rng *r, int k, int px, int py
     camera_ray(&x->cam, width, height, (float)px + sx, (float)py + sy, lu, lv, dof, org, dir);
 }
 
+/* The box filter's mean of a pixel's spp rays, into dst[0..2]. */
+VX_INLINE void voxel_store_mean(VX_GLOBAL float *dst, vec3 sum, int spp)
+{
+    dst[0] = sum.x / (float)spp;
+    dst[1] = sum.y / (float)spp;
+    dst[2] = sum.z / (float)spp;
+}
+
 /* Pixels px .. px + count - 1 of row py of a width x height image, each the box filter's mean of
  * its spp rays (the random stream of the pixel's index, as the ground truth's), into
  * dst[0 .. 3 count - 1].
@@ -304,9 +312,7 @@ VX_INLINE void voxel_render_span(voxel_ctx *x, uint64_t seed, int px, int count,
             vec3 sum = v3(0.0f, 0.0f, 0.0f);
             for (int k = 0; k < spp; k++)
                 sum = v3_add(sum, voxel_trace_ray(x, org[p * spp + k], dir[p * spp + k], t_min));
-            dst[3 * p + 0] = sum.x / (float)spp;
-            dst[3 * p + 1] = sum.y / (float)spp;
-            dst[3 * p + 2] = sum.z / (float)spp;
+            voxel_store_mean(dst + 3 * p, sum, spp);
         }
         return;
     }
@@ -322,9 +328,7 @@ VX_INLINE void voxel_render_span(voxel_ctx *x, uint64_t seed, int px, int count,
             for (int k = 0; k < n; k++)
                 sum = v3_add(sum, voxel_trace_ray(x, org[k], dir[k], t_min));
         }
-        dst[3 * p + 0] = sum.x / (float)spp;
-        dst[3 * p + 1] = sum.y / (float)spp;
-        dst[3 * p + 2] = sum.z / (float)spp;
+        voxel_store_mean(dst + 3 * p, sum, spp);
     }
 }
 
