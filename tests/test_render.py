@@ -231,6 +231,14 @@ for model in ("alpha", "binary"):
            and st_off["cache_bytes"] == 4 * st_off["voxels"], f"{st_on['cache_bytes']} for {st_on['voxels']} voxels, "
            f"{st_off['cache_bytes']} with --no-cache")
 
+    # The C marcher's maps, apart from the caches: each pixel's near and far depth (in the map and in
+    # each thread's part while it is built) and the shadow rays' ends toward the scene's directional
+    # light (a few bytes a column across its direction).
+    threads = st_on["threads"] if st_on["threads"] else os.cpu_count()
+    report(f"--stats map_bytes: the depth bounds' {2 * 4 * 64 * 64} B a copy and the shadow ends ({model})",
+           st_on["map_bytes"] > 2 * 4 * 64 * 64 * (1 + threads) and st_on["map_bytes"] == st_off["map_bytes"],
+           f"{st_on['map_bytes']} B, {st_off['map_bytes']} B with --no-cache, {threads} threads")
+
 # A grid with more voxels than 4 a pixel: the cache stays at 4 slots a pixel (16x16: 1024). (That the
 # image does not depend on the cache's size is tests/unit_render.c's check, with a 16-slot cache.)
 small, st_small = render(SPHERES, "cache_small", "--res", "64", "--rays", "16", "--size", "16x16", "--spp", "2")

@@ -15,34 +15,11 @@
 
 #include "bake.h"
 #include "grid_scene.h"
-#include "grid_traverse_core.h"
+#include "grid_walk.h"
 #include "pixel_skip.h"
-#include "render.h"
+#include "render_toggle.h"
 #include "rng.h"
 #include "unit.h"
-
-#define MAX_CELLS 4096
-
-typedef struct {
-    int64_t index;
-    float t0, t1;
-} cell;
-
-static int walk(const voxel_grid *g, vec3 o, vec3 d, float t_min, cell *out)
-{
-    grid_iter it;
-    grid_hit h;
-    int n = 0;
-    if (!gt_iter_init(&it, g, 0, o, d, t_min, INFINITY))
-        return 0;
-    while (n < MAX_CELLS && gt_iter_next(&it, &h)) {
-        out[n].index = h.index;
-        out[n].t0 = h.t0;
-        out[n].t1 = h.t1;
-        n++;
-    }
-    return n;
-}
 
 static vec3 random_unit(rng *r)
 {
@@ -59,7 +36,7 @@ static vec3 random_unit(rng *r)
 static int exactness(const voxel_grid *g, const grid_distance *ps, vec3 camera, vec3 look, int groups, uint64_t seed,
                      double *skipped, double *ahead, int *rays_out)
 {
-    static cell full[MAX_CELLS], part[MAX_CELLS];
+    static walk_cell full[WALK_MAX_CELLS], part[WALK_MAX_CELLS];
     rng r = rng_seed(seed, 0);
     vec3 lo = g->origin, size = v3(g->n * g->voxel_size, g->n * g->voxel_size, g->n * g->voxel_size);
     int bad = 0, rays = 0;
@@ -87,11 +64,8 @@ static int exactness(const voxel_grid *g, const grid_distance *ps, vec3 camera, 
             dir[i] = i == 0 ? centre : v3_normalize(v3_add(centre, v3_scale(random_unit(&r), spread)));
         float t = pixel_skip_t(ps, o, dir, count);
         for (int i = 0; i < count; i++, rays++) {
-            int nf = walk(g, o, dir[i], 0.0f, full), np = walk(g, o, dir[i], t, part);
-            int same = nf == np;
-            for (int c = 0; same && c < nf; c++)
-                same = full[c].index == part[c].index && memcmp(&full[c].t0, &part[c].t0, sizeof(float)) == 0 &&
-                       memcmp(&full[c].t1, &part[c].t1, sizeof(float)) == 0;
+            int nf = walk_cells(g, o, dir[i], 0.0f, INFINITY, full), np = walk_cells(g, o, dir[i], t, INFINITY, part);
+            int same = walks_equal(full, nf, part, np);
             if (!same && bad < 5)
                 printf("# differs: origin (%g %g %g) dir (%g %g %g), skip t %g: %d cells from 0, %d from t\n", o.x, o.y,
                        o.z, dir[i].x, dir[i].y, dir[i].z, t, nf, np);
@@ -183,57 +157,12 @@ static void field_checks(void)
     scene_free(&s);
 }
 
-/* render_image with and without the skip: the same words. */
-static void render_checks(const char *path, const char *model, int res)
+/* render_image with and without the skip (the pixels' depth bounds off, since a frame with them does
+ * not ask for the skip). */
+static void skip_switch(render_options *o, int on)
 {
-    scene s;
-    vx_err e;
-    const vx_model *m = model_find(model);
-    if (!m || scene_load(path, &s, &e)) {
-        printf("not ok render %s %s\n", path, model);
-        unit_failures++;
-        return;
-    }
-    bake_options bo = {.rays = 16, .seed = 1, .threads = 0, .progress = 0};
-    bake_counts bc;
-    double gs;
-    voxel_grid g;
-    void *rec = NULL;
-    render_counts c;
-    int ok = bake_scene(&s, m, res, &bo, &g, &rec, &bc, &gs, &e) == 0;
-    /* 4 spp: four pixels' rays share a skip (voxel_render_span), 98 wide so that a row ends with a
-     * span of two; 1 spp: four rays; 5 spp: a span's rays do not fit a group, each pixel skips alone. */
-    const int spps[] = {4, 1, 5}, widths[] = {98, 96, 50};
-    for (int v = 0; ok && v < 3; v++) {
-        image img[2];
-        int w = widths[v], h = 40;
-        for (int k = 0; ok && k < 2; k++) {
-            render_options o;
-            render_default_options(&o);
-            o.width = w;
-            o.height = h;
-            o.spp = spps[v];
-            o.progress = 0;
-            o.empty_skip = k;
-            ok = render_image(&s, &g, m, rec, &o, &img[k], &c, &e) == 0;
-            if (!ok && k == 1)
-                image_free(&img[0]);
-        }
-        char name[300];
-        snprintf(name, sizeof name,
-                 "%s %s %d^3, %dx%d, %d spp: the image with the skip equals the image without, word for word", path,
-                 model, res, w, h, spps[v]);
-        CHECK(name, ok && memcmp(img[0].data, img[1].data, (size_t)w * h * 3 * sizeof(float)) == 0);
-        if (ok) {
-            image_free(&img[0]);
-            image_free(&img[1]);
-        }
-    }
-    if (ok) {
-        free(rec);
-        grid_free(&g);
-    }
-    scene_free(&s);
+    o->empty_skip = on;
+    o->pixel_bounds = 0;
 }
 
 int main(void)
@@ -245,8 +174,8 @@ int main(void)
     scene_checks("scenes/city.json", city, 1);
     const char *models[] = {"binary", "alpha", "vmesh"};
     for (int k = 0; k < 3; k++) {
-        render_checks("scenes/bunny.json", models[k], 64);
-        render_checks("scenes/trees.json", models[k], 64);
+        render_toggle_checks("scenes/bunny.json", models[k], 64, skip_switch, "the skip");
+        render_toggle_checks("scenes/trees.json", models[k], 64, skip_switch, "the skip");
     }
     return unit_exit();
 }

@@ -29,6 +29,7 @@
 #include "prefault.h"
 #include "render.h"
 #include "shading_cache.h"
+#include "shadow_clip.h"
 #include "unit.h"
 
 /* Pages of [p, p + bytes) resident now (whole pages inside the block only). */
@@ -326,12 +327,25 @@ static void render_checks(const scene *s, const char *model)
 #endif
             if (!m->cone) {
                 /* The shading cache: 4 slots a pixel (128x128: 65,536) at most one a voxel, 24 B each;
-                 * a 16-slot table evicts all the time and must not change the image. */
+                 * a 16-slot table evicts all the time and must not change the image. Beside it the
+                 * shadow memo; and apart, the maps: the pixels' depth bounds (near and far per pixel,
+                 * the map and each thread's part) and each directional light's shadow ends. */
                 size_t voxels = grid_count(&g, 0), slots = voxels < 65536 ? voxels : 65536;
                 size_t memo = m->voxel->opacity_by_direction ? voxels * sizeof(float) : 0;
-                snprintf(name, sizeof name, "%s: cache bytes %zu = %zu slots of 24 B (+ %zu B of shadow memo)",
-                         model, c2.cache_bytes, slots, memo);
+                size_t bounds = 2 * (size_t)128 * 128 * sizeof(float) * (1 + 2), clips = 0;
+                for (int li = 0; li < s->light_count; li++) {
+                    shadow_clip c;
+                    if (s->lights[li].type == LIGHT_DIRECTIONAL && shadow_clip_build(&c, &g, s->lights[li].direction) == 0) {
+                        clips += shadow_clip_bytes(&c);
+                        shadow_clip_free(&c);
+                    }
+                }
+                snprintf(name, sizeof name, "%s: cache bytes %zu = %zu slots of 24 B (+ %zu B of shadow memo)", model,
+                         c2.cache_bytes, slots, memo);
                 CHECK(name, c2.cache_bytes == slots * 24 + memo);
+                snprintf(name, sizeof name, "%s: map bytes %zu = %zu B of depth bounds + %zu B of shadow ends", model,
+                         c2.map_bytes, bounds, clips);
+                CHECK(name, clips > 0 && c2.map_bytes == bounds + clips);
                 image small;
                 render_counts cs;
                 if (render_slots(s, &g, m, rec, 2, 7, &small, &cs) == 0) {

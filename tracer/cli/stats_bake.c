@@ -84,10 +84,13 @@ cJSON *stats_render(const scene *s, const vx_model *m, const bake_options *bo, c
     cJSON_AddNumberToObject(j, "model_evals", (double)rc->model_evals);
     cJSON_AddNumberToObject(j, "cache_hits", (double)rc->cache_hits);
     cJSON_AddBoolToObject(j, "cache", o->cache);
-    if (b->has_device)
+    if (b->has_device) {
         cJSON_AddNullToObject(j, "cache_bytes"); /* the device's buffers, sized by its backend */
-    else
+        cJSON_AddNullToObject(j, "map_bytes");
+    } else {
         cJSON_AddNumberToObject(j, "cache_bytes", (double)rc->cache_bytes);
+        cJSON_AddNumberToObject(j, "map_bytes", (double)rc->map_bytes);
+    }
     cJSON_AddBoolToObject(j, "shadow_skip", o->shadow_skip);
     stats_add_image(j, o->spp, o->width, o->height, o->seed, o->threads);
     return j;

@@ -278,19 +278,30 @@ GT_ITER_INLINE int gt_iter_next(grid_iter *it, grid_hit *hit)
             }
         } else if (grid_level_occupied(lv + k, w.c[0], w.c[1], w.c[2])) {
             /* Something in this block: go down to the child the ray is in at t, found by comparing
-             * t with the crossing of each axis' mid-plane (just after t, like cell_at). */
+             * t with the crossing of each axis' mid-plane (just after t, like cell_at). The child's
+             * exit plane is that mid-plane when the ray has not crossed it yet, else the block's
+             * own exit plane: the same plane numbers as gt_exit_t's, whose distances are already
+             * at hand (t_next always holds gt_exit_t of the current block), so they are reused
+             * rather than computed again. */
             int h = k - 1, nh = lv[h].n;
             VX_UNROLL for (int a = 0; a < 3; a++) {
                 int child;
+                double exit_t = w.t_next[a]; /* INFINITY where the ray does not move on axis a */
                 if (it->dir[a] == 0)
                     child = (it->fixed[a] >> h) & 1;
                 else {
-                    int crossed = gt_plane_t(it, a, (2 * w.c[a] + 1) << h) <= w.t;
+                    double mid = gt_plane_t(it, a, (2 * w.c[a] + 1) << h);
+                    int crossed = mid <= w.t;
                     child = it->dir[a] > 0 ? crossed : !crossed;
+                    exit_t = crossed ? exit_t : mid;
                 }
                 int b = 2 * w.c[a] + child;
-                w.c[a] = b < nh ? b : nh - 1; /* a partial last block has one child */
-                w.t_next[a] = gt_exit_t(it, a, w.c[a], h);
+                if (b >= nh) { /* a partial last block has one child */
+                    b = nh - 1;
+                    exit_t = gt_exit_t(it, a, b, h);
+                }
+                w.c[a] = b;
+                w.t_next[a] = exit_t;
             }
             w.k = h;
             w.parent_ok = 1;

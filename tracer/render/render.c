@@ -27,6 +27,8 @@ void render_default_options(render_options *o)
     o->stop_opacity = 1.0f - 0.001f;
     o->shadow_method = -1;
     o->empty_skip = 1;
+    o->shadow_clip = 1;
+    o->pixel_bounds = 1;
 }
 
 /* The threads take the image in bands of this many rows, not row by row. Neighbouring rows see
@@ -68,7 +70,7 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
         return -1;
     }
     render_job j = {s, g, m, records, o, out, calloc((size_t)threads, sizeof(thread_counts)),
-                    camera_pixel_spread(&s->camera, o->height), NULL, maps, 0};
+                    camera_pixel_spread(&s->camera, o->height), NULL, maps, 0, 0};
     if (!j.tc || marcher->prepare(&j, e)) {
         if (!j.tc)
             vx_fail(e, "out of memory for the render");
@@ -83,6 +85,8 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
     memset(out->data, 0, (size_t)o->width * (size_t)o->height * 3 * sizeof *out->data);
     long f0 = minor_faults();
     double t0 = now_seconds();
+    if (marcher->begin)
+        marcher->begin(&j, threads);
     band_job bands = {&j, marcher->row, o->height};
     parallel_for((o->height + RENDER_BAND_ROWS - 1) / RENDER_BAND_ROWS, threads, render_band, &bands,
                  o->progress ? "render" : NULL);
@@ -92,6 +96,7 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
     counts->page_faults = minor_faults() - f0;
     counts->shadows = sst;
     counts->cache_bytes = j.cache_bytes;
+    counts->map_bytes = j.map_bytes;
     uint64_t model_cycles = 0, total_cycles = 0;
     for (int t = 0; t < threads; t++) {
         counts->rays += j.tc[t].rays;

@@ -29,6 +29,10 @@ typedef struct {
     int empty_skip;      /* C backend: primary rays (a few neighbouring pixels' at once) jump the empty space before their DDA
                           * by the grid's distance field (pixel_skip.h); exact: the image is the
                           * same without it */
+    int shadow_clip;     /* C backend: shadow rays toward a directional light end past the last voxel in
+                          * their way (shadow_clip.h); exact: the image is the same without it */
+    int pixel_bounds;    /* C backend: primary rays walk only between their pixel's depth bounds
+                          * (pixel_bounds.h), built per frame inside its clock; exact */
 } render_options;
 
 typedef struct {
@@ -41,6 +45,8 @@ typedef struct {
                                * first touched by the render threads (issue 15; tests/unit_render.c) */
     size_t cache_bytes;       /* the marcher's caches: the shading cache and the shadow opacity memo,
                                * or the cone marcher's light cache */
+    size_t map_bytes;         /* the C voxel marcher's maps: the pixels' depth bounds (pixel_bounds.h)
+                               * and the shadow rays' ends (shadow_clip.h) */
 } render_counts;
 
 void render_default_options(render_options *o);

@@ -116,4 +116,4 @@ static void cone_release(render_job *j)
     j->state = NULL;
 }
 
-const render_marcher render_cone_marcher = {cone_prepare, cone_row, cone_release};
+const render_marcher render_cone_marcher = {cone_prepare, NULL, cone_row, cone_release};

@@ -27,12 +27,16 @@ typedef struct render_job {
     void *state;  /* the marcher's own (its caches) */
     const shadow_set *shadows; /* precomputed shadow maps, or NULL: shadows are marched */
     size_t cache_bytes;        /* the marcher's caches, set by prepare (render_counts.cache_bytes) */
+    size_t map_bytes;          /* its maps, set by prepare (render_counts.map_bytes) */
 } render_job;
 
 /* A way of marching the pixels of a model's protocol. prepare allocates the marcher's state before
- * the render's clock starts; row renders one image row on thread `thread` (parallel_for). */
+ * the render's clock starts; begin (optional) does the frame's own set-up, inside the clock, with
+ * `threads` threads (what depends on the camera); row renders one image row on thread `thread`
+ * (parallel_for). */
 typedef struct {
     int (*prepare)(render_job *j, vx_err *e);
+    void (*begin)(render_job *j, int threads);
     void (*row)(void *job, int64_t row, int thread);
     void (*release)(render_job *j);
 } render_marcher;

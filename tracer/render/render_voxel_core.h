@@ -26,12 +26,21 @@
  *                                 few neighbouring pixels', see voxel_render_span) meets a non-empty
  *                                 voxel, and VOXEL_SKIP_GROUP, the most rays asked at once (an exact
  *                                 skip: the walks from there visit the same cells);
+ * and VOXEL_BOUNDS_ACTIVE(x) with VOXEL_RAY_BOUNDS(x, px, py, dir, &t_min, &t_max): when the first
+ *                                 is true, the second narrows a primary ray of pixel (px, py) to the
+ *                                 interval where it can meet a non-empty voxel (the C backend's
+ *                                 pixel_bounds.h; exact, and the skip is then not asked for);
  * and, for a model with vx_voxel_eval.transmit,
  *   VOXEL_HAS_TRANSMIT(x)          1 when the model declares transmit
  *   VOXEL_TRANSMIT(x, rec, a, T)   the transmittance behind the voxel of opacity a reached with T
  * (without them, the exponential rule T (1 - a), written as it always was),
  * and may add its own fields to voxel_ctx through VOXEL_CTX_BACKEND_FIELDS (the cache's memory, the
- * C backend's model timer). It may also define
+ * C backend's model timer). It may define
+ *   VOXEL_SHADOW_END(x, light, p, dir, t_max)  a t at or before t_max past which the shadow ray
+ *                                 p + t dir toward light `light` meets no non-empty voxel (the C
+ *                                 backend's shadow_clip.h; exact: the walk to there reports the same
+ *                                 cells with the same [t0, t1]);
+ * and it may also define
  *   VOXEL_SHADOW_MEMO(x, index, light, q)  voxel `index`'s opacity toward directional light
  *                                 `light`, asked of the model with query q once and then remembered;
  *                                 used only when the model declares opacity_by_direction (the number
@@ -59,6 +68,13 @@
 #ifndef VOXEL_PIXEL_SKIP
 #define VOXEL_PIXEL_SKIP(x, org, dirs, n) 0.0f
 #define VOXEL_SKIP_GROUP 1
+#endif
+#ifndef VOXEL_RAY_BOUNDS
+#define VOXEL_BOUNDS_ACTIVE(x) 0
+#define VOXEL_RAY_BOUNDS(x, px, py, dir, t_min, t_max)
+#endif
+#ifndef VOXEL_SHADOW_END
+#define VOXEL_SHADOW_END(x, light, p, dir, t_max) (t_max)
 #endif
 #ifndef VOXEL_HAS_TRANSMIT
 #define VOXEL_HAS_TRANSMIT(x) 0
@@ -107,7 +123,7 @@ VX_INLINE float voxel_shadow_transmittance(voxel_ctx *x, const vx_query *q, int6
     grid_hit h;
     float T = 1.0f;
     x->counts.shadow_rays++;
-    if (!gt_iter_init(&it, g, 0, p, to_light, t_min, distance))
+    if (!gt_iter_init(&it, g, 0, p, to_light, t_min, VOXEL_SHADOW_END(x, li, p, to_light, distance)))
         return 1.0f;
     vx_query sq = *q;
     sq.ray_origin = p;
@@ -222,9 +238,10 @@ VX_INLINE void voxel_answer(voxel_ctx *x, const grid_hit *h, vec3 org, vec3 dir,
     voxel_evaluate(x, &q, h->index, centre, a);
 }
 
-/* One ray: the voxels' answers composited front to back over the background. t_min: where its
- * walk starts (VOXEL_PIXEL_SKIP's answer; everything before it is known to be empty). */
-VX_INLINE vec3 voxel_trace_ray(voxel_ctx *x, vec3 org, vec3 dir, float t_min)
+/* One ray: the voxels' answers composited front to back over the background. [t_min, t_max]: where
+ * its walk starts and ends (VOXEL_PIXEL_SKIP's or VOXEL_RAY_BOUNDS' answer; the ray meets no
+ * non-empty voxel outside it). */
+VX_INLINE vec3 voxel_trace_ray(voxel_ctx *x, vec3 org, vec3 dir, float t_min, float t_max)
 {
     vec3 color = v3(0.0f, 0.0f, 0.0f);
     float A = 0.0f;
@@ -232,7 +249,7 @@ VX_INLINE vec3 voxel_trace_ray(voxel_ctx *x, vec3 org, vec3 dir, float t_min)
     grid_iter it;
     grid_hit h;
     x->counts.rays++;
-    if (gt_iter_init(&it, x->g, 0, org, dir, t_min, INFINITY)) {
+    if (gt_iter_init(&it, x->g, 0, org, dir, t_min, t_max)) {
         while (!done && gt_iter_next(&it, &h)) {
             x->counts.visits++;
             vx_answer a;
@@ -307,11 +324,14 @@ VX_INLINE void voxel_render_span(voxel_ctx *x, uint64_t seed, int px, int count,
                 voxel_pixel_ray(x, &r, k, px + p, py, width, height, strata_x, strata_y, 0, &org[p * spp + k],
                                 &dir[p * spp + k]);
         }
-        float t_min = VOXEL_PIXEL_SKIP(x, org[0], dir, count * spp);
+        float t_skip = VOXEL_BOUNDS_ACTIVE(x) ? 0.0f : VOXEL_PIXEL_SKIP(x, org[0], dir, count * spp);
         for (int p = 0; p < count; p++) {
             vec3 sum = v3(0.0f, 0.0f, 0.0f);
-            for (int k = 0; k < spp; k++)
-                sum = v3_add(sum, voxel_trace_ray(x, org[p * spp + k], dir[p * spp + k], t_min));
+            for (int k = 0; k < spp; k++) {
+                float t_min = t_skip, t_max = INFINITY;
+                VOXEL_RAY_BOUNDS(x, px + p, py, dir[p * spp + k], &t_min, &t_max);
+                sum = v3_add(sum, voxel_trace_ray(x, org[p * spp + k], dir[p * spp + k], t_min, t_max));
+            }
             voxel_store_mean(dst + 3 * p, sum, spp);
         }
         return;
@@ -324,9 +344,13 @@ VX_INLINE void voxel_render_span(voxel_ctx *x, uint64_t seed, int px, int count,
             for (int k = 0; k < n; k++)
                 voxel_pixel_ray(x, &r, first + k, px + p, py, width, height, strata_x, strata_y, dof, &org[k], &dir[k]);
             /* With depth of field the rays leave from different lens points: no shared skip. */
-            float t_min = dof ? 0.0f : VOXEL_PIXEL_SKIP(x, org[0], dir, n);
-            for (int k = 0; k < n; k++)
-                sum = v3_add(sum, voxel_trace_ray(x, org[k], dir[k], t_min));
+            float t_skip = dof || VOXEL_BOUNDS_ACTIVE(x) ? 0.0f : VOXEL_PIXEL_SKIP(x, org[0], dir, n);
+            for (int k = 0; k < n; k++) {
+                float t_min = t_skip, t_max = INFINITY;
+                if (!dof)
+                    VOXEL_RAY_BOUNDS(x, px + p, py, dir[k], &t_min, &t_max);
+                sum = v3_add(sum, voxel_trace_ray(x, org[k], dir[k], t_min, t_max));
+            }
         }
         voxel_store_mean(dst + 3 * p, sum, spp);
     }

@@ -1,0 +1,81 @@
+/* Test helpers for the exact ray-interval optimisations (pixel_skip.h, pixel_bounds.h,
+ * shadow_clip.h): a DDA walk recorded cell by cell, compared bit for bit, and a brute-force check
+ * of an interval against every non-empty voxel's box. */
+#ifndef VX_TEST_GRID_WALK_H
+#define VX_TEST_GRID_WALK_H
+
+#include <math.h>
+#include <string.h>
+
+#include "grid_traverse_core.h"
+
+#define WALK_MAX_CELLS 4096
+
+typedef struct {
+    int64_t index;
+    float t0, t1;
+} walk_cell;
+
+/* The cells a level-0 walk of o + t d over [t_min, t_max] reports, into out; returns their count. */
+static inline int walk_cells(const voxel_grid *g, vec3 o, vec3 d, float t_min, float t_max, walk_cell *out)
+{
+    grid_iter it;
+    grid_hit h;
+    int n = 0;
+    if (!gt_iter_init(&it, g, 0, o, d, t_min, t_max))
+        return 0;
+    while (n < WALK_MAX_CELLS && gt_iter_next(&it, &h)) {
+        out[n].index = h.index;
+        out[n].t0 = h.t0;
+        out[n].t1 = h.t1;
+        n++;
+    }
+    return n;
+}
+
+/* Whether two walks report the same cells with the same [t0, t1] bits. */
+static inline int walks_equal(const walk_cell *a, int na, const walk_cell *b, int nb)
+{
+    if (na != nb)
+        return 0;
+    for (int c = 0; c < na; c++)
+        if (a[c].index != b[c].index || memcmp(&a[c].t0, &b[c].t0, sizeof(float)) != 0 ||
+            memcmp(&a[c].t1, &b[c].t1, sizeof(float)) != 0)
+            return 0;
+    return 1;
+}
+
+/* Brute force, independent of the DDA: the number of non-empty voxels whose closed box the ray
+ * o + t d (t >= t_start) touches outside [lo, hi] (slab test in double). */
+static inline int voxels_outside(const voxel_grid *g, vec3 o, vec3 d, double t_start, double lo, double hi)
+{
+    const grid_level *L = &g->level[0];
+    const double od[3] = {o.x, o.y, o.z}, dd[3] = {d.x, d.y, d.z};
+    int outside = 0;
+    for (size_t i = 0; i < L->count; i++) {
+        uint32_t pc = L->coords[i];
+        const int c[3] = {(int)(pc >> 20), (int)((pc >> 10) & 1023u), (int)(pc & 1023u)};
+        double a = t_start, b = INFINITY;
+        for (int k = 0; k < 3 && a <= b; k++) {
+            double bl = g->origin_d[k] + c[k] * g->voxel_size_d, bh = g->origin_d[k] + (c[k] + 1) * g->voxel_size_d;
+            if (dd[k] == 0.0) {
+                if (od[k] < bl || od[k] > bh)
+                    b = -INFINITY;
+                continue;
+            }
+            double t0 = (bl - od[k]) / dd[k], t1 = (bh - od[k]) / dd[k];
+            if (t0 > t1) {
+                double t = t0;
+                t0 = t1;
+                t1 = t;
+            }
+            a = t0 > a ? t0 : a;
+            b = t1 < b ? t1 : b;
+        }
+        if (a <= b && (a < lo || b > hi))
+            outside++;
+    }
+    return outside;
+}
+
+#endif

@@ -1,0 +1,135 @@
+/* The primary rays' depth bounds per pixel (tracer/render/pixel_bounds.h, issue 15) are exact:
+ *  - brute force over the shipped scenes' grids (a resolution that is not a power of two; city at
+ *    96^3 on a small image, where the map is made of 2^3 blocks) and two image shapes: for rays
+ *    through random points of random pixels (their edges included), the walk over the interval
+ *    pixel_bounds_ray gives reports exactly the cells, indices and [t0, t1] bits of the walk over
+ *    the whole ray, and no non-empty voxel's box touches the ray outside the interval (slab tests
+ *    against every voxel, not the DDA);
+ *  - the bounds bound: a hit ray's walk starts most of the way to its first cell;
+ *  - the map is the same, bit for bit, whatever the thread count;
+ *  - a camera inside a voxel gets no map (a voxel straddling the camera's plane has no bounded
+ *    image);
+ *  - render_image gives the same image, word for word, with and without the bounds (binary, alpha,
+ *    vicini and vmesh, bunny and trees; without them the empty-space skip is used). */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "grid_scene.h"
+#include "grid_walk.h"
+#include "pixel_bounds.h"
+#include "render_toggle.h"
+#include "rng.h"
+#include "unit.h"
+
+static void image_checks(const char *label, const voxel_grid *g, const camera *cam, int w, int h, uint64_t seed)
+{
+    static walk_cell full[WALK_MAX_CELLS], part[WALK_MAX_CELLS];
+    char name[300];
+    pixel_bounds b, b1;
+    if (pixel_bounds_alloc(&b, w, h, 2) || pixel_bounds_alloc(&b1, w, h, 3)) {
+        printf("not ok %s: out of memory\n", label);
+        unit_failures++;
+        return;
+    }
+    pixel_bounds_build(&b, g, cam, 2);
+    pixel_bounds_build(&b1, g, cam, 1);
+    snprintf(name, sizeof name, "%s: the map is made", label);
+    CHECK(name, pixel_bounds_active(&b));
+    size_t bytes = (size_t)w * (size_t)h * sizeof(float);
+    snprintf(name, sizeof name, "%s: the map is the same with 1 and 2 threads, bit for bit", label);
+    CHECK(name, memcmp(b.near_t, b1.near_t, bytes) == 0 && memcmp(b.far_t, b1.far_t, bytes) == 0);
+    rng r = rng_seed(seed, 0);
+    int rays = 0, differ = 0, outside = 0, hits = 0;
+    double gap = 0.0, way = 0.0;
+    for (int k = 0; k < 1500; k++) {
+        int px = (int)(rng_float(&r) * w), py = (int)(rng_float(&r) * h);
+        px = px < w ? px : w - 1;
+        py = py < h ? py : h - 1;
+        /* A random point of the pixel, one time in four on its edges. */
+        float fx = rng_float(&r), fy = rng_float(&r);
+        if (k % 4 == 1)
+            fx = 0.0f;
+        if (k % 4 == 2)
+            fy = 0.99999994f;
+        vec3 o, d;
+        camera_ray(cam, w, h, (float)px + fx, (float)py + fy, 0.0f, 0.0f, 0, &o, &d);
+        float t_min = 0.0f, t_max = INFINITY;
+        pixel_bounds_ray(&b, cam->forward, px, py, d, &t_min, &t_max);
+        int nf = walk_cells(g, o, d, 0.0f, INFINITY, full), np = walk_cells(g, o, d, t_min, t_max, part);
+        int same = walks_equal(full, nf, part, np);
+        if (!same && differ < 5)
+            printf("# differs: pixel (%d %d) + (%g %g), [%g, %g]: %d cells over the ray, %d in the bounds\n", px, py, fx,
+                   fy, t_min, t_max, nf, np);
+        differ += !same;
+        outside += voxels_outside(g, o, d, 0.0, t_min, t_max);
+        rays++;
+        if (nf > 0) {
+            hits++;
+            gap += (full[0].t0 - t_min) / g->voxel_size;
+            way += full[0].t0 / g->voxel_size;
+        }
+    }
+    snprintf(name, sizeof name, "%s: walks within the bounds equal walks over the whole ray, bit for bit (%d rays, %d differ)",
+             label, rays, differ);
+    CHECK(name, differ == 0);
+    snprintf(name, sizeof name, "%s: no voxel's box touches a ray outside its bounds (slab tests, %d touch)", label,
+             outside);
+    CHECK(name, outside == 0);
+    snprintf(name, sizeof name,
+             "%s: %d hit rays start %.2f voxels before their first cell on average, of %.1f from the camera (< a tenth)",
+             label, hits, hits ? gap / hits : 0.0, hits ? way / hits : 0.0);
+    CHECK(name, hits > 100 && gap < 0.1 * way);
+    pixel_bounds_free(&b);
+    pixel_bounds_free(&b1);
+}
+
+static void scene_checks(const char *path, int res)
+{
+    scene s;
+    vx_err e;
+    voxel_grid g;
+    if (scene_load(path, &s, &e) || grid_build_scene(&g, &s, res, NULL, NULL, &e)) {
+        printf("not ok %s %d^3: %s\n", path, res, e.msg);
+        unit_failures++;
+        return;
+    }
+    char label[200];
+    const int sizes[2][2] = {{64, 40}, {150, 150}};
+    for (int k = 0; k < 2; k++) {
+        snprintf(label, sizeof label, "%s %d^3, %dx%d", path, res, sizes[k][0], sizes[k][1]);
+        image_checks(label, &g, &s.camera, sizes[k][0], sizes[k][1], 11 + (uint64_t)k);
+    }
+    /* The camera at a voxel's centre: that voxel straddles its plane. */
+    camera inside = s.camera;
+    vec3 lo, hi;
+    uint32_t pc = g.level[0].coords[g.level[0].count / 2];
+    grid_cell_corners(&g, 0, (int)(pc >> 20), (int)((pc >> 10) & 1023u), (int)(pc & 1023u), &lo, &hi);
+    inside.position = v3_scale(v3_add(lo, hi), 0.5f);
+    pixel_bounds b;
+    if (pixel_bounds_alloc(&b, 32, 32, 2) == 0) {
+        pixel_bounds_build(&b, &g, &inside, 2);
+        float t_min = 0.0f, t_max = INFINITY;
+        pixel_bounds_ray(&b, inside.forward, 3, 4, inside.forward, &t_min, &t_max);
+        snprintf(label, sizeof label, "%s %d^3: a camera inside a voxel gets no map, and its rays keep [0, inf)", path, res);
+        CHECK(label, !pixel_bounds_active(&b) && t_min == 0.0f && t_max == INFINITY);
+        pixel_bounds_free(&b);
+    }
+    grid_free(&g);
+    scene_free(&s);
+}
+
+static void bounds_switch(render_options *o, int on) { o->pixel_bounds = on; }
+
+int main(void)
+{
+    scene_checks("scenes/bunny.json", 100);
+    scene_checks("scenes/trees.json", 64);
+    scene_checks("scenes/city.json", 96);
+    const char *models[] = {"binary", "alpha", "vicini", "vmesh"};
+    for (int k = 0; k < 4; k++) {
+        render_toggle_checks("scenes/bunny.json", models[k], 48, bounds_switch, "the depth bounds");
+        render_toggle_checks("scenes/trees.json", models[k], 48, bounds_switch, "the depth bounds");
+    }
+    return unit_exit();
+}

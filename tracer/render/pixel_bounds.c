@@ -1,0 +1,190 @@
+/* The primary rays' depth bounds per pixel (see pixel_bounds.h). */
+#include "pixel_bounds.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "parallel.h"
+
+/* The voxels are split into this many shares; each thread folds the shares it takes into its own
+ * map (min and max do not depend on the order, so neither does the map). */
+#define BOUNDS_SHARES 64
+#define BOUNDS_ITEMS_PER_PIXEL 3
+
+/* Margins, far above the float rounding of the camera's rays (relative 1e-7 of a direction: 1e-5 of
+ * a pixel) and of the DDA's cells (1e-13 of a voxel), far below anything that changes how much a ray
+ * walks: 1 % of a voxel added to every sphere's radius, 1 % of a pixel to every rectangle (and a
+ * relative 1e-6 to the distances, in pixel_bounds_ray). */
+#define BOUNDS_RADIUS_MARGIN 0.01
+#define BOUNDS_PIXEL_MARGIN 0.01
+
+int pixel_bounds_alloc(pixel_bounds *b, int width, int height, int threads)
+{
+    memset(b, 0, sizeof *b);
+    size_t pixels = (size_t)width * (size_t)height;
+    threads = threads < 1 ? 1 : threads;
+    b->near_t = malloc(2 * pixels * sizeof *b->near_t);
+    b->part = malloc(2 * pixels * (size_t)threads * sizeof *b->part);
+    if (!b->near_t || !b->part) {
+        pixel_bounds_free(b);
+        return -1;
+    }
+    b->far_t = b->near_t + pixels;
+    b->width = width;
+    b->height = height;
+    b->parts = threads;
+    return 0;
+}
+
+void pixel_bounds_free(pixel_bounds *b)
+{
+    free(b->near_t);
+    free(b->part);
+    memset(b, 0, sizeof *b);
+}
+
+size_t pixel_bounds_bytes(const pixel_bounds *b)
+{
+    return b->near_t ? 2 * (size_t)b->width * (size_t)b->height * (size_t)(1 + b->parts) * sizeof(float) : 0;
+}
+
+typedef struct {
+    pixel_bounds *b;
+    const voxel_grid *g;
+    double pos[3], right[3], up[3], fwd[3];
+    double x_scale, y_scale; /* image pixels per unit of the camera's image plane (at distance 1) */
+    double half[3];          /* a voxel's half-extents along right, up and forward, with the margin */
+    int level;
+    int failed[64];          /* per thread (parallel_for's threads are fewer) */
+} bounds_job;
+
+static double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+static double min2(double a, double b) { return a < b ? a : b; }
+static double max2(double a, double b) { return a > b ? a : b; }
+
+/* Resets a thread's map: nothing seen yet. */
+static void reset_part(float *near_t, float *far_t, size_t pixels)
+{
+    for (size_t i = 0; i < pixels; i++) {
+        near_t[i] = INFINITY;
+        far_t[i] = -INFINITY;
+    }
+}
+
+static void bounds_share(void *p, int64_t share, int thread)
+{
+    bounds_job *J = p;
+    pixel_bounds *b = J->b;
+    const voxel_grid *g = J->g;
+    const grid_level *L = &g->level[J->level];
+    size_t pixels = (size_t)b->width * (size_t)b->height;
+    float *near_t = b->part + 2 * pixels * (size_t)thread, *far_t = near_t + pixels;
+    size_t first = L->count * (size_t)share / BOUNDS_SHARES, last = L->count * (size_t)(share + 1) / BOUNDS_SHARES;
+    const double vs = g->voxel_size_d * (double)(1 << J->level), hx = J->half[0], hy = J->half[1], hz = J->half[2];
+    for (size_t i = first; i < last && !J->failed[thread]; i++) {
+        uint32_t pc = L->coords[i];
+        double q[3] = {g->origin_d[0] + ((double)(pc >> 20) + 0.5) * vs - J->pos[0],
+                       g->origin_d[1] + ((double)((pc >> 10) & 1023u) + 0.5) * vs - J->pos[1],
+                       g->origin_d[2] + ((double)(pc & 1023u) + 0.5) * vs - J->pos[2]};
+        double Z = dot3(q, J->fwd);
+        if (Z + hz <= 0.0)
+            continue; /* wholly behind the camera: its rays (forward of it) cannot meet it */
+        if (Z - hz <= 1e-3 * vs) {
+            J->failed[thread] = 1; /* its image is not bounded */
+            break;
+        }
+        double X = dot3(q, J->right), Y = dot3(q, J->up);
+        /* The cube lies in [X - hx, X + hx] x [Y - hy, Y + hy] x [Z - hz, Z + hz] (camera axes); X / Z
+         * over that box is extreme at its corners. */
+        double inv = 1.0 / ((Z - hz) * (Z + hz)), zn = (Z + hz) * inv, zf = (Z - hz) * inv; /* 1 / (Z -+ hz) */
+        double sx0 = min2((X - hx) * zn, (X - hx) * zf), sx1 = max2((X + hx) * zn, (X + hx) * zf);
+        double sy0 = min2((Y - hy) * zn, (Y - hy) * zf), sy1 = max2((Y + hy) * zn, (Y + hy) * zf);
+        /* camera_ray: x = (sx / (tan * aspect) + 1) w / 2, y = (1 - sy / tan) h / 2. */
+        double x0 = (sx0 * J->x_scale + 1.0) * 0.5 * b->width - BOUNDS_PIXEL_MARGIN;
+        double x1 = (sx1 * J->x_scale + 1.0) * 0.5 * b->width + BOUNDS_PIXEL_MARGIN;
+        double y0 = (1.0 - sy1 * J->y_scale) * 0.5 * b->height - BOUNDS_PIXEL_MARGIN;
+        double y1 = (1.0 - sy0 * J->y_scale) * 0.5 * b->height + BOUNDS_PIXEL_MARGIN;
+        if (x1 < 0.0 || y1 < 0.0 || x0 >= b->width || y0 >= b->height)
+            continue;
+        int px0 = x0 > 0.0 ? (int)x0 : 0, py0 = y0 > 0.0 ? (int)y0 : 0;
+        int px1 = x1 < b->width - 1 ? (int)x1 : b->width - 1, py1 = y1 < b->height - 1 ? (int)y1 : b->height - 1;
+        /* Depths along the camera's axis (pixel_bounds_ray turns them into each ray's t); rounding
+         * to float (relative 6e-8) stays inside pixel_bounds_ray's relative margin. */
+        float tn = (float)(Z - hz), tf = (float)(Z + hz);
+        for (int py = py0; py <= py1; py++)
+            for (int px = px0; px <= px1; px++) {
+                size_t k = (size_t)py * (size_t)b->width + (size_t)px;
+                near_t[k] = tn < near_t[k] ? tn : near_t[k];
+                far_t[k] = tf > far_t[k] ? tf : far_t[k];
+            }
+    }
+}
+
+static void bounds_reset(void *p, int64_t part, int thread)
+{
+    (void)thread;
+    bounds_job *J = p;
+    size_t pixels = (size_t)J->b->width * (size_t)J->b->height;
+    float *near_t = J->b->part + 2 * pixels * (size_t)part;
+    reset_part(near_t, near_t + pixels, pixels);
+}
+
+static void bounds_merge(void *p, int64_t row, int thread)
+{
+    (void)thread;
+    bounds_job *J = p;
+    pixel_bounds *b = J->b;
+    size_t pixels = (size_t)b->width * (size_t)b->height;
+    for (size_t k = (size_t)row * (size_t)b->width; k < (size_t)(row + 1) * (size_t)b->width; k++) {
+        float n = INFINITY, f = -INFINITY;
+        for (int t = 0; t < b->parts; t++) {
+            const float *part = b->part + 2 * pixels * (size_t)t;
+            n = part[k] < n ? part[k] : n;
+            f = part[pixels + k] > f ? part[pixels + k] : f;
+        }
+        b->near_t[k] = n;
+        b->far_t[k] = f;
+    }
+}
+
+void pixel_bounds_build(pixel_bounds *b, const voxel_grid *g, const camera *cam, int threads)
+{
+    if (!b->near_t)
+        return;
+    threads = threads < 1 ? 1 : (threads > b->parts ? b->parts : threads);
+    threads = threads > 64 ? 64 : threads;
+    bounds_job J;
+    memset(&J, 0, sizeof J);
+    J.b = b;
+    J.g = g;
+    const vec3 *axes[4] = {&cam->position, &cam->right, &cam->up, &cam->forward};
+    double *out[4] = {J.pos, J.right, J.up, J.fwd};
+    for (int k = 0; k < 4; k++) {
+        out[k][0] = axes[k]->x;
+        out[k][1] = axes[k]->y;
+        out[k][2] = axes[k]->z;
+    }
+    double tan_y = cam->tan_half_fov_y, aspect = (double)b->width / (double)b->height;
+    J.x_scale = 1.0 / (tan_y * aspect);
+    J.y_scale = 1.0 / tan_y;
+    /* The blocks of the finest level with at most BOUNDS_ITEMS_PER_PIXEL a pixel: the map's cost is
+     * then about the image's, not the grid's, and a block stays about a pixel's size or smaller
+     * (bunny 256^3, 256 x 256: voxels; city, with 337k voxels: blocks of 2^3). */
+    J.level = 0;
+    while (J.level + 1 < g->levels && g->level[J.level].count > BOUNDS_ITEMS_PER_PIXEL * (size_t)b->width * (size_t)b->height)
+        J.level++;
+    /* A cube's half-extent along a unit axis a is (|a.x| + |a.y| + |a.z|) / 2 of its edge (its support). */
+    for (int k = 0; k < 3; k++) {
+        const double *a = k == 0 ? J.right : (k == 1 ? J.up : J.fwd);
+        J.half[k] = (0.5 * (fabs(a[0]) + fabs(a[1]) + fabs(a[2])) * (double)(1 << J.level) + BOUNDS_RADIUS_MARGIN) *
+                    g->voxel_size_d;
+    }
+    b->failed = 0;
+    parallel_for(b->parts, threads, bounds_reset, &J, NULL);
+    parallel_for(BOUNDS_SHARES, threads, bounds_share, &J, NULL);
+    for (int t = 0; t < threads; t++)
+        b->failed |= J.failed[t];
+    if (!b->failed)
+        parallel_for(b->height, threads, bounds_merge, &J, NULL);
+}

@@ -1,0 +1,66 @@
+/* The primary rays' depth bounds per pixel: the nearest and the farthest t at which any ray of a
+ * pixel can meet a non-empty voxel. Every voxel's bounding sphere is projected onto the image (a
+ * conservative rectangle of pixels, widened by a margin) and its distance range from the camera
+ * taken in, like a z-buffer that keeps both ends. A pixel's rays then start their walk at its near
+ * bound (no voxel lies before it on any of them) and end it at its far bound (none lies beyond):
+ * the walks report the same cells with the same [t0, t1] as walks over the whole ray, since every
+ * non-empty cell on a ray lies wholly between the bounds by the margin. A pixel that no voxel covers
+ * has nothing to walk.
+ *
+ * It depends on the camera, so it is built per frame, inside the frame's clock, with the render's
+ * threads (each takes a share of the voxels into its own map, then the maps are merged by pixel).
+ * Pinhole cameras only (a thin lens' rays do not leave from one point), and only when every voxel
+ * lies wholly in front of the camera or wholly behind it (else a voxel's image has no bounded
+ * rectangle and the map is not made). C backend only; the OpenCL kernels walk the whole ray, with
+ * the same result. */
+#ifndef VX_PIXEL_BOUNDS_H
+#define VX_PIXEL_BOUNDS_H
+
+#include "camera.h"
+#include "grid_core.h"
+
+typedef struct {
+    int width, height;
+    float *near_t, *far_t; /* width * height each, row-major: the depths along the camera's axis
+                            * (not t) of the nearest and farthest voxel over the pixel; near
+                            * INFINITY: nothing; NULL: no map */
+    float *part;           /* the threads' own maps while building */
+    int parts;
+    int failed; /* a voxel straddles the camera's plane: no map for this frame */
+} pixel_bounds;
+
+/* Allocates the map and the threads' parts for a width x height image (before the clock starts).
+ * Returns 0, or -1 when out of memory. */
+int pixel_bounds_alloc(pixel_bounds *b, int width, int height, int threads);
+void pixel_bounds_free(pixel_bounds *b);
+size_t pixel_bounds_bytes(const pixel_bounds *b);
+
+/* Builds the map of grid g for camera cam with the given threads (at most the allocated parts). */
+void pixel_bounds_build(pixel_bounds *b, const voxel_grid *g, const camera *cam, int threads);
+
+/* Whether the map holds bounds for this frame. */
+static inline int pixel_bounds_active(const pixel_bounds *b) { return b->near_t && !b->failed; }
+
+/* Narrows [*t_min, *t_max] to where ray org + t dir of pixel (px, py) can meet a non-empty voxel
+ * (org: the camera's position). The map holds depths along the camera's axis, and a point of the
+ * ray at depth Z lies at t = Z / (dir . forward), whatever dir's length; a relative 1e-6 covers the
+ * rounding. A pixel that no voxel covers gets an empty interval (t_min INFINITY). */
+static inline void pixel_bounds_ray(const pixel_bounds *b, vec3 forward, int px, int py, vec3 dir, float *t_min,
+                                    float *t_max)
+{
+    if (!pixel_bounds_active(b))
+        return;
+    size_t i = (size_t)py * (size_t)b->width + (size_t)px;
+    double c = (double)dir.x * forward.x + (double)dir.y * forward.y + (double)dir.z * forward.z;
+    if (!(c > 0.0))
+        return;
+    if (b->near_t[i] == INFINITY) {
+        *t_min = INFINITY;
+        return;
+    }
+    float tn = (float)((double)b->near_t[i] / c * (1.0 - 1e-6)), tf = (float)((double)b->far_t[i] / c * (1.0 + 1e-6));
+    *t_min = tn > *t_min ? tn : *t_min;
+    *t_max = tf < *t_max ? tf : *t_max;
+}
+
+#endif
