@@ -11,6 +11,11 @@
  * map (min and max do not depend on the order, so neither does the map). */
 #define BOUNDS_SHARES 64
 #define BOUNDS_ITEMS_PER_PIXEL 3
+/* A map cell is 2 x 2 pixels: a block then marks about one to four cells instead of four to nine
+ * pixels, for bounds a little looser (the rays start about a voxel earlier). Measured against 1, 3
+ * and 4 (256^3, 256 x 256, medians of 5; binary / alpha): bunny 22.8 / 57.3 ms with 1, 19.4 / 54.9
+ * with 2, 21.5 / 67.4 with 4; city and trees alike or within 2 %. */
+#define BOUNDS_TILE 2
 
 /* Margins, far above the float rounding of the camera's rays (relative 1e-7 of a direction: 1e-5 of
  * a pixel) and of the DDA's cells (1e-13 of a voxel), far below anything that changes how much a ray
@@ -22,7 +27,9 @@
 int pixel_bounds_alloc(pixel_bounds *b, int width, int height, int threads)
 {
     memset(b, 0, sizeof *b);
-    size_t pixels = (size_t)width * (size_t)height;
+    int tile = BOUNDS_TILE;
+    int mw = (width + tile - 1) / tile, mh = (height + tile - 1) / tile;
+    size_t pixels = (size_t)mw * (size_t)mh;
     threads = threads < 1 ? 1 : threads;
     b->near_t = malloc(2 * pixels * sizeof *b->near_t);
     b->part = malloc(2 * pixels * (size_t)threads * sizeof *b->part);
@@ -33,6 +40,9 @@ int pixel_bounds_alloc(pixel_bounds *b, int width, int height, int threads)
     b->far_t = b->near_t + pixels;
     b->width = width;
     b->height = height;
+    b->tile = tile;
+    b->map_w = mw;
+    b->map_h = mh;
     b->parts = threads;
     return 0;
 }
@@ -46,7 +56,7 @@ void pixel_bounds_free(pixel_bounds *b)
 
 size_t pixel_bounds_bytes(const pixel_bounds *b)
 {
-    return b->near_t ? 2 * (size_t)b->width * (size_t)b->height * (size_t)(1 + b->parts) * sizeof(float) : 0;
+    return b->near_t ? 2 * (size_t)b->map_w * (size_t)b->map_h * (size_t)(1 + b->parts) * sizeof(float) : 0;
 }
 
 typedef struct {
@@ -63,12 +73,12 @@ static double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + 
 static double min2(double a, double b) { return a < b ? a : b; }
 static double max2(double a, double b) { return a > b ? a : b; }
 
-/* Resets a thread's map: nothing seen yet. */
-static void reset_part(float *near_t, float *far_t, size_t pixels)
+/* Resets a thread's map (near and far side by side, one cache line for both): nothing seen yet. */
+static void reset_part(float *pairs, size_t pixels)
 {
     for (size_t i = 0; i < pixels; i++) {
-        near_t[i] = INFINITY;
-        far_t[i] = -INFINITY;
+        pairs[2 * i] = INFINITY;
+        pairs[2 * i + 1] = -INFINITY;
     }
 }
 
@@ -78,8 +88,8 @@ static void bounds_share(void *p, int64_t share, int thread)
     pixel_bounds *b = J->b;
     const voxel_grid *g = J->g;
     const grid_level *L = &g->level[J->level];
-    size_t pixels = (size_t)b->width * (size_t)b->height;
-    float *near_t = b->part + 2 * pixels * (size_t)thread, *far_t = near_t + pixels;
+    size_t pixels = (size_t)b->map_w * (size_t)b->map_h;
+    float *pairs = b->part + 2 * pixels * (size_t)thread;
     size_t first = L->count * (size_t)share / BOUNDS_SHARES, last = L->count * (size_t)(share + 1) / BOUNDS_SHARES;
     const double vs = g->voxel_size_d * (double)(1 << J->level), hx = J->half[0], hy = J->half[1], hz = J->half[2];
     for (size_t i = first; i < last && !J->failed[thread]; i++) {
@@ -109,14 +119,18 @@ static void bounds_share(void *p, int64_t share, int thread)
             continue;
         int px0 = x0 > 0.0 ? (int)x0 : 0, py0 = y0 > 0.0 ? (int)y0 : 0;
         int px1 = x1 < b->width - 1 ? (int)x1 : b->width - 1, py1 = y1 < b->height - 1 ? (int)y1 : b->height - 1;
+        px0 /= b->tile;
+        py0 /= b->tile;
+        px1 /= b->tile;
+        py1 /= b->tile;
         /* Depths along the camera's axis (pixel_bounds_ray turns them into each ray's t); rounding
          * to float (relative 6e-8) stays inside pixel_bounds_ray's relative margin. */
         float tn = (float)(Z - hz), tf = (float)(Z + hz);
         for (int py = py0; py <= py1; py++)
             for (int px = px0; px <= px1; px++) {
-                size_t k = (size_t)py * (size_t)b->width + (size_t)px;
-                near_t[k] = tn < near_t[k] ? tn : near_t[k];
-                far_t[k] = tf > far_t[k] ? tf : far_t[k];
+                float *pair = pairs + 2 * ((size_t)py * (size_t)b->map_w + (size_t)px);
+                pair[0] = tn < pair[0] ? tn : pair[0];
+                pair[1] = tf > pair[1] ? tf : pair[1];
             }
     }
 }
@@ -125,9 +139,8 @@ static void bounds_reset(void *p, int64_t part, int thread)
 {
     (void)thread;
     bounds_job *J = p;
-    size_t pixels = (size_t)J->b->width * (size_t)J->b->height;
-    float *near_t = J->b->part + 2 * pixels * (size_t)part;
-    reset_part(near_t, near_t + pixels, pixels);
+    size_t pixels = (size_t)J->b->map_w * (size_t)J->b->map_h;
+    reset_part(J->b->part + 2 * pixels * (size_t)part, pixels);
 }
 
 static void bounds_merge(void *p, int64_t row, int thread)
@@ -135,13 +148,13 @@ static void bounds_merge(void *p, int64_t row, int thread)
     (void)thread;
     bounds_job *J = p;
     pixel_bounds *b = J->b;
-    size_t pixels = (size_t)b->width * (size_t)b->height;
-    for (size_t k = (size_t)row * (size_t)b->width; k < (size_t)(row + 1) * (size_t)b->width; k++) {
+    size_t pixels = (size_t)b->map_w * (size_t)b->map_h;
+    for (size_t k = (size_t)row * (size_t)b->map_w; k < (size_t)(row + 1) * (size_t)b->map_w; k++) {
         float n = INFINITY, f = -INFINITY;
         for (int t = 0; t < b->parts; t++) {
-            const float *part = b->part + 2 * pixels * (size_t)t;
-            n = part[k] < n ? part[k] : n;
-            f = part[pixels + k] > f ? part[pixels + k] : f;
+            const float *pair = b->part + 2 * (pixels * (size_t)t + k);
+            n = pair[0] < n ? pair[0] : n;
+            f = pair[1] > f ? pair[1] : f;
         }
         b->near_t[k] = n;
         b->far_t[k] = f;
@@ -186,5 +199,5 @@ void pixel_bounds_build(pixel_bounds *b, const voxel_grid *g, const camera *cam,
     for (int t = 0; t < threads; t++)
         b->failed |= J.failed[t];
     if (!b->failed)
-        parallel_for(b->height, threads, bounds_merge, &J, NULL);
+        parallel_for(b->map_h, threads, bounds_merge, &J, NULL);
 }

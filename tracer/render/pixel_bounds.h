@@ -1,11 +1,13 @@
-/* The primary rays' depth bounds per pixel: the nearest and the farthest t at which any ray of a
- * pixel can meet a non-empty voxel. Every voxel's bounding sphere is projected onto the image (a
- * conservative rectangle of pixels, widened by a margin) and its distance range from the camera
- * taken in, like a z-buffer that keeps both ends. A pixel's rays then start their walk at its near
- * bound (no voxel lies before it on any of them) and end it at its far bound (none lies beyond):
- * the walks report the same cells with the same [t0, t1] as walks over the whole ray, since every
- * non-empty cell on a ray lies wholly between the bounds by the margin. A pixel that no voxel covers
- * has nothing to walk.
+/* The primary rays' depth bounds per pixel: the nearest and the farthest depth at which any ray of
+ * a pixel can meet a non-empty voxel. Every voxel (or, when the grid has over 3 voxels a pixel, every
+ * non-empty block of the finest MIP level with at most that many) is projected onto the image: its
+ * box in the camera's axes gives a conservative rectangle of pixels, widened by a margin, and a
+ * range of depths along the camera's axis, which the map's cells under the rectangle take in, like a
+ * z-buffer that keeps both ends. A cell is 2 x 2 pixels. A pixel's rays then start their walk at its
+ * near bound (no voxel lies before it on any of them) and end it at its far bound (none lies
+ * beyond): the walks report the same cells with the same [t0, t1] as walks over the whole ray,
+ * since every non-empty cell on a ray lies wholly between the bounds by the margin. A pixel that no
+ * voxel covers has nothing to walk.
  *
  * It depends on the camera, so it is built per frame, inside the frame's clock, with the render's
  * threads (each takes a share of the voxels into its own map, then the maps are merged by pixel).
@@ -20,7 +22,8 @@
 #include "grid_core.h"
 
 typedef struct {
-    int width, height;
+    int width, height; /* the image */
+    int tile, map_w, map_h; /* the map's cells: tile x tile pixels, map_w x map_h of them */
     float *near_t, *far_t; /* width * height each, row-major: the depths along the camera's axis
                             * (not t) of the nearest and farthest voxel over the pixel; near
                             * INFINITY: nothing; NULL: no map */
@@ -50,7 +53,7 @@ static inline void pixel_bounds_ray(const pixel_bounds *b, vec3 forward, int px,
 {
     if (!pixel_bounds_active(b))
         return;
-    size_t i = (size_t)py * (size_t)b->width + (size_t)px;
+    size_t i = (size_t)(py / b->tile) * (size_t)b->map_w + (size_t)(px / b->tile);
     double c = (double)dir.x * forward.x + (double)dir.y * forward.y + (double)dir.z * forward.z;
     if (!(c > 0.0))
         return;
