@@ -24,6 +24,15 @@
 #define BOUNDS_RADIUS_MARGIN 0.01
 #define BOUNDS_PIXEL_MARGIN 0.01
 
+/* Resets a thread's map (near and far side by side, one cache line for both): nothing seen yet. */
+static void reset_part(float *pairs, size_t pixels)
+{
+    for (size_t i = 0; i < pixels; i++) {
+        pairs[2 * i] = INFINITY;
+        pairs[2 * i + 1] = -INFINITY;
+    }
+}
+
 int pixel_bounds_alloc(pixel_bounds *b, int width, int height, int threads)
 {
     memset(b, 0, sizeof *b);
@@ -44,6 +53,12 @@ int pixel_bounds_alloc(pixel_bounds *b, int width, int height, int threads)
     b->map_w = mw;
     b->map_h = mh;
     b->parts = threads;
+    /* The parts start empty (here, before the frame's clock, which also touches their pages) and
+     * every build leaves them so (bounds_merge empties what it reads). */
+    for (int t = 0; t < threads; t++)
+        reset_part(b->part + 2 * pixels * (size_t)t, pixels);
+    for (size_t i = 0; i < pixels; i++) /* the map's pages too */
+        b->near_t[i] = b->far_t[i] = INFINITY;
     return 0;
 }
 
@@ -72,15 +87,6 @@ typedef struct {
 static double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 static double min2(double a, double b) { return a < b ? a : b; }
 static double max2(double a, double b) { return a > b ? a : b; }
-
-/* Resets a thread's map (near and far side by side, one cache line for both): nothing seen yet. */
-static void reset_part(float *pairs, size_t pixels)
-{
-    for (size_t i = 0; i < pixels; i++) {
-        pairs[2 * i] = INFINITY;
-        pairs[2 * i + 1] = -INFINITY;
-    }
-}
 
 static void bounds_share(void *p, int64_t share, int thread)
 {
@@ -152,9 +158,11 @@ static void bounds_merge(void *p, int64_t row, int thread)
     for (size_t k = (size_t)row * (size_t)b->map_w; k < (size_t)(row + 1) * (size_t)b->map_w; k++) {
         float n = INFINITY, f = -INFINITY;
         for (int t = 0; t < b->parts; t++) {
-            const float *pair = b->part + 2 * (pixels * (size_t)t + k);
+            float *pair = b->part + 2 * (pixels * (size_t)t + k);
             n = pair[0] < n ? pair[0] : n;
             f = pair[1] > f ? pair[1] : f;
+            pair[0] = INFINITY; /* empty again for the next build */
+            pair[1] = -INFINITY;
         }
         b->near_t[k] = n;
         b->far_t[k] = f;
@@ -194,10 +202,11 @@ void pixel_bounds_build(pixel_bounds *b, const voxel_grid *g, const camera *cam,
                     g->voxel_size_d;
     }
     b->failed = 0;
-    parallel_for(b->parts, threads, bounds_reset, &J, NULL);
     parallel_for(BOUNDS_SHARES, threads, bounds_share, &J, NULL);
     for (int t = 0; t < threads; t++)
         b->failed |= J.failed[t];
     if (!b->failed)
         parallel_for(b->map_h, threads, bounds_merge, &J, NULL);
+    else
+        parallel_for(b->parts, threads, bounds_reset, &J, NULL); /* no map: empty the parts again */
 }
