@@ -19,8 +19,8 @@
 
 /* Margins, far above the float rounding of the camera's rays (relative 1e-7 of a direction: 1e-5 of
  * a pixel) and of the DDA's cells (1e-13 of a voxel), far below anything that changes how much a ray
- * walks: 1 % of a voxel added to every sphere's radius, 1 % of a pixel to every rectangle (and a
- * relative 1e-6 to the distances, in pixel_bounds_ray). */
+ * walks: 1 % of a voxel added to every block's half-extents, 1 % of a pixel to every rectangle (and
+ * a relative 1e-6 to the depths, in pixel_bounds_ray). */
 #define BOUNDS_RADIUS_MARGIN 0.01
 #define BOUNDS_PIXEL_MARGIN 0.01
 

@@ -6,9 +6,10 @@
  * a hexagon; its bounding rectangle, widened by a margin, marks the columns). A ray in that column
  * meets no non-empty voxel once it is past that reach, so its walk can end there: the walk reports
  * the same cells with the same [t0, t1] (each of them lies wholly before the end, by the margin),
- * and the shadow is the same bits, while the climb out of the grid through empty space (about two
- * thirds of a shadow ray's DDA steps, a third of alpha's frame on bunny 256^3 with shadows) is not
- * walked. A ray whose column holds no voxel at all has nothing to meet: its walk is empty.
+ * and the shadow is the same bits, while the climb out of the grid through empty space is not
+ * walked (alpha, bunny 256^3: the shadow rays' DDA steps fall from 2.0 to 1.1 million a frame, and
+ * the frame from 62.6 to 55.4 ms). A ray whose column holds no voxel at all has nothing to meet:
+ * its walk is empty.
  *
  * Built per directional light by the C backend's render set-up (outside the frame's clock, like the
  * primary rays' distance field) in one pass over the non-empty voxels; the OpenCL kernels walk to the
