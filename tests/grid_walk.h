@@ -1,6 +1,6 @@
 /* Test helpers for the exact ray-interval optimisations (pixel_skip.h, pixel_bounds.h,
- * shadow_clip.h): a DDA walk recorded cell by cell, compared bit for bit, and a brute-force check
- * of an interval against every non-empty voxel's box. */
+ * shadow_clip.h): random directions, a DDA walk recorded cell by cell, compared bit for bit, and a
+ * brute-force check of an interval against every non-empty voxel's box. */
 #ifndef VX_TEST_GRID_WALK_H
 #define VX_TEST_GRID_WALK_H
 
@@ -8,8 +8,21 @@
 #include <string.h>
 
 #include "grid_traverse_core.h"
+#include "rng.h"
+#include "vec_d.h"
 
 #define WALK_MAX_CELLS 4096
+
+/* A random unit vector (rejection from the cube). */
+static inline vec3 random_unit(rng *r)
+{
+    for (;;) {
+        vec3 v = v3(2.0f * rng_float(r) - 1.0f, 2.0f * rng_float(r) - 1.0f, 2.0f * rng_float(r) - 1.0f);
+        float l = v3_length(v);
+        if (l > 0.1f && l <= 1.0f)
+            return v3_scale(v, 1.0f / l);
+    }
+}
 
 typedef struct {
     int64_t index;
@@ -55,24 +68,12 @@ static inline int voxels_outside(const voxel_grid *g, vec3 o, vec3 d, double t_s
     for (size_t i = 0; i < L->count; i++) {
         uint32_t pc = L->coords[i];
         const int c[3] = {(int)(pc >> 20), (int)((pc >> 10) & 1023u), (int)(pc & 1023u)};
-        double a = t_start, b = INFINITY;
-        for (int k = 0; k < 3 && a <= b; k++) {
-            double bl = g->origin_d[k] + c[k] * g->voxel_size_d, bh = g->origin_d[k] + (c[k] + 1) * g->voxel_size_d;
-            if (dd[k] == 0.0) {
-                if (od[k] < bl || od[k] > bh)
-                    b = -INFINITY;
-                continue;
-            }
-            double t0 = (bl - od[k]) / dd[k], t1 = (bh - od[k]) / dd[k];
-            if (t0 > t1) {
-                double t = t0;
-                t0 = t1;
-                t1 = t;
-            }
-            a = t0 > a ? t0 : a;
-            b = t1 < b ? t1 : b;
+        double bl[3], bh[3], a, b;
+        for (int k = 0; k < 3; k++) {
+            bl[k] = g->origin_d[k] + c[k] * g->voxel_size_d;
+            bh[k] = g->origin_d[k] + (c[k] + 1) * g->voxel_size_d;
         }
-        if (a <= b && (a < lo || b > hi))
+        if (vx_ray_box(od, dd, bl, bh, t_start, &a, &b) && (a < lo || b > hi))
             outside++;
     }
     return outside;

@@ -21,16 +21,6 @@
 #include "rng.h"
 #include "unit.h"
 
-static vec3 random_unit(rng *r)
-{
-    for (;;) {
-        vec3 v = v3(2.0f * rng_float(r) - 1.0f, 2.0f * rng_float(r) - 1.0f, 2.0f * rng_float(r) - 1.0f);
-        float l = v3_length(v);
-        if (l > 0.1f && l <= 1.0f)
-            return v3_scale(v, 1.0f / l);
-    }
-}
-
 /* Random groups of rays against one grid; returns the rays whose walks differ. *skipped and *ahead
  * add up, over rays that hit something, the skip and the distance to the first non-empty cell. */
 static int exactness(const voxel_grid *g, const grid_distance *ps, vec3 camera, vec3 look, int groups, uint64_t seed,

@@ -20,16 +20,6 @@
 #include "shadow_clip.h"
 #include "unit.h"
 
-static vec3 random_unit(rng *r)
-{
-    for (;;) {
-        vec3 v = v3(2.0f * rng_float(r) - 1.0f, 2.0f * rng_float(r) - 1.0f, 2.0f * rng_float(r) - 1.0f);
-        float l = v3_length(v);
-        if (l > 0.1f && l <= 1.0f)
-            return v3_scale(v, 1.0f / l);
-    }
-}
-
 typedef struct {
     int rays, differ, beyond; /* walks compared, walks that differ, voxels touched past the end */
     int free_rays;            /* rays from voxel centres that meet nothing */

@@ -2,6 +2,8 @@
 
 #include <math.h>
 
+#include "vec_d.h"
+
 static inline double dmin(double a, double b) { return a < b ? a : b; }
 static inline double dmax(double a, double b) { return a > b ? a : b; }
 
@@ -19,13 +21,12 @@ static void cross3(double r[3], const double a[3], const double b[3])
     r[2] = a[0] * b[1] - a[1] * b[0];
 }
 
-static double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
 /* Separated along `axis` when the triangle's projected interval [min, max] and the box's
  * [-r, r] are disjoint. Strict comparisons: touching intervals are not separated. */
 static int separated(const double axis[3], const double v[3][3], const double half[3])
 {
-    double p0 = dot3(axis, v[0]), p1 = dot3(axis, v[1]), p2 = dot3(axis, v[2]);
+    double p0 = vx_dot3d(axis, v[0]), p1 = vx_dot3d(axis, v[1]), p2 = vx_dot3d(axis, v[2]);
     double mn = dmin(p0, dmin(p1, p2)), mx = dmax(p0, dmax(p1, p2));
     double r = half[0] * fabs(axis[0]) + half[1] * fabs(axis[1]) + half[2] * fabs(axis[2]);
     return mn > r || mx < -r;
@@ -90,7 +91,7 @@ int tribox_cells_setup(tribox_cells *s, const double a[3], const double b[3], co
 
     /* Plane: the unit cell at p spans n.p + [sum of negative n_i, sum of positive n_i] along n;
      * it meets the plane n.x = n.a when that interval contains n.a. */
-    double na = dot3(s->n, a), pos = 0.0, neg = 0.0;
+    double na = vx_dot3d(s->n, a), pos = 0.0, neg = 0.0;
     for (int i = 0; i < 3; i++) {
         if (s->n[i] > 0.0)
             pos += s->n[i];

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "parallel.h"
+#include "vec_d.h"
 
 /* The voxels are split into this many shares; each thread folds the shares it takes into its own
  * map (min and max do not depend on the order, so neither does the map). */
@@ -84,7 +85,6 @@ typedef struct {
     int failed[64];          /* per thread (parallel_for's threads are fewer) */
 } bounds_job;
 
-static double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 static double min2(double a, double b) { return a < b ? a : b; }
 static double max2(double a, double b) { return a > b ? a : b; }
 
@@ -103,14 +103,14 @@ static void bounds_share(void *p, int64_t share, int thread)
         double q[3] = {g->origin_d[0] + ((double)(pc >> 20) + 0.5) * vs - J->pos[0],
                        g->origin_d[1] + ((double)((pc >> 10) & 1023u) + 0.5) * vs - J->pos[1],
                        g->origin_d[2] + ((double)(pc & 1023u) + 0.5) * vs - J->pos[2]};
-        double Z = dot3(q, J->fwd);
+        double Z = vx_dot3d(q, J->fwd);
         if (Z + hz <= 0.0)
             continue; /* wholly behind the camera: its rays (forward of it) cannot meet it */
         if (Z - hz <= 1e-3 * vs) {
             J->failed[thread] = 1; /* its image is not bounded */
             break;
         }
-        double X = dot3(q, J->right), Y = dot3(q, J->up);
+        double X = vx_dot3d(q, J->right), Y = vx_dot3d(q, J->up);
         /* The cube lies in [X - hx, X + hx] x [Y - hy, Y + hy] x [Z - hz, Z + hz] (camera axes); X / Z
          * over that box is extreme at its corners. */
         double inv = 1.0 / ((Z - hz) * (Z + hz)), zn = (Z + hz) * inv, zf = (Z - hz) * inv; /* 1 / (Z -+ hz) */
@@ -195,11 +195,10 @@ void pixel_bounds_build(pixel_bounds *b, const voxel_grid *g, const camera *cam,
     J.level = 0;
     while (J.level + 1 < g->levels && g->level[J.level].count > BOUNDS_ITEMS_PER_PIXEL * (size_t)b->width * (size_t)b->height)
         J.level++;
-    /* A cube's half-extent along a unit axis a is (|a.x| + |a.y| + |a.z|) / 2 of its edge (its support). */
+    /* A block's half-extents along the camera's axes, widened. */
     for (int k = 0; k < 3; k++) {
         const double *a = k == 0 ? J.right : (k == 1 ? J.up : J.fwd);
-        J.half[k] = (0.5 * (fabs(a[0]) + fabs(a[1]) + fabs(a[2])) * (double)(1 << J.level) + BOUNDS_RADIUS_MARGIN) *
-                    g->voxel_size_d;
+        J.half[k] = (vx_cube_half_extent(a) * (double)(1 << J.level) + BOUNDS_RADIUS_MARGIN) * g->voxel_size_d;
     }
     b->failed = 0;
     parallel_for(BOUNDS_SHARES, threads, bounds_share, &J, NULL);

@@ -3,30 +3,7 @@
 
 #include <math.h>
 
-/* Where a ray enters and leaves the box [lo, hi] (t >= 0); 0 when it misses it. */
-static int ray_box(const double o[3], const double d[3], const double lo[3], const double hi[3], double *t_in,
-                   double *t_out)
-{
-    double a = 0.0, b = INFINITY;
-    for (int k = 0; k < 3; k++) {
-        if (d[k] == 0.0) {
-            if (o[k] < lo[k] || o[k] > hi[k])
-                return 0;
-            continue;
-        }
-        double t0 = (lo[k] - o[k]) / d[k], t1 = (hi[k] - o[k]) / d[k];
-        if (t0 > t1) {
-            double t = t0;
-            t0 = t1;
-            t1 = t;
-        }
-        a = t0 > a ? t0 : a;
-        b = t1 < b ? t1 : b;
-    }
-    *t_in = a;
-    *t_out = b;
-    return a <= b;
-}
+#include "vec_d.h"
 
 float pixel_skip_t(const grid_distance *s, vec3 org, const vec3 *dir, int count)
 {
@@ -55,7 +32,7 @@ float pixel_skip_t(const grid_distance *s, vec3 org, const vec3 *dir, int count)
             spread = e > spread ? e : spread;
         }
         double a, b;
-        if (ray_box(o, di, box_lo, box_hi, &a, &b)) {
+        if (vx_ray_box(o, di, box_lo, box_hi, 0.0, &a, &b)) {
             t_lo = a < t_lo ? a : t_lo;
             t_hi = b > t_hi ? b : t_hi;
         }

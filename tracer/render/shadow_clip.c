@@ -5,13 +5,13 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "vec_d.h"
+
 /* Widening of every voxel's footprint and reach, in voxels: far above the rounding of these doubles
  * and of the DDA's (about 1e-13 of a voxel over a 1024^3 grid's diagonal) and of the float a reach is
  * kept in (1e-4 of a voxel at 2000 voxels), and far below anything that changes how soon a ray
  * stops. */
 #define CLIP_MARGIN 1e-2
-
-static double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
 /* A float at or above x (the reach is an upper bound, so it is rounded up). */
 static float float_up(double x)
@@ -24,7 +24,7 @@ int shadow_clip_build(shadow_clip *c, const voxel_grid *g, vec3 to_light)
 {
     memset(c, 0, sizeof *c);
     double w[3] = {to_light.x, to_light.y, to_light.z};
-    double len = sqrt(dot3(w, w));
+    double len = sqrt(vx_dot3d(w, w));
     if (!g || g->levels < 1 || !(len > 0.0) || !isfinite(len))
         return 0; /* no map: the rays walk to the grid's edge */
     for (int a = 0; a < 3; a++)
@@ -34,7 +34,7 @@ int shadow_clip_build(shadow_clip *c, const voxel_grid *g, vec3 to_light)
     double e[3] = {0.0, 0.0, 0.0};
     e[least] = 1.0;
     double u[3] = {e[1] * w[2] - e[2] * w[1], e[2] * w[0] - e[0] * w[2], e[0] * w[1] - e[1] * w[0]};
-    double ul = sqrt(dot3(u, u));
+    double ul = sqrt(vx_dot3d(u, u));
     for (int a = 0; a < 3; a++)
         u[a] /= ul;
     double v[3] = {w[1] * u[2] - w[2] * u[1], w[2] * u[0] - w[0] * u[2], w[0] * u[1] - w[1] * u[0]};
@@ -43,7 +43,7 @@ int shadow_clip_build(shadow_clip *c, const voxel_grid *g, vec3 to_light)
     double umin = INFINITY, umax = -INFINITY, vmin = INFINITY, vmax = -INFINITY;
     for (int k = 0; k < 8; k++) {
         double p[3] = {(k & 1) ? n : 0, (k & 2) ? n : 0, (k & 4) ? n : 0};
-        double pu = dot3(p, u), pv = dot3(p, v);
+        double pu = vx_dot3d(p, u), pv = vx_dot3d(p, v);
         umin = pu < umin ? pu : umin;
         umax = pu > umax ? pu : umax;
         vmin = pv < vmin ? pv : vmin;
@@ -59,20 +59,19 @@ int shadow_clip_build(shadow_clip *c, const voxel_grid *g, vec3 to_light)
         return -1;
     for (size_t i = 0; i < (size_t)nu * (size_t)nv; i++)
         reach[i] = -INFINITY;
-    /* A cube's half-extent along a unit axis a is (|a.x| + |a.y| + |a.z|) / 2 (its support). */
-    double hu = 0.5 * (fabs(u[0]) + fabs(u[1]) + fabs(u[2])) + CLIP_MARGIN;
-    double hv = 0.5 * (fabs(v[0]) + fabs(v[1]) + fabs(v[2])) + CLIP_MARGIN;
-    double hw = 0.5 * (fabs(w[0]) + fabs(w[1]) + fabs(w[2])) + CLIP_MARGIN;
+    /* A voxel's half-extents along the map's axes, widened. */
+    double hu = vx_cube_half_extent(u) + CLIP_MARGIN, hv = vx_cube_half_extent(v) + CLIP_MARGIN;
+    double hw = vx_cube_half_extent(w) + CLIP_MARGIN;
     const grid_level *L = &g->level[0];
     for (size_t i = 0; i < L->count; i++) {
         uint32_t pc = L->coords[i];
         double centre[3] = {(double)(pc >> 20) + 0.5, (double)((pc >> 10) & 1023u) + 0.5, (double)(pc & 1023u) + 0.5};
-        double cu = dot3(centre, u) - u0, cv = dot3(centre, v) - v0;
+        double cu = vx_dot3d(centre, u) - u0, cv = vx_dot3d(centre, v) - v0;
         int iu0 = (int)((cu - hu) / column), iu1 = (int)((cu + hu) / column); /* >= 0: floor */
         int iv0 = (int)((cv - hv) / column), iv1 = (int)((cv + hv) / column);
         iu1 = iu1 < nu - 1 ? iu1 : nu - 1;
         iv1 = iv1 < nv - 1 ? iv1 : nv - 1;
-        float r = float_up(dot3(centre, w) + hw);
+        float r = float_up(vx_dot3d(centre, w) + hw);
         for (int iu = iu0; iu <= iu1; iu++)
             for (int iv = iv0; iv <= iv1; iv++) {
                 float *cell = &reach[(size_t)iu * (size_t)nv + (size_t)iv];
@@ -113,18 +112,18 @@ float shadow_clip_end(const shadow_clip *c, vec3 p, vec3 to_light, float t_max)
     double o[3] = {((double)p.x - g->origin_d[0]) / s, ((double)p.y - g->origin_d[1]) / s,
                    ((double)p.z - g->origin_d[2]) / s};
     double d[3] = {to_light.x / s, to_light.y / s, to_light.z / s};
-    double speed = dot3(d, c->w); /* how fast the ray climbs toward the light, per unit of t */
-    double fu = floor((dot3(o, c->u) - c->u0) / c->column), fv = floor((dot3(o, c->v) - c->v0) / c->column);
+    double speed = vx_dot3d(d, c->w); /* how fast the ray climbs toward the light, per unit of t */
+    double fu = floor((vx_dot3d(o, c->u) - c->u0) / c->column), fv = floor((vx_dot3d(o, c->v) - c->v0) / c->column);
     /* Not the map's direction, or a point it cannot place: walk as usual. */
-    if (!(speed > 0.0) || !(fabs(dot3(d, c->u)) <= 1e-9 * speed) || !(fabs(dot3(d, c->v)) <= 1e-9 * speed) ||
-        !isfinite(fu) || !isfinite(fv) || !isfinite(dot3(o, c->w)))
+    if (!(speed > 0.0) || !(fabs(vx_dot3d(d, c->u)) <= 1e-9 * speed) || !(fabs(vx_dot3d(d, c->v)) <= 1e-9 * speed) ||
+        !isfinite(fu) || !isfinite(fv) || !isfinite(vx_dot3d(o, c->w)))
         return t_max;
     if (fu < 0.0 || fv < 0.0 || fu >= c->nu || fv >= c->nv)
         return 0.0f; /* outside every voxel's footprint */
     float r = c->reach[(size_t)fu * (size_t)c->nv + (size_t)fv];
     if (r == -INFINITY)
         return 0.0f;
-    double end = ((double)r - dot3(o, c->w)) / speed;
+    double end = ((double)r - vx_dot3d(o, c->w)) / speed;
     if (!(end < (double)t_max))
         return t_max;
     return end > 0.0 ? float_up(end) : 0.0f;
