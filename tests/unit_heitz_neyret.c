@@ -216,6 +216,45 @@ static int constraints_feasible(const hn_constraint *c, int n, float r, float be
     return lo <= hi;
 }
 
+/* hn_constraints_empty, which the cone element asks with the plane's bounds before it blends the
+ * edge field: on random sets of one to three constraints, whenever it says a prefix of the set is
+ * empty, the mask of the whole set is empty and the brute force finds no sample that meets the
+ * prefix (beyond the table's slack); and it does say so for most of the prefixes whose mask is
+ * empty (an answer of "never" would make the early exit useless, and "always" wrong). */
+static void constraints_empty_prefix(const float *smp, const unsigned *table)
+{
+    uint64_t seed = 7;
+    long said_empty = 0, empty_masks = 0, caught = 0, wrong = 0;
+    for (int t = 0; t < 4000; t++) {
+        hn_constraint c[3];
+        int n = 1 + (int)(rnd01(&seed) * 3);
+        for (int i = 0; i < n; i++) {
+            double z = 2 * rnd01(&seed) - 1, ph = 2 * M_PI * rnd01(&seed), sz = sqrt(1 - z * z);
+            c[i].cx = (float)(sz * cos(ph)), c[i].cy = (float)(sz * sin(ph)), c[i].b = (float)z;
+            c[i].A = (float)(1.6 * rnd01(&seed) - 0.8);
+        }
+        float r = 0.5f, behind = rnd01(&seed) < 0.5 ? 0.0f : 1.0f;
+        int k = 1 + (int)(rnd01(&seed) * n); /* the prefix c[0 .. k - 1] */
+        unsigned prefix_mask[VX_MASK_WORDS], whole[VX_MASK_WORDS];
+        hn_constraints_mask(table, c, k, r, behind, prefix_mask);
+        hn_constraints_mask(table, c, n, r, behind, whole);
+        int empty = hn_constraints_empty(c, k, r, behind);
+        empty_masks += hn_mask_count(prefix_mask) == 0;
+        if (!empty)
+            continue;
+        said_empty++;
+        caught += hn_mask_count(prefix_mask) == 0;
+        int feasible = 0;
+        for (int s = 0; s < HN_MASK_SAMPLES; s++)
+            feasible += constraints_feasible(c, k, r, behind, smp[2 * s], smp[2 * s + 1], -0.03);
+        wrong += hn_mask_count(whole) != 0 || hn_mask_count(prefix_mask) != 0 || feasible != 0;
+    }
+    printf("# constraints_empty: %ld of 4000 prefixes said empty, %ld wrong; %ld of the %ld empty prefix masks caught\n",
+           said_empty, wrong, caught, empty_masks);
+    CHECK("a prefix said empty has an empty mask, as has the whole set, and no sample meets it", wrong == 0);
+    CHECK("most empty prefix masks are said empty before the table is read", said_empty > 0 && caught * 10 >= empty_masks * 8);
+}
+
 /* hn_constraints_mask against a brute-force test of each sample's segment, on random sets of one
  * to three constraints (planes, sheets, edges at any angle to the ray). The table quantises angles
  * and offsets, so samples within a small slack of the boundary may go either way; every other
@@ -384,6 +423,7 @@ static void masks(void)
     hn_constraints_mask(table, &edge_on, 1, 0.5f, 0.0f, m);
     CHECK("voxel edge-on through the centre covers half", abs(hn_mask_count(m) - 64) <= 4);
     constraints_brute_force(smp, table);
+    constraints_empty_prefix(smp, table);
 }
 
 /* ---------- the bake against a synthetic Gaussian surface ---------- */

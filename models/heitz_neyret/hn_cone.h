@@ -126,8 +126,16 @@ VX_INLINE void hn_cone_element_eval(const vx_query *q, vx_answer *a)
     hn_sample s;
     if (!hn_blend_geometry(records, &st, q->position, &s))
         return;
+    /* An element whose rays the plane alone leaves empty (most of those a cone meets just before a
+     * surface) is empty whatever the edge adds: it is known before the edge field (a fifth of the
+     * element's cost) is blended, and the answer is the same. */
+    float r = vx_fmaxf(q->footprint, 0.0f);
+    hn_mask_bounds mb;
+    hn_mask_plane(&s, q, r, &mb);
+    if (hn_constraints_empty(mb.c, mb.nc, r, mb.behind))
+        return;
     hn_blend_edge(records, &st, q->position, &s);
-    vec3 N = hn_mask_answer(table, &s, q, vx_fmaxf(q->footprint, 0.0f), a);
+    vec3 N = hn_mask_finish(table, &s, &mb, r, a);
     if (q->light_count <= 0 || !(a->opacity > 0.0f))
         return;
     vec3 nu = v3_normalize_or(s.n, N);

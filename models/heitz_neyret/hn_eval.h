@@ -344,13 +344,21 @@ VX_INLINE vec3 hn_radiance(const hn_sample *s, vec3 N, const vx_query *q)
     return sum;
 }
 
-/* The element's coverage mask over its footprint (radius r, in the frame of q->ray_dir) and
- * opacity = the covered fraction, from the geometry in s. Returns the unit normal the radiance
- * should use (facing the viewer for a two-sided sheet). */
-VX_INLINE vec3 hn_mask_answer(VX_GLOBAL const unsigned int *table, const hn_sample *s, const vx_query *q, float r,
-                              vx_answer *a)
+/* The element's bounds on its rays but for where the surface ends: its frame (T, B, dir), the
+ * unit normal the radiance should use (N, facing the viewer for a two-sided sheet), the plane's
+ * constraints and how far the segment reaches toward the viewer (behind). */
+typedef struct {
+    vec3 dir, T, B, N;
+    hn_constraint c[3];
+    int nc;
+    float behind;
+} hn_mask_bounds;
+
+/* hn_mask_bounds of the geometry in s for element q of radius r. */
+VX_INLINE void hn_mask_plane(const hn_sample *s, const vx_query *q, float r, hn_mask_bounds *mb)
 {
     vec3 dir = v3_normalize_or(q->ray_dir, v3(0.0f, 0.0f, 1.0f));
+    mb->dir = dir;
     int two = s->two_sided > 0.5f;
     vec3 N = v3_normalize_or(s->n, v3_scale(dir, -1.0f));
     float D = s->D;
@@ -376,7 +384,7 @@ VX_INLINE vec3 hn_mask_answer(VX_GLOBAL const unsigned int *table, const hn_samp
     /* The element's rays meet the surface where a point of their segment lies below the plane
      * (N, Dv), and, where the surface ends, inside its edge; all at the same point
      * (hn_constraints_mask). */
-    hn_constraint c[3];
+    hn_constraint *c = mb->c;
     int nc = 0;
     c[nc].A = Dv, c[nc].cx = nx, c[nc].cy = ny, c[nc].b = nz, nc++;
     float behind = 0.0f;
@@ -411,6 +419,25 @@ VX_INLINE vec3 hn_mask_answer(VX_GLOBAL const unsigned int *table, const hn_samp
          * (5.2e-4), deeper (r) widened the cube's silhouette to +0.24 px. */
         c[nc].A = -Dv - 0.5f * r * fabsf(nz), c[nc].cx = -nx, c[nc].cy = -ny, c[nc].b = -nz, nc++;
     }
+    mb->T = T;
+    mb->B = B;
+    mb->N = N;
+    mb->nc = nc;
+    mb->behind = behind;
+}
+
+/* The element's coverage mask over its footprint (radius r, in the frame of q->ray_dir) and
+ * opacity = the covered fraction, from the plane's bounds mb (hn_mask_plane) and the edge field in
+ * s. Returns mb's N. */
+VX_INLINE vec3 hn_mask_finish(VX_GLOBAL const unsigned int *table, const hn_sample *s, const hn_mask_bounds *mb,
+                              float r, vx_answer *a)
+{
+    hn_constraint c[3];
+    int nc = mb->nc;
+    float behind = mb->behind;
+    vec3 N = mb->N, T = mb->T, B = mb->B, dir = mb->dir;
+    for (int i = 0; i < nc; i++)
+        c[i] = mb->c[i];
     if (s->edge) {
         /* Where the surface ends (hn_blend_edge): the half-space psi <= 0, its boundary the plane
          * across the surface where psi crosses 0, linearised at the centre along psi's in-plane
@@ -431,6 +458,16 @@ VX_INLINE vec3 hn_mask_answer(VX_GLOBAL const unsigned int *table, const hn_samp
     a->opacity = (float)hn_mask_count(a->mask) / (float)HN_MASK_SAMPLES;
     a->radiance = v3(0.0f, 0.0f, 0.0f);
     return N;
+}
+
+/* The element's coverage mask and opacity from the geometry and the edge field in s (hn_mask_plane
+ * then hn_mask_finish). Returns the unit normal the radiance should use. */
+VX_INLINE vec3 hn_mask_answer(VX_GLOBAL const unsigned int *table, const hn_sample *s, const vx_query *q, float r,
+                              vx_answer *a)
+{
+    hn_mask_bounds mb;
+    hn_mask_plane(s, q, r, &mb);
+    return hn_mask_finish(table, s, &mb, r, a);
 }
 
 /* Mask and radiance of one sample s that carries both geometry and attributes (the single-record

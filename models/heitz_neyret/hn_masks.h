@@ -75,6 +75,39 @@ typedef struct {
 
 #define HN_CONSTRAINTS_MAX 4
 
+/* The constraint set of hn_constraints_mask: the segment's own ends z <= r and -z <= r + behind,
+ * then c[0 .. n - 1] (at most HN_CONSTRAINTS_MAX); returns how many. r and behind are clamped at 0
+ * here, so every caller works with the same numbers. */
+VX_INLINE int hn_constraints_all(const hn_constraint *c, int n, float *r, float *behind, hn_constraint *all)
+{
+    *r = vx_fmaxf(*r, 0.0f);
+    *behind = vx_fmaxf(*behind, 0.0f);
+    int count = 0;
+    all[count].A = -*r, all[count].cx = 0.0f, all[count].cy = 0.0f, all[count].b = 1.0f, count++;
+    all[count].A = -*r - *behind, all[count].cx = 0.0f, all[count].cy = 0.0f, all[count].b = -1.0f, count++;
+    for (int i = 0; i < n && i < HN_CONSTRAINTS_MAX; i++)
+        all[count++] = c[i];
+    return count;
+}
+
+/* The half-plane in omega of upper bound p and lower bound q (see hn_constraints_mask): the rays
+ * r omega with omega.(cx, cy)/|.| <= v, v returned, (*cx, *cy) its direction. v <= -1 (or NaN): no
+ * ray; v >= 1: every ray. */
+VX_INLINE float hn_constraint_pair(const hn_constraint *p, const hn_constraint *q, float r, float *cx, float *cy)
+{
+    float bp = p->b, bq = -q->b;
+    float k = p->A * bq + q->A * bp;
+    *cx = p->cx * bq + q->cx * bp;
+    *cy = p->cy * bq + q->cy * bp;
+    float den = r * sqrtf(*cx * *cx + *cy * *cy);
+    /* All or nothing without the angle: most elements lie wholly inside or outside most bounds. */
+    return den > 1e-30f ? -k / den : (k <= 0.0f ? 1.0f : -1.0f);
+}
+
+/* Whether (p, q), p an upper bound of hn_constraints_all's, is not a pair to test: q is an upper bound
+ * too, or the two are the segment's own ends, which always agree. */
+#define HN_PAIR_SKIPPED(all, p, q) ((all)[q].b > 0.0f || ((p) == 0 && (q) == 1))
+
 /* The mask of the rays r omega whose segment z in [-r - behind, r] (the element's, extended toward
  * the viewer by `behind`) holds one point that meets every constraint at once. Why not the AND of one mask per constraint: each of those says
  * that *some* point of the segment meets it, and a ray passing beyond a tilted plate's far edge
@@ -84,32 +117,21 @@ typedef struct {
  * constraints are lower (b < 0) or upper (b > 0) bounds on z, and the segment holds a point iff
  * every lower bound lies below every upper bound; each such pair, and each constraint with b = 0,
  * is one half-plane in omega, A_p |b_q| + A_q |b_p| + r omega.(c_p |b_q| + c_q |b_p|) <= 0, read
- * from the table. The segment's own ends z <= r and -z <= r + behind are two of the bounds. */
+ * from the table (hn_constraint_pair). The segment's own ends z <= r and -z <= r + behind are two of
+ * the bounds. One empty pair empties the mask. */
 VX_INLINE void hn_constraints_mask(VX_GLOBAL const unsigned int *table, const hn_constraint *c, int n, float r,
                                    float behind, unsigned int *out)
 {
-    r = vx_fmaxf(r, 0.0f);
-    behind = vx_fmaxf(behind, 0.0f);
     hn_constraint all[HN_CONSTRAINTS_MAX + 2];
-    int count = 0;
-    all[count].A = -r, all[count].cx = 0.0f, all[count].cy = 0.0f, all[count].b = 1.0f, count++;
-    all[count].A = -r - behind, all[count].cx = 0.0f, all[count].cy = 0.0f, all[count].b = -1.0f, count++;
-    for (int i = 0; i < n && i < HN_CONSTRAINTS_MAX; i++)
-        all[count++] = c[i];
+    int count = hn_constraints_all(c, n, &r, &behind, all);
     hn_mask_set(out, 0xffffffffu);
     for (int p = 0; p < count; p++) {
         if (!(all[p].b > 0.0f))
             continue; /* p: an upper bound on z */
         for (int q = 0; q < count; q++) {
-            if (all[q].b > 0.0f || (p == 0 && q == 1))
-                continue; /* q: a lower bound (or b = 0, a constraint on omega alone); the ends always agree */
-            float bp = all[p].b, bq = -all[q].b;
-            float k = all[p].A * bq + all[q].A * bp;
-            float cx = all[p].cx * bq + all[q].cx * bp, cy = all[p].cy * bq + all[q].cy * bp;
-            float den = r * sqrtf(cx * cx + cy * cy);
-            /* All or nothing without the angle: most elements lie wholly inside or outside most
-             * bounds, and one empty bound empties the mask. */
-            float v = den > 1e-30f ? -k / den : (k <= 0.0f ? 1.0f : -1.0f);
+            if (HN_PAIR_SKIPPED(all, p, q))
+                continue; /* q: a lower bound (or b = 0, a constraint on omega alone) */
+            float cx, cy, v = hn_constraint_pair(&all[p], &all[q], r, &cx, &cy);
             if (!(v > -1.0f)) {
                 hn_mask_set(out, 0u);
                 return;
@@ -122,6 +144,28 @@ VX_INLINE void hn_constraints_mask(VX_GLOBAL const unsigned int *table, const hn
                 out[w] &= m[w];
         }
     }
+}
+
+/* Whether hn_constraints_mask(c, n, r, behind) is empty for want of a ray that any one pair of the
+ * bounds admits: the same pairs with the same arithmetic, without the table. Then the mask of c and
+ * any further constraints is empty too (more constraints only take rays away), so a caller may
+ * learn it before it works out the further constraints. */
+VX_INLINE int hn_constraints_empty(const hn_constraint *c, int n, float r, float behind)
+{
+    hn_constraint all[HN_CONSTRAINTS_MAX + 2];
+    int count = hn_constraints_all(c, n, &r, &behind, all);
+    for (int p = 0; p < count; p++) {
+        if (!(all[p].b > 0.0f))
+            continue;
+        for (int q = 0; q < count; q++) {
+            if (HN_PAIR_SKIPPED(all, p, q))
+                continue;
+            float cx, cy;
+            if (!(hn_constraint_pair(&all[p], &all[q], r, &cx, &cy) > -1.0f))
+                return 1;
+        }
+    }
+    return 0;
 }
 
 #endif

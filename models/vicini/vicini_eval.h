@@ -124,16 +124,17 @@ VX_INLINE float vicini_f_inv(float y, float gamma)
         return 2.0f * (1.0f - y);
     if (y <= gamma * 0.13533528f) /* f(2) = gamma e^-2: the root lies in the exponential tail */
         return y > 0.0f ? vx_fminf(-logf(y / gamma), 104.0f) : 104.0f;
-    float tau = 0.0f;
+    /* e = expf(-tau), one call per step for both the slope and the value (C's expf may set errno,
+     * so the compiler does not merge two calls itself), and none at the start, where it is 1: the
+     * same numbers as calling it there, one expf fewer per inversion (about a quarter of them). */
+    float tau = 0.0f, e = 1.0f;
     for (int i = 0; i < 8; i++) {
-        /* One expf for the slope and the value: C's expf may set errno, so the compiler does not
-         * merge two calls itself (it computed it twice per step). */
-        float e = expf(-tau);
         float slope = gamma * e + 0.5f * (1.0f - gamma); /* -df/dtau below tau = 2 */
         float step = (vicini_f_with_exp(e, tau, gamma) - y) / slope;
         if (!(step > 1e-7f))
             break;
         tau = vx_fminf(tau + step, 2.0f);
+        e = expf(-tau);
     }
     return tau;
 }
