@@ -219,6 +219,10 @@ for model in ("alpha", "binary"):
     # --stats reports the page faults inside the render's clock (issue 15): the render's buffers are
     # touched before it starts, so there are next to none. (tests/unit_render.c checks that bound
     # on a cache large enough for missing pre-faulting to show; here: the field is there and sane.)
+    # The render's set-up before its clock (the caches, the shadow ends) is reported apart.
+    setup = st_on.get("setup_seconds")
+    report(f"--stats setup_seconds: the set-up outside the frame's clock ({model})",
+           isinstance(setup, float) and 0 < setup < 5, str(setup))
     faults = st_on.get("render_page_faults")
     report(f"--stats render_page_faults: few faults inside the render's clock ({model})",
            isinstance(faults, (int, float)) and 0 <= faults < 200, str(faults))

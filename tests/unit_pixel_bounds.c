@@ -9,6 +9,10 @@
  *  - the map is the same, bit for bit, whatever the thread count and whatever was built before;
  *  - a camera inside a voxel gets no map (a voxel straddling the camera's plane has no bounded
  *    image);
+ *  - pixel_bounds_may_fail, which decides before the clock whether a frame may need the distance
+ *    field, is sound: over random cameras (in and around the grid, some at voxels' corners and
+ *    looking along the grid's axes, where the camera's plane grazes voxel faces) every one whose
+ *    build makes no map was foretold, and it does not cry wolf for the scenes' own cameras;
  *  - render_image gives the same image, word for word, with and without the bounds (binary, alpha,
  *    vicini and vmesh, bunny and trees; without them the empty-space skip is used). */
 #include <stdio.h>
@@ -92,6 +96,61 @@ static void image_checks(const char *label, const voxel_grid *g, const camera *c
     pixel_bounds_free(&b1);
 }
 
+/* pixel_bounds_may_fail against the build itself (see the top of this file). */
+static void may_fail_checks(const char *label, const voxel_grid *g, const camera *scene_cam, const camera *inside,
+                            int w, int h)
+{
+    char name[300];
+    pixel_bounds b;
+    if (pixel_bounds_alloc(&b, w, h, 2)) {
+        printf("not ok %s: out of memory\n", label);
+        unit_failures++;
+        return;
+    }
+    snprintf(name, sizeof name, "%s: the scene's camera is foretold a map, and a camera inside a voxel none", label);
+    CHECK(name, !pixel_bounds_may_fail(&b, g, scene_cam) && pixel_bounds_may_fail(&b, g, inside));
+    rng r = rng_seed(5, 1);
+    vec3 lo = v3((float)g->origin_d[0], (float)g->origin_d[1], (float)g->origin_d[2]);
+    float side = (float)(g->n * g->voxel_size_d);
+    int failed = 0, unforetold = 0, made = 0, foretold_made = 0;
+    for (int k = 0; k < 600; k++) {
+        camera c = *scene_cam;
+        if (k % 3 == 2) { /* a corner of a non-empty voxel, looking along an axis */
+            uint32_t pc = g->level[0].coords[(size_t)(rng_float(&r) * (float)g->level[0].count) % g->level[0].count];
+            vec3 vlo, vhi;
+            grid_cell_corners(g, 0, (int)(pc >> 20), (int)((pc >> 10) & 1023u), (int)(pc & 1023u), &vlo, &vhi);
+            c.position = vlo;
+            int a = k / 3 % 3; /* the axis */
+            c.forward = v3(a == 0 ? 1.0f : 0.0f, a == 1 ? 1.0f : 0.0f, a == 2 ? 1.0f : 0.0f);
+            if (rng_float(&r) < 0.5f)
+                c.forward = v3_scale(c.forward, -1.0f);
+        } else { /* anywhere in a box 2.5 times the grid's, any direction */
+            c.position = v3_add(lo, v3(side * (2.5f * rng_float(&r) - 0.75f), side * (2.5f * rng_float(&r) - 0.75f),
+                                       side * (2.5f * rng_float(&r) - 0.75f)));
+            c.forward = random_unit(&r);
+        }
+        vec3 helper = fabsf(c.forward.y) < 0.9f ? v3(0.0f, 1.0f, 0.0f) : v3(1.0f, 0.0f, 0.0f);
+        c.right = v3_normalize(v3_cross(c.forward, helper));
+        c.up = v3_cross(c.right, c.forward);
+        int may_fail = pixel_bounds_may_fail(&b, g, &c);
+        pixel_bounds_build(&b, g, &c, 2);
+        if (!pixel_bounds_active(&b)) {
+            failed++;
+            unforetold += !may_fail;
+        } else {
+            made++;
+            foretold_made += !may_fail;
+        }
+    }
+    printf("# %s: %d of 600 cameras got no map (%d not foretold); %d got one, %d of them foretold\n", label, failed,
+           unforetold, made, foretold_made);
+    snprintf(name, sizeof name, "%s: every camera that gets no map was foretold (%d of them)", label, failed);
+    CHECK(name, failed > 50 && unforetold == 0);
+    snprintf(name, sizeof name, "%s: most cameras that get a map are foretold one", label);
+    CHECK(name, made > 50 && foretold_made * 10 >= made * 7);
+    pixel_bounds_free(&b);
+}
+
 static void scene_checks(const char *path, int res)
 {
     scene s;
@@ -123,6 +182,14 @@ static void scene_checks(const char *path, int res)
         CHECK(label, !pixel_bounds_active(&b) && t_min == 0.0f && t_max == INFINITY);
         pixel_bounds_free(&b);
     }
+    /* A small image: the map's blocks are coarse, and the test looks at the same ones. A large
+     * one on a grid of over 65536 voxels: the test looks at coarser blocks than the map's. */
+    snprintf(label, sizeof label, "%s %d^3, 16x12", path, res);
+    may_fail_checks(label, &g, &s.camera, &inside, 16, 12);
+    if (g.level[0].count > 65536) {
+        snprintf(label, sizeof label, "%s %d^3, 256x256", path, res);
+        may_fail_checks(label, &g, &s.camera, &inside, 256, 256);
+    }
     grid_free(&g);
     scene_free(&s);
 }
@@ -134,6 +201,7 @@ int main(void)
     scene_checks("scenes/bunny.json", 100);
     scene_checks("scenes/trees.json", 64);
     scene_checks("scenes/city.json", 96);
+    scene_checks("scenes/bunny.json", 256);
     const char *models[] = {"binary", "alpha", "vicini", "vmesh"};
     for (int k = 0; k < 4; k++) {
         render_toggle_checks("scenes/bunny.json", models[k], 48, bounds_switch, "the depth bounds");

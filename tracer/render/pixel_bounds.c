@@ -169,6 +169,16 @@ static void bounds_merge(void *p, int64_t row, int thread)
     }
 }
 
+/* The level whose blocks the map is built from: the finest with at most BOUNDS_ITEMS_PER_PIXEL
+ * blocks a pixel. */
+static int bounds_level(const pixel_bounds *b, const voxel_grid *g)
+{
+    int level = 0;
+    while (level + 1 < g->levels && g->level[level].count > BOUNDS_ITEMS_PER_PIXEL * (size_t)b->width * (size_t)b->height)
+        level++;
+    return level;
+}
+
 void pixel_bounds_build(pixel_bounds *b, const voxel_grid *g, const camera *cam, int threads)
 {
     if (!b->near_t)
@@ -192,9 +202,7 @@ void pixel_bounds_build(pixel_bounds *b, const voxel_grid *g, const camera *cam,
     /* The blocks of the finest level with at most BOUNDS_ITEMS_PER_PIXEL a pixel: the map's cost is
      * then about the image's, not the grid's, and a block stays about a pixel's size or smaller
      * (bunny 256^3, 256 x 256: voxels; city, with 337k voxels: blocks of 2^3). */
-    J.level = 0;
-    while (J.level + 1 < g->levels && g->level[J.level].count > BOUNDS_ITEMS_PER_PIXEL * (size_t)b->width * (size_t)b->height)
-        J.level++;
+    J.level = bounds_level(b, g);
     /* A block's half-extents along the camera's axes, widened. */
     for (int k = 0; k < 3; k++) {
         const double *a = k == 0 ? J.right : (k == 1 ? J.up : J.fwd);
@@ -208,4 +216,32 @@ void pixel_bounds_build(pixel_bounds *b, const voxel_grid *g, const camera *cam,
         parallel_for(b->map_h, threads, bounds_merge, &J, NULL);
     else
         parallel_for(b->parts, threads, bounds_reset, &J, NULL); /* no map: empty the parts again */
+}
+
+/* Blocks the coarse test looks at, at most: well under a millisecond. */
+#define MAY_FAIL_BLOCKS 65536
+
+int pixel_bounds_may_fail(const pixel_bounds *b, const voxel_grid *g, const camera *cam)
+{
+    int level = bounds_level(b, g); /* the build's blocks, or coarser ones holding them */
+    while (level + 1 < g->levels && g->level[level].count > MAY_FAIL_BLOCKS)
+        level++;
+    const grid_level *L = &g->level[level];
+    const double pos[3] = {cam->position.x, cam->position.y, cam->position.z};
+    const double fwd[3] = {cam->forward.x, cam->forward.y, cam->forward.z};
+    const double vs = g->voxel_size_d * (double)(1 << level);
+    /* bounds_share's test on a block that is the build's or holds them: its extent along the camera's axis
+     * covers theirs, its threshold 1e-3 of a block is at least theirs, and twice their margin
+     * leaves the doubles' rounding no way to pass a block whose voxels fail. */
+    const double hz = (vx_cube_half_extent(fwd) * (double)(1 << level) + 2 * BOUNDS_RADIUS_MARGIN) * g->voxel_size_d;
+    for (size_t i = 0; i < L->count; i++) {
+        uint32_t pc = L->coords[i];
+        double q[3] = {g->origin_d[0] + ((double)(pc >> 20) + 0.5) * vs - pos[0],
+                       g->origin_d[1] + ((double)((pc >> 10) & 1023u) + 0.5) * vs - pos[1],
+                       g->origin_d[2] + ((double)(pc & 1023u) + 0.5) * vs - pos[2]};
+        double Z = vx_dot3d(q, fwd);
+        if (Z + hz > 0.0 && Z - hz <= 1e-3 * vs)
+            return 1;
+    }
+    return 0;
 }

@@ -41,6 +41,13 @@ size_t pixel_bounds_bytes(const pixel_bounds *b);
 /* Builds the map of grid g for camera cam with the given threads (at most the allocated parts). */
 void pixel_bounds_build(pixel_bounds *b, const voxel_grid *g, const camera *cam, int threads);
 
+/* Whether pixel_bounds_build(b, g, cam) may make no map (a block straddling the camera's plane),
+ * asked before the frame's clock: the frames that have a map never ask for the distance-field skip,
+ * so it is built only for those that may not. The test runs over the build's blocks or coarser
+ * ones, each holding the finer blocks inside it, with a wider margin than the build's: 0 is
+ * certain (the build will make its map), 1 may be needlessly cautious. */
+int pixel_bounds_may_fail(const pixel_bounds *b, const voxel_grid *g, const camera *cam);
+
 /* Whether the map holds bounds for this frame. */
 static inline int pixel_bounds_active(const pixel_bounds *b) { return b->near_t && !b->failed; }
 

@@ -69,6 +69,7 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
         image_free(out);
         return -1;
     }
+    double p0 = now_seconds();
     render_job j = {s, g, m, records, o, out, calloc((size_t)threads, sizeof(thread_counts)),
                     camera_pixel_spread(&s->camera, o->height), NULL, maps, 0, 0};
     if (!j.tc || marcher->prepare(&j, e)) {
@@ -84,7 +85,7 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
     /* The image's pages touched here, not by the render threads (see render_voxel.c's prepare). */
     memset(out->data, 0, (size_t)o->width * (size_t)o->height * 3 * sizeof *out->data);
     long f0 = minor_faults();
-    double t0 = now_seconds();
+    double t0 = now_seconds(), setup = t0 - p0;
     if (marcher->begin)
         marcher->begin(&j, threads);
     band_job bands = {&j, marcher->row, o->height};
@@ -93,6 +94,7 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
     double t1 = now_seconds();
     memset(counts, 0, sizeof *counts);
     counts->seconds = t1 - t0;
+    counts->setup_seconds = setup;
     counts->page_faults = minor_faults() - f0;
     counts->shadows = sst;
     counts->cache_bytes = j.cache_bytes;
