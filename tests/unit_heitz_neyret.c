@@ -582,6 +582,73 @@ static void mip_edge(void)
     mesh_free(&me);
 }
 
+/* hn_fill_stencil, which looks up the coarser level first and stops when its cells are all empty,
+ * against grid_index cell by cell: a 32^3 grid of two tilted plates and a small box, 20,000 random
+ * points in and around it at random fractional levels. Where it reports nothing, every one of the
+ * 16 cells is empty; elsewhere every entry (slot, record index) is the cell's; and it does stop
+ * early for some points (the case it exists for). */
+static void stencil_brute_force(void)
+{
+    mesh me;
+    memset(&me, 0, sizeof me);
+    mesh_add_quad(&me, v3(0.1f, 0.1f, 0.2f), v3(0.9f, 0.1f, 0.35f), v3(0.9f, 0.9f, 0.3f), v3(0.1f, 0.9f, 0.2f), 0);
+    mesh_add_quad(&me, v3(0.2f, 0.1f, 0.9f), v3(0.2f, 0.8f, 0.6f), v3(0.3f, 0.8f, 0.5f), v3(0.3f, 0.1f, 0.8f), 0);
+    mesh_add_quad(&me, v3(0.6f, 0.6f, 0.7f), v3(0.7f, 0.6f, 0.7f), v3(0.7f, 0.7f, 0.7f), v3(0.6f, 0.7f, 0.7f), 0);
+    mesh_add_flat_triangle(&me, v3(0, 0, 0), v3(0.001f, 0, 0), v3(0, 0.001f, 0), 0);
+    mesh_add_flat_triangle(&me, v3(1, 1, 1), v3(0.999f, 1, 1), v3(1, 0.999f, 1), 0);
+    voxel_grid g;
+    vx_err e;
+    if (grid_build(&g, &me, 32, &e)) {
+        CHECK("grid builds (stencils)", 0);
+        mesh_free(&me);
+        return;
+    }
+    uint64_t seed = 3;
+    int wrong = 0, stopped = 0, full = 0;
+    for (int t = 0; t < 20000; t++) {
+        vec3 p = v3((float)(1.4 * rnd01(&seed) - 0.2), (float)(1.4 * rnd01(&seed) - 0.2), (float)(1.4 * rnd01(&seed) - 0.2));
+        float level = (float)(rnd01(&seed) * (g.levels + 0.5) - 0.5);
+        hn_stencil st;
+        int any = hn_fill_stencil(&g, p, level, &st);
+        float lv = fminf(fmaxf(level, 0.0f), (float)(g.levels - 1));
+        int L0 = (int)floorf(lv), L1 = L0 + 1 < g.levels ? L0 + 1 : L0;
+        double lat[3];
+        grid_to_lattice(&g, p, lat);
+        long want[16];
+        int n = 0, nonempty = 0;
+        for (int L = L0; L <= L1 && n < 16; L++) {
+            size_t off = 0;
+            for (int l = 0; l < L; l++)
+                off += grid_count(&g, l);
+            int i0[3];
+            for (int a = 0; a < 3; a++)
+                i0[a] = (int)floor(lat[a] / (double)(1 << L) - 0.5);
+            for (int dx = 0; dx < 2; dx++)
+                for (int dy = 0; dy < 2; dy++)
+                    for (int dz = 0; dz < 2; dz++) {
+                        int64_t idx = grid_index(&g, L, i0[0] + dx, i0[1] + dy, i0[2] + dz);
+                        want[n++] = idx < 0 ? -1L : (long)(off + (size_t)idx);
+                        nonempty += idx >= 0;
+                    }
+        }
+        if (!any) {
+            stopped += st.count == 0;
+            wrong += nonempty != 0;
+            continue;
+        }
+        full++;
+        wrong += st.count != n;
+        for (int i = 0; i < n && i < st.count; i++)
+            wrong += st.index[i] != want[i] || st.slot[i] != (i >= 8);
+    }
+    printf("# stencils: %d of 20000 with surface, %d empty ones stopped at the coarser level, %d wrong\n", full,
+           stopped, wrong);
+    CHECK("stencils agree with grid_index cell by cell, empty ones found empty", wrong == 0 && full > 1000);
+    CHECK("an empty coarser level ends the lookup", stopped > 1000);
+    grid_free(&g);
+    mesh_free(&me);
+}
+
 static void grid_cases(void)
 {
     const vx_model *m = model_find("heitz-neyret");
@@ -742,6 +809,7 @@ int main(int argc, char **argv)
     masks();
     bake();
     grid_cases();
+    stencil_brute_force();
     mip_edge();
     return unit_exit();
 }
