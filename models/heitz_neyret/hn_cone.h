@@ -96,7 +96,8 @@ VX_INLINE int hn_fill_level(const voxel_grid *g, const double lat[3], int L, int
  * the 8 cells around p on floor(level) (entries 0-7) and on the next level (8-15), with their
  * trilinear weights (the empty ones too, index -1). Record indices count every level's records,
  * level 0 first (vx_model.record.levels). Returns whether any cell is non-empty; when none is, the
- * stencil may be left with no cells (count 0), which every blend reads as it reads 16 empty ones.
+ * stencil may be left with no cells (count 0), which the blends of geometry and attributes read as
+ * they read 16 empty ones (the edge field is blended only where the geometry found a surface).
  *
  * The coarser level is looked up first: a finer cell is non-empty only inside a non-empty parent,
  * and the finer 2x2x2 cells around p lie inside the coarser 2x2x2 cells around it (per axis, cells

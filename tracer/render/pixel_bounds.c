@@ -230,9 +230,9 @@ int pixel_bounds_may_fail(const pixel_bounds *b, const voxel_grid *g, const came
     const double pos[3] = {cam->position.x, cam->position.y, cam->position.z};
     const double fwd[3] = {cam->forward.x, cam->forward.y, cam->forward.z};
     const double vs = g->voxel_size_d * (double)(1 << level);
-    /* bounds_share's test on a block that is the build's or holds them: its extent along the camera's axis
-     * covers theirs, its threshold 1e-3 of a block is at least theirs, and twice their margin
-     * leaves the doubles' rounding no way to pass a block whose voxels fail. */
+    /* bounds_share's test on a block that is one of the build's or holds some: its extent along the
+     * camera's axis covers theirs, its threshold (1e-3 of a block) is at least theirs, and twice
+     * their margin leaves the doubles' rounding no way to pass a block whose contents fail. */
     const double hz = (vx_cube_half_extent(fwd) * (double)(1 << level) + 2 * BOUNDS_RADIUS_MARGIN) * g->voxel_size_d;
     for (size_t i = 0; i < L->count; i++) {
         uint32_t pc = L->coords[i];
