@@ -216,6 +216,20 @@ static int constraints_feasible(const hn_constraint *c, int n, float r, float be
     return lo <= hi;
 }
 
+/* One to three random constraints (planes, sheets, edges at any angle to the ray) into c, and a
+ * segment extended toward the viewer or not (*behind 1 or 0); returns how many. */
+static int random_constraints(uint64_t *seed, hn_constraint c[3], float *behind)
+{
+    int n = 1 + (int)(rnd01(seed) * 3);
+    for (int i = 0; i < n; i++) {
+        double z = 2 * rnd01(seed) - 1, ph = 2 * M_PI * rnd01(seed), sz = sqrt(1 - z * z);
+        c[i].cx = (float)(sz * cos(ph)), c[i].cy = (float)(sz * sin(ph)), c[i].b = (float)z;
+        c[i].A = (float)(1.6 * rnd01(seed) - 0.8);
+    }
+    *behind = rnd01(seed) < 0.5 ? 0.0f : 1.0f;
+    return n;
+}
+
 /* hn_constraints_empty, which the cone element asks with the plane's bounds before it blends the
  * edge field: on random sets of one to three constraints, whenever it says a prefix of the set is
  * empty, the mask of the whole set is empty and the brute force finds no sample that meets the
@@ -227,13 +241,8 @@ static void constraints_empty_prefix(const float *smp, const unsigned *table)
     long said_empty = 0, empty_masks = 0, caught = 0, wrong = 0;
     for (int t = 0; t < 4000; t++) {
         hn_constraint c[3];
-        int n = 1 + (int)(rnd01(&seed) * 3);
-        for (int i = 0; i < n; i++) {
-            double z = 2 * rnd01(&seed) - 1, ph = 2 * M_PI * rnd01(&seed), sz = sqrt(1 - z * z);
-            c[i].cx = (float)(sz * cos(ph)), c[i].cy = (float)(sz * sin(ph)), c[i].b = (float)z;
-            c[i].A = (float)(1.6 * rnd01(&seed) - 0.8);
-        }
-        float r = 0.5f, behind = rnd01(&seed) < 0.5 ? 0.0f : 1.0f;
+        float r = 0.5f, behind;
+        int n = random_constraints(&seed, c, &behind);
         int k = 1 + (int)(rnd01(&seed) * n); /* the prefix c[0 .. k - 1] */
         unsigned prefix_mask[VX_MASK_WORDS], whole[VX_MASK_WORDS];
         hn_constraints_mask(table, c, k, r, behind, prefix_mask);
@@ -265,13 +274,8 @@ static void constraints_brute_force(const float *smp, const unsigned *table)
     long wrong = 0, ambiguous = 0, total = 0;
     for (int t = 0; t < 4000; t++) {
         hn_constraint c[3];
-        int n = 1 + (int)(rnd01(&seed) * 3);
-        for (int i = 0; i < n; i++) {
-            double z = 2 * rnd01(&seed) - 1, ph = 2 * M_PI * rnd01(&seed), sz = sqrt(1 - z * z);
-            c[i].cx = (float)(sz * cos(ph)), c[i].cy = (float)(sz * sin(ph)), c[i].b = (float)z;
-            c[i].A = (float)(1.6 * rnd01(&seed) - 0.8);
-        }
-        float r = 0.5f, behind = rnd01(&seed) < 0.5 ? 0.0f : 1.0f;
+        float r = 0.5f, behind;
+        int n = random_constraints(&seed, c, &behind);
         unsigned m[VX_MASK_WORDS];
         hn_constraints_mask(table, c, n, r, behind, m);
         for (int s = 0; s < HN_MASK_SAMPLES; s++) {
