@@ -88,6 +88,15 @@ typedef struct {
 static double min2(double a, double b) { return a < b ? a : b; }
 static double max2(double a, double b) { return a > b ? a : b; }
 
+/* The centre of the block with packed coordinates pc (x << 20 | y << 10 | z; blocks of size vs)
+ * relative to the camera at pos: what the map's build and pixel_bounds_may_fail both project. */
+static inline void block_from_camera(const voxel_grid *g, double vs, uint32_t pc, const double pos[3], double q[3])
+{
+    q[0] = g->origin_d[0] + ((double)(pc >> 20) + 0.5) * vs - pos[0];
+    q[1] = g->origin_d[1] + ((double)((pc >> 10) & 1023u) + 0.5) * vs - pos[1];
+    q[2] = g->origin_d[2] + ((double)(pc & 1023u) + 0.5) * vs - pos[2];
+}
+
 static void bounds_share(void *p, int64_t share, int thread)
 {
     bounds_job *J = p;
@@ -99,10 +108,8 @@ static void bounds_share(void *p, int64_t share, int thread)
     size_t first = L->count * (size_t)share / BOUNDS_SHARES, last = L->count * (size_t)(share + 1) / BOUNDS_SHARES;
     const double vs = g->voxel_size_d * (double)(1 << J->level), hx = J->half[0], hy = J->half[1], hz = J->half[2];
     for (size_t i = first; i < last && !J->failed[thread]; i++) {
-        uint32_t pc = L->coords[i];
-        double q[3] = {g->origin_d[0] + ((double)(pc >> 20) + 0.5) * vs - J->pos[0],
-                       g->origin_d[1] + ((double)((pc >> 10) & 1023u) + 0.5) * vs - J->pos[1],
-                       g->origin_d[2] + ((double)(pc & 1023u) + 0.5) * vs - J->pos[2]};
+        double q[3];
+        block_from_camera(g, vs, L->coords[i], J->pos, q);
         double Z = vx_dot3d(q, J->fwd);
         if (Z + hz <= 0.0)
             continue; /* wholly behind the camera: its rays (forward of it) cannot meet it */
@@ -235,10 +242,8 @@ int pixel_bounds_may_fail(const pixel_bounds *b, const voxel_grid *g, const came
      * their margin leaves the doubles' rounding no way to pass a block whose contents fail. */
     const double hz = (vx_cube_half_extent(fwd) * (double)(1 << level) + 2 * BOUNDS_RADIUS_MARGIN) * g->voxel_size_d;
     for (size_t i = 0; i < L->count; i++) {
-        uint32_t pc = L->coords[i];
-        double q[3] = {g->origin_d[0] + ((double)(pc >> 20) + 0.5) * vs - pos[0],
-                       g->origin_d[1] + ((double)((pc >> 10) & 1023u) + 0.5) * vs - pos[1],
-                       g->origin_d[2] + ((double)(pc & 1023u) + 0.5) * vs - pos[2]};
+        double q[3];
+        block_from_camera(g, vs, L->coords[i], pos, q);
         double Z = vx_dot3d(q, fwd);
         if (Z + hz > 0.0 && Z - hz <= 1e-3 * vs)
             return 1;
