@@ -4,7 +4,12 @@
  * overwritten while in use or a remembered ratio for the wrong pair would change opacities; so
  * every answer of an interleaved sequence (a shadow direction repeated between changing primary directions, as the tracer asks,
  * plus repeats, opposite signs, -0.0 and non-unit lengths) is compared, bit for bit, with the same
- * call made after both slots were filled with other directions (a view computed afresh). */
+ * call made after both slots were filled with other directions (a view computed afresh).
+ *
+ * The C build's SSE paths (vmesh_opacity_sse.h) against the scalar code they stand for (the
+ * definition, and the OpenCL build's code), bit for bit, piece by piece: acos, the disk overlap,
+ * the projected centres, the normaliser and the cells' sum, the last with fresh views and with
+ * views that remember their ratios (empty, or part filled by the scalar code). */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -26,6 +31,170 @@ static float fresh(const vmesh_record *r, vec3 dir)
     for (int k = 0; k < 2; k++)
         (void)vmesh_opacity_along(&full, v3(-0.9f, 0.1f, 0.2f));
     return vmesh_opacity_along(r, dir);
+}
+
+static int same_bits(float a, float b) { return memcmp(&a, &b, sizeof a) == 0; }
+
+static float lane(__m128 v, int k)
+{
+    float f[4];
+    _mm_storeu_ps(f, v);
+    return f[k];
+}
+
+static vec3 random_dir(rng *g)
+{
+    return v3(2.0f * rng_float(g) - 1.0f, 2.0f * rng_float(g) - 1.0f, 2.0f * rng_float(g) - 1.0f);
+}
+
+/* A view that remembers its ratios, none of them known yet. */
+static void remembering(vmesh_view *w)
+{
+    w->ratios = 1;
+    for (int s = 0; s < VMESH_SUBCELLS; s++)
+        for (int c = 0; c < 16; c++)
+            w->ratio[s][c] = NAN;
+}
+
+/* The sub-cells holding opacity, most opaque first (vmesh_opacity_along's order). */
+static int sorted_subcells(const vmesh_record *r, int order[VMESH_SUBCELLS])
+{
+    int count = 0;
+    for (int s = 0; s < VMESH_SUBCELLS; s++) {
+        if (!r->opacity[s])
+            continue;
+        int j = count++;
+        for (; j > 0 && r->opacity[order[j - 1]] < r->opacity[s]; j--)
+            order[j] = order[j - 1];
+        order[j] = s;
+    }
+    return count;
+}
+
+static void sse_checks(rng *g)
+{
+    char name[200];
+#ifndef VMESH_SSE
+    CHECK("the C build runs vmesh's SSE paths (SSE4.1 on the x86-64-v2 target)", 0);
+#else
+    /* acos: every 61st float of [0, 1] with both signs, and the branch points. */
+    long acos_n = 0, acos_bad = 0;
+    float special[] = {0.0f, -0.0f, 0.5f, -0.5f, nextafterf(0.5f, 1.0f), nextafterf(-0.5f, -1.0f), 1.0f, -1.0f};
+    for (uint32_t bits = 0; bits <= 0x3F800000u + 8u; bits += bits < 0x3F800000u ? 127u : 1u) {
+        float x[4];
+        for (int k = 0; k < 4; k++) {
+            uint32_t b = bits > 0x3F800000u ? 0 : bits;
+            memcpy(&x[k], &b, sizeof x[k]);
+            x[k] = k & 1 ? -x[k] : x[k];
+        }
+        if (bits > 0x3F800000u)
+            for (int k = 0; k < 4; k++)
+                x[k] = special[(bits - 0x3F800001u + (uint32_t)k) % 8u];
+        __m128 got = vx_acosf4(_mm_loadu_ps(x));
+        for (int k = 0; k < 4; k++, acos_n++)
+            acos_bad += !same_bits(lane(got, k), vx_acosf(x[k]));
+    }
+    snprintf(name, sizeof name, "vx_acosf4 equals vx_acosf, bit for bit (%ld arguments in [-1, 1], %ld differ)", acos_n,
+             acos_bad);
+    CHECK(name, acos_n > 30000000 && acos_bad == 0);
+
+    /* The disk overlap: random radii and distances, the view's own radii, and the branch points
+     * (apart, tangent, contained, concentric, d2 = 0, NaN, radii <= 0). */
+    long ov_n = 0, ov_bad = 0;
+    for (int i = 0; i < 200000; i++) {
+        float r1 = i % 3 == 0 ? VMESH_RS : rng_float(g), r2 = i % 3 == 0 ? 0.08f + 0.14f * rng_float(g) : rng_float(g);
+        if (i % 97 == 0)
+            r1 = i % 2 ? 0.0f : -0.25f;
+        float d2[4];
+        for (int k = 0; k < 4; k++) {
+            float d = 1.2f * (r1 + r2) * rng_float(g);
+            int edge = (int)(rng_float(g) * 8.0f);
+            d = edge == 0 ? r1 + r2 : edge == 1 ? fabsf(r1 - r2) : edge == 2 ? 0.0f : d;
+            d2[k] = edge == 3 && i % 5 == 0 ? NAN : d * d;
+        }
+        __m128 got = vmesh_disk_overlap4(r1, r2, _mm_loadu_ps(d2));
+        for (int k = 0; k < 4; k++, ov_n++)
+            ov_bad += !same_bits(lane(got, k), vmesh_disk_overlap(r1, r2, sqrtf(d2[k])));
+    }
+    snprintf(name, sizeof name, "vmesh_disk_overlap4 equals vmesh_disk_overlap, bit for bit (%ld cases, %ld differ)",
+             ov_n, ov_bad);
+    CHECK(name, ov_bad == 0);
+
+    /* The projected centres and the normaliser: random directions, the axes, the diagonals, a NaN
+     * direction. */
+    int view_bad = 0, den_bad = 0;
+    for (int k = 0; k < 4000; k++) {
+        vec3 d = k < 3 ? v3(k == 0, k == 1, k == 2)
+                       : k == 3 ? v3(NAN, 0.0f, 1.0f) : k < 8 ? v3(1.0f, k & 1 ? 1.0f : -1.0f, k & 2 ? 1.0f : 0.0f)
+                                                      : random_dir(g);
+        vmesh_view w;
+        vmesh_view_setup(d, &w);
+        vec3 n = v3_normalize_or(d, v3(0.0f, 0.0f, 1.0f)), t, b;
+        v3_basis(n.z < 0.0f ? v3_scale(n, -1.0f) : n, &t, &b);
+        float pu[VMESH_SUBCELLS + 1], pv[VMESH_SUBCELLS + 1], su[VMESH_SUBCELLS + 1], sv[VMESH_SUBCELLS + 1];
+        vmesh_project_scalar(t, b, pu, pv);
+        vmesh_project_sse(t, b, su, sv);
+        view_bad += memcmp(pu, su, VMESH_SUBCELLS * sizeof *pu) != 0 || memcmp(pv, sv, VMESH_SUBCELLS * sizeof *pv) != 0 ||
+                    memcmp(pu, w.pu, VMESH_SUBCELLS * sizeof *pu) != 0;
+        float want = vmesh_normaliser_scalar(&w);
+        den_bad += !same_bits(vmesh_normaliser_sse(&w), want) || !same_bits(w.den, want);
+    }
+    snprintf(name, sizeof name, "the SSE projected centres equal the scalar loop's, bit for bit (4000 directions, %d differ)",
+             view_bad);
+    CHECK(name, view_bad == 0);
+    snprintf(name, sizeof name, "the SSE normaliser equals the scalar loop's, bit for bit (4000 directions, %d differ)",
+             den_bad);
+    CHECK(name, den_bad == 0);
+
+    /* The cells' sum: records with random opacities and ties, all opaque, one sub-cell, faint
+     * ones; each with a fresh view, a remembering view asked first by the SSE code, and one part
+     * filled by the scalar code for another record. */
+    int cells_n = 0, cells_bad = 0, nonzero = 0;
+    for (int k = 0; k < 3000; k++) {
+        vmesh_record r;
+        memset(&r, 0, sizeof r);
+        int kind = k % 5;
+        for (int s = 0; s < VMESH_SUBCELLS; s++) {
+            float u = rng_float(g);
+            r.opacity[s] = kind == 0 ? (u < 0.4f ? 0 : (unsigned char)(1 + (int)(254.0f * rng_float(g))))
+                           : kind == 1 ? 255
+                           : kind == 2 ? (u < 0.5f ? 0 : (u < 0.8f ? 255 : 128))
+                           : kind == 3 ? (u < 0.8f ? 0 : (unsigned char)(1 + (int)(8.0f * rng_float(g))))
+                                       : 0;
+        }
+        if (kind == 4)
+            r.opacity[(int)(rng_float(g) * VMESH_SUBCELLS) % VMESH_SUBCELLS] = 200;
+        int order[VMESH_SUBCELLS], count = sorted_subcells(&r, order);
+        if (!count)
+            continue;
+        vec3 d = k < 3 ? v3(k == 0, k == 1, k == 2) : random_dir(g);
+        vmesh_view fresh_view, memo_view, part_view;
+        vmesh_view_setup(d, &fresh_view);
+        memo_view = fresh_view;
+        remembering(&memo_view);
+        part_view = memo_view;
+        vmesh_record other;
+        memset(&other, 0, sizeof other);
+        for (int s = 0; s < VMESH_SUBCELLS; s += 2)
+            other.opacity[s] = (unsigned char)(40 + 7 * s);
+        int other_order[VMESH_SUBCELLS], other_count = sorted_subcells(&other, other_order);
+        (void)vmesh_cells_scalar(&other, other_order, other_count, &part_view);
+        float want = vmesh_cells_scalar(&r, order, count, &fresh_view);
+        float got[3] = {vmesh_cells_sse(&r, order, count, &fresh_view), vmesh_cells_sse(&r, order, count, &memo_view),
+                        vmesh_cells_sse(&r, order, count, &part_view)};
+        for (int v = 0; v < 3; v++)
+            cells_bad += !same_bits(got[v], want);
+        /* and the remembering view, filled by the SSE code, read by the scalar code */
+        cells_bad += !same_bits(vmesh_cells_scalar(&r, order, count, &memo_view), want);
+        cells_n++;
+        nonzero += want > 0.0f;
+    }
+    snprintf(name, sizeof name,
+             "vmesh_cells_sse equals vmesh_cells_scalar, bit for bit, fresh and remembering views (%d records, %d "
+             "non-zero, %d differ)",
+             cells_n, nonzero, cells_bad);
+    CHECK(name, cells_n > 2000 && nonzero > cells_n / 2 && cells_bad == 0);
+#endif
 }
 
 int main(void)
@@ -68,32 +237,7 @@ int main(void)
     snprintf(name, sizeof name, "reused views give the fresh answers, bit for bit (%d calls, %d differ)", calls,
              mismatches);
     CHECK(name, mismatches == 0);
-    /* The normaliser's nearest-centre search (SSE in the C build) against the scalar loop, bit for
-     * bit, over random directions, the axes and a NaN direction. */
-    int den_bad = 0;
-    for (int k = 0; k < 2000; k++) {
-        vec3 d = k < 3 ? v3(k == 0, k == 1, k == 2)
-                       : (k == 3 ? v3(NAN, 0.0f, 1.0f)
-                                 : v3(2.0f * rng_float(&g) - 1.0f, 2.0f * rng_float(&g) - 1.0f, 2.0f * rng_float(&g) - 1.0f));
-        vmesh_view w;
-        vmesh_view_setup(d, &w);
-        float rc = 0.5f * w.cell, den = 0.0f;
-        for (int cy = 0; cy < 2; cy++)
-            for (int cx = 0; cx < 4; cx++) {
-                float u = -w.half_side + ((float)cx + 0.5f) * w.cell, v = -w.half_side + ((float)cy + 0.5f) * w.cell;
-                float dmin2 = 1e30f;
-                for (int s = 0; s < VMESH_SUBCELLS; s++) {
-                    float du = w.pu[s] - u, dv = w.pv[s] - v, d2 = du * du + dv * dv;
-                    dmin2 = d2 < dmin2 ? d2 : dmin2;
-                }
-                den += 2.0f * (dmin2 <= w.near2 ? 1.0f
-                                                : vmesh_disk_overlap(VMESH_RS, rc, sqrtf(dmin2)) * w.inv_cell_disk);
-            }
-        den_bad += memcmp(&den, &w.den, sizeof den) != 0;
-    }
-    snprintf(name, sizeof name, "the normaliser equals the scalar loop's, bit for bit (2000 directions, %d differ)",
-             den_bad);
-    CHECK(name, den_bad == 0);
+    sse_checks(&g);
     /* The direction itself must matter (else the check above proves nothing). */
     vmesh_record one;
     memset(&one, 0, sizeof one);

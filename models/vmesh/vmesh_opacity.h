@@ -18,9 +18,6 @@
 #define VX_VMESH_OPACITY_H
 
 #include "portable_acos.h"
-#if defined(__SSE2__) && !defined(__OPENCL_VERSION__)
-#include <emmintrin.h>
-#endif
 #include "shading.h"
 #include "vmesh_record.h"
 
@@ -55,8 +52,8 @@ VX_INLINE float vmesh_disk_overlap(float r1, float r2, float d)
  * full voxel's value, see the top of this file). */
 typedef struct {
     float half_side, cell, inv_cell_disk, near2, far2, den;
-    /* One entry past the 27 sub-cells, far outside the window: vmesh_view_setup's SSE loop reads the
-     * centres four at a time, and the pad is never the nearest. */
+    /* One entry past the 27 sub-cells, far outside the window: the SSE paths read the centres four
+     * at a time, and the pad is never the nearest. */
     float pu[VMESH_SUBCELLS + 1], pv[VMESH_SUBCELLS + 1];
 #ifndef __OPENCL_VERSION__
     /* The C build's views kept across calls (vmesh_view_of) also remember each window cell's ratio
@@ -64,11 +61,51 @@ typedef struct {
      * asked for a second time (a light's view, asked by every voxel its shadow rays cross), so that a
      * view used once (a voxel's own direction toward the camera) does not pay for filling it. */
     int ratios;
-    float ratio[16][VMESH_SUBCELLS];
+    float ratio[VMESH_SUBCELLS][16]; /* [sub-cell][cy * 4 + cx]: a row of four cells together (vmesh_opacity_sse.h) */
 #endif
 } vmesh_view;
 
 #define VMESH_RS 0.28867513f /* sphere around a sub-cell of edge 1/3: sqrt(3)/6 */
+
+/* The C build's SSE paths (vmesh_opacity_sse.h): the same bits as the scalar code below, which is
+ * the definition and the OpenCL build's code (tests/unit_vmesh_view.c compares the two). */
+#if defined(__SSE4_1__) && !defined(__OPENCL_VERSION__) && !defined(VMESH_NO_SSE)
+#define VMESH_SSE 1
+#include "vmesh_opacity_sse.h"
+#endif
+
+/* The 27 sub-cell centres projected onto the window's axes t and b (pu, pv[0..26]). */
+VX_INLINE void vmesh_project_scalar(vec3 t, vec3 b, float *pu, float *pv)
+{
+    for (int i = 0; i < VMESH_SUB; i++)
+        for (int j = 0; j < VMESH_SUB; j++)
+            for (int k = 0; k < VMESH_SUB; k++) {
+                vec3 c = v3(((float)i - 1.0f) / 3.0f, ((float)j - 1.0f) / 3.0f, ((float)k - 1.0f) / 3.0f);
+                int s = (i * VMESH_SUB + j) * VMESH_SUB + k;
+                pu[s] = v3_dot(c, t);
+                pv[s] = v3_dot(c, b);
+            }
+}
+
+/* The full voxel's value (w's window and projected centres set): the ratio falls with distance, so
+ * the nearest of all 27. The projected centres and the window are symmetric about the voxel's
+ * centre, so cell (3 - cx, 3 - cy) has the same value: computed for the first 8 cells, counted
+ * twice. */
+VX_INLINE float vmesh_normaliser_scalar(const vmesh_view *w)
+{
+    float den = 0.0f, rc = 0.5f * w->cell;
+    for (int cy = 0; cy < 2; cy++)
+        for (int cx = 0; cx < 4; cx++) {
+            float u = -w->half_side + ((float)cx + 0.5f) * w->cell, v = -w->half_side + ((float)cy + 0.5f) * w->cell;
+            float dmin2 = 1e30f;
+            for (int s = 0; s < VMESH_SUBCELLS; s++) {
+                float du = w->pu[s] - u, dv = w->pv[s] - v, d2 = du * du + dv * dv;
+                dmin2 = d2 < dmin2 ? d2 : dmin2;
+            }
+            den += 2.0f * (dmin2 <= w->near2 ? 1.0f : vmesh_disk_overlap(VMESH_RS, rc, sqrtf(dmin2)) * w->inv_cell_disk);
+        }
+    return den;
+}
 
 VX_INLINE void vmesh_view_setup(vec3 dir, vmesh_view *w)
 {
@@ -93,46 +130,17 @@ VX_INLINE void vmesh_view_setup(vec3 dir, vmesh_view *w)
     w->inv_cell_disk = inv_cell_disk;
     w->near2 = near2;
     w->far2 = far2;
-    for (int i = 0; i < VMESH_SUB; i++)
-        for (int j = 0; j < VMESH_SUB; j++)
-            for (int k = 0; k < VMESH_SUB; k++) {
-                vec3 c = v3(((float)i - 1.0f) / 3.0f, ((float)j - 1.0f) / 3.0f, ((float)k - 1.0f) / 3.0f);
-                int s = (i * VMESH_SUB + j) * VMESH_SUB + k;
-                w->pu[s] = v3_dot(c, t);
-                w->pv[s] = v3_dot(c, b);
-            }
-    /* The full voxel's value: the ratio falls with distance, so the nearest of all 27. The
-     * projected centres and the window are symmetric about the voxel's centre, so cell
-     * (3 - cx, 3 - cy) has the same value: computed for the first 8 cells, counted twice. */
-    w->pu[VMESH_SUBCELLS] = w->pv[VMESH_SUBCELLS] = 1e15f;
-    float den = 0.0f;
-    for (int cy = 0; cy < 2; cy++)
-        for (int cx = 0; cx < 4; cx++) {
-            float u = -half_side + ((float)cx + 0.5f) * cell, v = -half_side + ((float)cy + 0.5f) * cell;
-            float dmin2 = 1e30f;
-#if defined(__SSE2__) && !defined(__OPENCL_VERSION__)
-            /* The same d2 four at a time (this was a third of the view's cost): SSE's single-precision
-             * subtract, multiply and add round exactly as the scalar expression does (no FMA on the
-             * project's x86-64-v2 target, no contraction in ISO C mode), and a minimum is exact, so
-             * dmin2 has the scalar loop's bits. */
-            __m128 U = _mm_set1_ps(u), V = _mm_set1_ps(v), m = _mm_set1_ps(dmin2);
-            for (int s = 0; s < VMESH_SUBCELLS + 1; s += 4) {
-                __m128 du = _mm_sub_ps(_mm_loadu_ps(&w->pu[s]), U), dv = _mm_sub_ps(_mm_loadu_ps(&w->pv[s]), V);
-                /* (d2, m): minps returns its second operand when either is NaN, as the scalar
-                 * d2 < dmin2 ? d2 : dmin2 keeps dmin2 (a NaN direction). */
-                m = _mm_min_ps(_mm_add_ps(_mm_mul_ps(du, du), _mm_mul_ps(dv, dv)), m);
-            }
-            m = _mm_min_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(1, 0, 3, 2)));
-            m = _mm_min_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(2, 3, 0, 1)));
-            dmin2 = _mm_cvtss_f32(m);
+#ifdef VMESH_SSE
+    vmesh_project_sse(t, b, w->pu, w->pv);
 #else
-            for (int s = 0; s < VMESH_SUBCELLS; s++) {
-                float du = w->pu[s] - u, dv = w->pv[s] - v, d2 = du * du + dv * dv;
-                dmin2 = d2 < dmin2 ? d2 : dmin2;
-            }
+    vmesh_project_scalar(t, b, w->pu, w->pv);
 #endif
-            den += 2.0f * (dmin2 <= near2 ? 1.0f : vmesh_disk_overlap(rs, rc, sqrtf(dmin2)) * inv_cell_disk);
-        }
+    w->pu[VMESH_SUBCELLS] = w->pv[VMESH_SUBCELLS] = 1e15f;
+#ifdef VMESH_SSE
+    float den = vmesh_normaliser_sse(w);
+#else
+    float den = vmesh_normaliser_scalar(w);
+#endif
     w->den = den;
 #ifndef __OPENCL_VERSION__
     w->ratios = 0;
@@ -177,9 +185,9 @@ VX_INLINE vmesh_view *vmesh_view_of(vec3 dir, vmesh_view *scratch)
         if (valid[i] && k.u[0] == key[i].u[0] && k.u[1] == key[i].u[1] && k.u[2] == key[i].u[2]) {
             recent = i;
             if (!slot[i].ratios) { /* asked again: worth remembering its ratios */
-                for (int c = 0; c < 16; c++)
-                    for (int s = 0; s < VMESH_SUBCELLS; s++)
-                        slot[i].ratio[c][s] = NAN;
+                for (int s = 0; s < VMESH_SUBCELLS; s++)
+                    for (int c = 0; c < 16; c++)
+                        slot[i].ratio[s][c] = NAN;
                 slot[i].ratios = 1;
             }
             return &slot[i];
@@ -201,7 +209,7 @@ VX_INLINE float vmesh_view_ratio(vmesh_view *w, int cx, int cy, int s)
 {
     if (!w->ratios)
         return vmesh_cell_ratio(w, cx, cy, s);
-    float *r = &w->ratio[cy * 4 + cx][s];
+    float *r = &w->ratio[s][cy * 4 + cx];
     if (*r != *r)
         *r = vmesh_cell_ratio(w, cx, cy, s);
     return *r;
@@ -216,26 +224,12 @@ VX_INLINE vmesh_view *vmesh_view_of(vec3 dir, vmesh_view *scratch)
 VX_INLINE float vmesh_view_ratio(vmesh_view *w, int cx, int cy, int s) { return vmesh_cell_ratio(w, cx, cy, s); }
 #endif
 
-/* Directional opacity of a record seen along `dir` (either sign: a projection does not depend on
- * it). */
-VX_INLINE float vmesh_opacity_along(VX_GLOBAL const vmesh_record *r, vec3 dir)
+/* The numerator of the average of the 16 window cells: per cell, the largest opacity x ratio over
+ * the record's sub-cells `order` (those holding opacity, most opaque first), summed row by row. A
+ * cell stops looking once the next sub-cell cannot beat its best, as ratios are at most 1. This is
+ * the definition (the OpenCL build's loop); the C build runs vmesh_cells_sse, the same bits. */
+VX_INLINE float vmesh_cells_scalar(VX_GLOBAL const vmesh_record *r, const int *order, int count, vmesh_view *w)
 {
-    /* The sub-cells holding opacity, most opaque first (insertion sort of at most 27): a window
-     * cell stops looking once the next sub-cell cannot beat its best, as ratios are at most 1. */
-    int order[VMESH_SUBCELLS];
-    int count = 0;
-    for (int s = 0; s < VMESH_SUBCELLS; s++) {
-        if (!r->opacity[s])
-            continue;
-        int j = count++;
-        for (; j > 0 && r->opacity[order[j - 1]] < r->opacity[s]; j--)
-            order[j] = order[j - 1];
-        order[j] = s;
-    }
-    if (!count)
-        return 0.0f;
-    vmesh_view scratch;
-    vmesh_view *w = vmesh_view_of(dir, &scratch);
     float num = 0.0f;
     for (int cy = 0; cy < 4; cy++)
         for (int cx = 0; cx < 4; cx++) {
@@ -250,6 +244,34 @@ VX_INLINE float vmesh_opacity_along(VX_GLOBAL const vmesh_record *r, vec3 dir)
             }
             num += best;
         }
+    return num;
+}
+
+/* Directional opacity of a record seen along `dir` (either sign: a projection does not depend on
+ * it). */
+VX_INLINE float vmesh_opacity_along(VX_GLOBAL const vmesh_record *r, vec3 dir)
+{
+    /* The sub-cells holding opacity, most opaque first, ties in index order (insertion sort of at
+     * most 27). */
+    int order[VMESH_SUBCELLS];
+    int count = 0;
+    for (int s = 0; s < VMESH_SUBCELLS; s++) {
+        if (!r->opacity[s])
+            continue;
+        int j = count++;
+        for (; j > 0 && r->opacity[order[j - 1]] < r->opacity[s]; j--)
+            order[j] = order[j - 1];
+        order[j] = s;
+    }
+    if (!count)
+        return 0.0f;
+    vmesh_view scratch;
+    vmesh_view *w = vmesh_view_of(dir, &scratch);
+#ifdef VMESH_SSE
+    float num = vmesh_cells_sse(r, order, count, w);
+#else
+    float num = vmesh_cells_scalar(r, order, count, w);
+#endif
     float den = w->den;
     return den > 0.0f ? vx_fminf(num / den, 1.0f) : 0.0f;
 }

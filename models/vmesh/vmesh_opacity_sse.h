@@ -1,0 +1,161 @@
+/* vmesh_cells (vmesh_opacity.h) with a row of four window cells per SSE vector, for the C build
+ * (SSE4.1: the project's x86-64-v2 target). Why: the scalar loop is most of a primary evaluation
+ * (about 1.4 of its 1.65 us on random records): one branchy d2 test per cell and sub-cell, and about
+ * 20 disk overlaps. Here a sub-cell is tested against a row's four cells at once and the overlaps
+ * come four at a time.
+ *
+ * The same bits as vmesh_cells_scalar (tests/unit_vmesh_view.c compares them):
+ *  - each lane evaluates the scalar expressions in their order (the cell centres, d2, the far and
+ *    near tests, vmesh_disk_overlap through vx_acosf4, the ratio, opacity x ratio): SSE's
+ *    single-precision operations round as the scalar ones do on this target, and lanes that take
+ *    another branch of the scalar code get that branch's value by a blend;
+ *  - a cell is updated only while the scalar loop would still look (`active`: the sub-cell's
+ *    opacity above the cell's best; the opacities come most opaque first, so a cell that stops
+ *    stays stopped), by the scalar comparison prod > best ? prod : best (maxps(prod, best));
+ *  - the 16 bests are summed in the scalar loop's order.
+ * A view that remembers its ratios (a light's) keeps them per sub-cell and row here, computed for
+ * the whole row the first time any of its four is missing (a row the scalar code filled in part is
+ * computed again: the same values). */
+#ifndef VX_VMESH_OPACITY_SSE_H
+#define VX_VMESH_OPACITY_SSE_H
+
+#include "portable_acos_sse.h"
+
+/* vmesh_disk_overlap(r1, r2, sqrtf(d2)) per lane. */
+static inline __m128 vmesh_disk_overlap4(float r1, float r2, __m128 d2)
+{
+    if (!(r1 > 0.0f) || !(r2 > 0.0f))
+        return _mm_setzero_ps();
+    float rmin = r1 < r2 ? r1 : r2, rmax = r1 < r2 ? r2 : r1;
+    const __m128 one = _mm_set1_ps(1.0f), minus_one = _mm_set1_ps(-1.0f);
+    __m128 d = _mm_sqrt_ps(d2); /* >= 0 or NaN: fabsf changes nothing */
+    __m128 apart = _mm_cmpnlt_ps(d, _mm_set1_ps(r1 + r2));
+    __m128 contained = _mm_cmple_ps(d, _mm_set1_ps(rmax - rmin));
+    __m128 dd = _mm_mul_ps(d, d), two_d = _mm_mul_ps(_mm_set1_ps(2.0f), d);
+    __m128 r1r1 = _mm_set1_ps(r1 * r1), r2r2 = _mm_set1_ps(r2 * r2);
+    __m128 x1 = _mm_div_ps(_mm_sub_ps(_mm_add_ps(dd, r1r1), r2r2), _mm_mul_ps(two_d, _mm_set1_ps(r1)));
+    __m128 x2 = _mm_div_ps(_mm_sub_ps(_mm_add_ps(dd, r2r2), r1r1), _mm_mul_ps(two_d, _mm_set1_ps(r2)));
+    /* x < -1 ? -1 : (x > 1 ? 1 : x); minps(x, 1) is x < 1 ? x : 1, the same for every non-NaN x, and
+     * the NaN lanes (d = 0) are contained ones, replaced below. */
+    x1 = _mm_max_ps(_mm_min_ps(x1, one), minus_one);
+    x2 = _mm_max_ps(_mm_min_ps(x2, one), minus_one);
+    __m128 seg1 = _mm_sub_ps(vx_acosf4(x1), _mm_mul_ps(x1, _mm_sqrt_ps(_mm_sub_ps(one, _mm_mul_ps(x1, x1)))));
+    __m128 seg2 = _mm_sub_ps(vx_acosf4(x2), _mm_mul_ps(x2, _mm_sqrt_ps(_mm_sub_ps(one, _mm_mul_ps(x2, x2)))));
+    __m128 small = _mm_set1_ps(VX_PI * rmin * rmin);
+    __m128 a = _mm_min_ps(_mm_add_ps(_mm_mul_ps(r1r1, seg1), _mm_mul_ps(r2r2, seg2)), small); /* a < small ? a : small */
+    return _mm_andnot_ps(apart, _mm_blendv_ps(a, small, contained));
+}
+
+/* The 27 sub-cell centres (and the pad after them) projected onto the window's axes t and b, four
+ * at a time: v3_dot's (x t.x + y t.y) + z t.z per lane. The lattice's coordinates are
+ * ((float)i - 1.0f) / 3.0f, as vmesh_view_setup's scalar loop computes them (folded by the compiler,
+ * which rounds as the run-time division does). */
+#define VMESH_THIRD(i) (((float)(i) - 1.0f) / 3.0f)
+#define VMESH_LATTICE_9(i) VMESH_THIRD(i), VMESH_THIRD(i), VMESH_THIRD(i), VMESH_THIRD(i), VMESH_THIRD(i), \
+    VMESH_THIRD(i), VMESH_THIRD(i), VMESH_THIRD(i), VMESH_THIRD(i)
+#define VMESH_LATTICE_3(i) VMESH_THIRD(i), VMESH_THIRD(i), VMESH_THIRD(i)
+#define VMESH_LATTICE_1 VMESH_THIRD(0), VMESH_THIRD(1), VMESH_THIRD(2)
+static inline void vmesh_project_sse(vec3 t, vec3 b, float *pu, float *pv)
+{
+    /* Sub-cell s = (i * 3 + j) * 3 + k sits at (x_i, y_j, z_k); entry 27 is a pad at the origin. */
+    static const float x[VMESH_SUBCELLS + 1] = {VMESH_LATTICE_9(0), VMESH_LATTICE_9(1), VMESH_LATTICE_9(2), 0.0f};
+    static const float y[VMESH_SUBCELLS + 1] = {VMESH_LATTICE_3(0), VMESH_LATTICE_3(1), VMESH_LATTICE_3(2),
+                                                VMESH_LATTICE_3(0), VMESH_LATTICE_3(1), VMESH_LATTICE_3(2),
+                                                VMESH_LATTICE_3(0), VMESH_LATTICE_3(1), VMESH_LATTICE_3(2), 0.0f};
+    static const float z[VMESH_SUBCELLS + 1] = {VMESH_LATTICE_1, VMESH_LATTICE_1, VMESH_LATTICE_1, VMESH_LATTICE_1,
+                                                VMESH_LATTICE_1, VMESH_LATTICE_1, VMESH_LATTICE_1, VMESH_LATTICE_1,
+                                                VMESH_LATTICE_1, 0.0f};
+    __m128 tx = _mm_set1_ps(t.x), ty = _mm_set1_ps(t.y), tz = _mm_set1_ps(t.z);
+    __m128 bx = _mm_set1_ps(b.x), by = _mm_set1_ps(b.y), bz = _mm_set1_ps(b.z);
+    for (int s = 0; s < VMESH_SUBCELLS + 1; s += 4) {
+        __m128 cx = _mm_loadu_ps(&x[s]), cy = _mm_loadu_ps(&y[s]), cz = _mm_loadu_ps(&z[s]);
+        _mm_storeu_ps(&pu[s], _mm_add_ps(_mm_add_ps(_mm_mul_ps(cx, tx), _mm_mul_ps(cy, ty)), _mm_mul_ps(cz, tz)));
+        _mm_storeu_ps(&pv[s], _mm_add_ps(_mm_add_ps(_mm_mul_ps(cx, bx), _mm_mul_ps(cy, by)), _mm_mul_ps(cz, bz)));
+    }
+}
+
+/* The normaliser of vmesh_view_setup (w's window and projected centres set): per cell of the first
+ * two rows, the nearest centre's d2 four centres at a time (a minimum is exact; minps(d2, m)
+ * returns m when either is NaN, as the scalar d2 < dmin2 ? d2 : dmin2 keeps dmin2), then the eight
+ * ratios four at a time, summed in the scalar loop's order. */
+static inline float vmesh_normaliser_sse(const vmesh_view *w)
+{
+    float dmin2[8], ratio[8], den = 0.0f;
+    for (int cy = 0; cy < 2; cy++)
+        for (int cx = 0; cx < 4; cx++) {
+            float u = -w->half_side + ((float)cx + 0.5f) * w->cell, v = -w->half_side + ((float)cy + 0.5f) * w->cell;
+            __m128 U = _mm_set1_ps(u), V = _mm_set1_ps(v), m = _mm_set1_ps(1e30f);
+            for (int s = 0; s < VMESH_SUBCELLS + 1; s += 4) {
+                __m128 du = _mm_sub_ps(_mm_loadu_ps(&w->pu[s]), U), dv = _mm_sub_ps(_mm_loadu_ps(&w->pv[s]), V);
+                m = _mm_min_ps(_mm_add_ps(_mm_mul_ps(du, du), _mm_mul_ps(dv, dv)), m);
+            }
+            m = _mm_min_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(1, 0, 3, 2)));
+            m = _mm_min_ps(m, _mm_shuffle_ps(m, m, _MM_SHUFFLE(2, 3, 0, 1)));
+            dmin2[cy * 4 + cx] = _mm_cvtss_f32(m);
+        }
+    for (int h = 0; h < 8; h += 4) {
+        __m128 d2 = _mm_loadu_ps(&dmin2[h]);
+        __m128 r = _mm_mul_ps(vmesh_disk_overlap4(VMESH_RS, 0.5f * w->cell, d2), _mm_set1_ps(w->inv_cell_disk));
+        _mm_storeu_ps(&ratio[h], _mm_blendv_ps(r, _mm_set1_ps(1.0f), _mm_cmple_ps(d2, _mm_set1_ps(w->near2))));
+    }
+    for (int c = 0; c < 8; c++)
+        den += 2.0f * ratio[c];
+    return den;
+}
+
+/* vmesh_cell_ratio for the four cells of row `cy` (centres u, v) with sub-cell s; the overlaps only
+ * when a lane of `need` is between the near and far distances. */
+static inline __m128 vmesh_row_ratio(const vmesh_view *w, int s, __m128 u, float v, __m128 need)
+{
+    __m128 du = _mm_sub_ps(_mm_set1_ps(w->pu[s]), u), dv = _mm_set1_ps(w->pv[s] - v);
+    __m128 d2 = _mm_add_ps(_mm_mul_ps(du, du), _mm_mul_ps(dv, dv));
+    __m128 beyond = _mm_cmpge_ps(d2, _mm_set1_ps(w->far2)), within = _mm_cmple_ps(d2, _mm_set1_ps(w->near2));
+    __m128 ratio = _mm_setzero_ps();
+    if (_mm_movemask_ps(_mm_andnot_ps(_mm_or_ps(beyond, within), need)))
+        ratio = _mm_mul_ps(vmesh_disk_overlap4(VMESH_RS, 0.5f * w->cell, d2), _mm_set1_ps(w->inv_cell_disk));
+    return _mm_andnot_ps(beyond, _mm_blendv_ps(ratio, _mm_set1_ps(1.0f), within));
+}
+
+static inline float vmesh_cells_sse(const vmesh_record *r, const int *order, int count, vmesh_view *w)
+{
+    float centre[4];
+    for (int c = 0; c < 4; c++)
+        centre[c] = -w->half_side + ((float)c + 0.5f) * w->cell;
+    const __m128 all = _mm_castsi128_ps(_mm_set1_epi32(-1)), u = _mm_loadu_ps(centre);
+    __m128 best[4];
+    for (int cy = 0; cy < 4; cy++)
+        best[cy] = _mm_setzero_ps();
+    for (int o = 0; o < count; o++) {
+        int s = order[o], looking = 0;
+        __m128 a = _mm_set1_ps(vmesh_decode_unorm(r->opacity[s]));
+        for (int cy = 0; cy < 4; cy++) {
+            __m128 active = _mm_cmpgt_ps(a, best[cy]); /* the scalar loop's !(a <= best) */
+            if (!_mm_movemask_ps(active))
+                continue;
+            looking = 1;
+            __m128 ratio;
+            if (w->ratios) {
+                float *row = &w->ratio[s][4 * cy];
+                ratio = _mm_loadu_ps(row);
+                if (_mm_movemask_ps(_mm_cmpunord_ps(ratio, ratio))) {
+                    ratio = vmesh_row_ratio(w, s, u, centre[cy], all);
+                    _mm_storeu_ps(row, ratio);
+                }
+            } else {
+                ratio = vmesh_row_ratio(w, s, u, centre[cy], active);
+            }
+            __m128 prod = _mm_mul_ps(a, ratio);
+            best[cy] = _mm_blendv_ps(best[cy], _mm_max_ps(prod, best[cy]), active);
+        }
+        if (!looking)
+            break;
+    }
+    float b[16], num = 0.0f;
+    for (int cy = 0; cy < 4; cy++)
+        _mm_storeu_ps(&b[4 * cy], best[cy]);
+    for (int c = 0; c < 16; c++)
+        num += b[c];
+    return num;
+}
+
+#endif
