@@ -7,7 +7,8 @@
  *    here by inverting the transmittance), and the likelihood at the estimate against the truth's;
  *  - the bake on synthetic voxels: a plate comes out linear, a cloud of leaves exponential, a solid
  *    voxel opaque from every direction, an empty one clear;
- *  - the shading of a plate against Lambert, and the record's size (11 bytes, Brito et al. §5). */
+ *  - the shading of a plate against Lambert, and the record's size (11 bytes, Brito et al. §5);
+ *  - the C build's SSE phase function against the scalar definition, bit for bit. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -339,6 +340,50 @@ static void test_shading(void)
     CHECK("record: 11 bytes per voxel (Brito et al. section 5)", model_vicini.record.bytes == 11 && sizeof(vicini_record) == 11);
 }
 
+/* The C build's SSE phase function (vicini_phase_sse.h) against the scalar one it stands for (the
+ * definition, and the OpenCL build's code), bit for bit: random records' distributions (and
+ * degenerate ones: all codes 0, a needle, a plate) with random light and view directions, the axes,
+ * the same and opposite directions. */
+static void test_phase_sse(void)
+{
+#ifndef VICINI_SSE
+    CHECK("the C build runs vicini's SSE phase function (SSE4.1 on the x86-64-v2 target)", 0);
+#else
+    rng g = rng_seed(21, 0);
+    int n = 0, bad = 0, lit = 0;
+    for (int k = 0; k < 20000; k++) {
+        vicini_record r;
+        memset(&r, 0, sizeof r);
+        for (int c = 0; c < 3; c++) {
+            r.sigma[c] = (unsigned char)(rng_u32(&g) & 255u);
+            r.corr[c] = (unsigned char)(rng_u32(&g) % 255u);
+        }
+        if (k % 50 == 1)
+            memset(&r, 0, sizeof r);
+        if (k % 50 == 2)
+            r.sigma[0] = r.sigma[1] = 0, r.sigma[2] = 255, r.corr[0] = r.corr[1] = r.corr[2] = 127;
+        if (k % 50 == 3)
+            r.sigma[0] = r.sigma[1] = 255, r.sigma[2] = 2, r.corr[0] = r.corr[1] = r.corr[2] = 127;
+        float S[9];
+        vicini_decode_sggx(&r, S);
+        vec3 wi = v3_normalize(v3(2.0f * rng_float(&g) - 1.0f, 2.0f * rng_float(&g) - 1.0f, 2.0f * rng_float(&g) - 1.0f));
+        vec3 wo = v3_normalize(v3(2.0f * rng_float(&g) - 1.0f, 2.0f * rng_float(&g) - 1.0f, 2.0f * rng_float(&g) - 1.0f));
+        if (k % 7 == 0)
+            wi = v3(k % 3 == 0, k % 3 == 1, k % 3 == 2);
+        if (k % 11 == 0)
+            wo = k % 2 ? wi : v3_scale(wi, -1.0f);
+        float want = vicini_phase_diffuse_scalar(S, wi, wo), got = vicini_phase_diffuse_sse(S, wi, wo);
+        bad += memcmp(&want, &got, sizeof want) != 0;
+        lit += want > 0.0f;
+        n++;
+    }
+    char name[160];
+    snprintf(name, sizeof name, "the SSE diffuse phase function equals the scalar one, bit for bit (%d cases, %d lit, %d differ)",
+             n, lit, bad);
+    CHECK(name, bad == 0 && lit > n / 4);
+#endif
+}
+
 /* ---------- moving records (tracer/dynamic/) ---------- */
 
 static float opacity_toward(const vicini_record *r, vec3 w)
@@ -404,6 +449,7 @@ int main(void)
     test_estimator();
     test_bake();
     test_shading();
+    test_phase_sse();
     test_moving();
     return unit_exit();
 }

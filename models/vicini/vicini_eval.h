@@ -201,30 +201,58 @@ VX_INLINE void vicini_visible_frame_of(const float S[9], vec3 wi, vicini_visible
     fr->Mi = v3(inv_sqrt_ii * S_ki, inv_sqrt_ii * S_ji, inv_sqrt_ii * S_ii);
 }
 
+/* The point of the unit disk (u, v) and its height w above it for the uniform pair (u1, u2). */
+VX_INLINE void vicini_disk_sample(float u1, float u2, float *u, float *v, float *w)
+{
+    float rad = sqrtf(u1), phi = 2.0f * VX_PI * u2;
+    *u = rad * cosf(phi);
+    *v = rad * sinf(phi);
+    *w = sqrtf(vx_fmaxf(1.0f - *u * *u - *v * *v, 0.0f));
+}
+
 /* A visible normal of the frame's distribution for the uniform pair (u1, u2). */
 VX_INLINE vec3 vicini_visible_normal(const vicini_visible_frame *fr, float u1, float u2)
 {
-    float rad = sqrtf(u1), phi = 2.0f * VX_PI * u2;
-    float u = rad * cosf(phi), v = rad * sinf(phi), w = sqrtf(vx_fmaxf(1.0f - u * u - v * v, 0.0f));
+    float u, v, w;
+    vicini_disk_sample(u1, u2, &u, &v, &w);
     vec3 m = v3_normalize(v3_add(v3_add(v3_scale(fr->Mk, u), v3_scale(fr->Mj, v)), v3_scale(fr->Mi, w)));
     return v3_add(v3_add(v3_scale(fr->wk, m.x), v3_scale(fr->wj, m.y)), v3_scale(fr->wi, m.z));
 }
 
 #define VICINI_DIFFUSE_STRATA 4 /* 4 x 4 visible-normal samples per light */
+#define VICINI_DIFFUSE_SAMPLES (VICINI_DIFFUSE_STRATA * VICINI_DIFFUSE_STRATA)
 
-/* The SGGX diffuse phase function (1/pi) E_{m ~ D_wi}[max(0, wo . m)], with wi toward the light. */
-VX_INLINE float vicini_phase_diffuse(const float S[9], vec3 wi, vec3 wo)
+/* The uniform pair of diffuse sample i (a = i / 4, b = i % 4): the centres of the 4 x 4 strata. */
+VX_INLINE float vicini_diffuse_u1(int i) { return ((float)(i / VICINI_DIFFUSE_STRATA) + 0.5f) / VICINI_DIFFUSE_STRATA; }
+VX_INLINE float vicini_diffuse_u2(int i) { return ((float)(i % VICINI_DIFFUSE_STRATA) + 0.5f) / VICINI_DIFFUSE_STRATA; }
+
+/* The SGGX diffuse phase function (1/pi) E_{m ~ D_wi}[max(0, wo . m)], with wi toward the light.
+ * The definition, and the OpenCL build's code; the C build runs vicini_phase_diffuse_sse
+ * (vicini_phase_sse.h), the same bits. */
+VX_INLINE float vicini_phase_diffuse_scalar(const float S[9], vec3 wi, vec3 wo)
 {
     float sum = 0.0f;
     vicini_visible_frame fr;
     vicini_visible_frame_of(S, wi, &fr);
-    for (int a = 0; a < VICINI_DIFFUSE_STRATA; a++)
-        for (int b = 0; b < VICINI_DIFFUSE_STRATA; b++) {
-            vec3 m = vicini_visible_normal(&fr, ((float)a + 0.5f) / VICINI_DIFFUSE_STRATA,
-                                           ((float)b + 0.5f) / VICINI_DIFFUSE_STRATA);
-            sum += vx_fmaxf(v3_dot(wo, m), 0.0f);
-        }
-    return sum / (VX_PI * (float)(VICINI_DIFFUSE_STRATA * VICINI_DIFFUSE_STRATA));
+    for (int i = 0; i < VICINI_DIFFUSE_SAMPLES; i++) {
+        vec3 m = vicini_visible_normal(&fr, vicini_diffuse_u1(i), vicini_diffuse_u2(i));
+        sum += vx_fmaxf(v3_dot(wo, m), 0.0f);
+    }
+    return sum / (VX_PI * (float)VICINI_DIFFUSE_SAMPLES);
+}
+
+#if defined(__SSE4_1__) && !defined(__OPENCL_VERSION__) && !defined(VICINI_NO_SSE)
+#define VICINI_SSE 1
+#include "vicini_phase_sse.h"
+#endif
+
+VX_INLINE float vicini_phase_diffuse(const float S[9], vec3 wi, vec3 wo)
+{
+#ifdef VICINI_SSE
+    return vicini_phase_diffuse_sse(S, wi, wo);
+#else
+    return vicini_phase_diffuse_scalar(S, wi, wo);
+#endif
 }
 
 /* The SGGX normal distribution D(m) = 1 / (pi sqrt(det S) (m^T S^-1 m)^2). */
