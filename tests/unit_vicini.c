@@ -346,7 +346,7 @@ static void test_shading(void)
  * the same and opposite directions. */
 static void test_phase_sse(void)
 {
-#ifndef VICINI_SSE
+#ifndef VX_SSE
     CHECK("the C build runs vicini's SSE phase function (SSE4.1 on the x86-64-v2 target)", 0);
 #else
     rng g = rng_seed(21, 0);

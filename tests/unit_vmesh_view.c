@@ -74,7 +74,7 @@ static int sorted_subcells(const vmesh_record *r, int order[VMESH_SUBCELLS])
 static void sse_checks(rng *g)
 {
     char name[200];
-#ifndef VMESH_SSE
+#ifndef VX_SSE
     CHECK("the C build runs vmesh's SSE paths (SSE4.1 on the x86-64-v2 target)", 0);
 #else
     /* acos: every 61st float of [0, 1] with both signs, and the branch points. */

@@ -37,6 +37,7 @@
 
 #include "model.h"
 #include "shading.h"
+#include "simd.h"
 
 typedef struct {
     unsigned char sigma[3];  /* sqrt(S_kk) / max_k sqrt(S_kk): code / 255 */
@@ -241,14 +242,13 @@ VX_INLINE float vicini_phase_diffuse_scalar(const float S[9], vec3 wi, vec3 wo)
     return sum / (VX_PI * (float)VICINI_DIFFUSE_SAMPLES);
 }
 
-#if defined(__SSE4_1__) && !defined(__OPENCL_VERSION__) && !defined(VICINI_NO_SSE)
-#define VICINI_SSE 1
+#ifdef VX_SSE
 #include "vicini_phase_sse.h"
 #endif
 
 VX_INLINE float vicini_phase_diffuse(const float S[9], vec3 wi, vec3 wo)
 {
-#ifdef VICINI_SSE
+#ifdef VX_SSE
     return vicini_phase_diffuse_sse(S, wi, wo);
 #else
     return vicini_phase_diffuse_scalar(S, wi, wo);

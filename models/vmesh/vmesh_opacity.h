@@ -18,6 +18,7 @@
 #define VX_VMESH_OPACITY_H
 
 #include "portable_acos.h"
+#include "simd.h"
 #include "shading.h"
 #include "vmesh_record.h"
 
@@ -69,8 +70,7 @@ typedef struct {
 
 /* The C build's SSE paths (vmesh_opacity_sse.h): the same bits as the scalar code below, which is
  * the definition and the OpenCL build's code (tests/unit_vmesh_view.c compares the two). */
-#if defined(__SSE4_1__) && !defined(__OPENCL_VERSION__) && !defined(VMESH_NO_SSE)
-#define VMESH_SSE 1
+#ifdef VX_SSE
 #include "vmesh_opacity_sse.h"
 #endif
 
@@ -130,13 +130,13 @@ VX_INLINE void vmesh_view_setup(vec3 dir, vmesh_view *w)
     w->inv_cell_disk = inv_cell_disk;
     w->near2 = near2;
     w->far2 = far2;
-#ifdef VMESH_SSE
+#ifdef VX_SSE
     vmesh_project_sse(t, b, w->pu, w->pv);
 #else
     vmesh_project_scalar(t, b, w->pu, w->pv);
 #endif
     w->pu[VMESH_SUBCELLS] = w->pv[VMESH_SUBCELLS] = 1e15f;
-#ifdef VMESH_SSE
+#ifdef VX_SSE
     float den = vmesh_normaliser_sse(w);
 #else
     float den = vmesh_normaliser_scalar(w);
@@ -267,7 +267,7 @@ VX_INLINE float vmesh_opacity_along(VX_GLOBAL const vmesh_record *r, vec3 dir)
         return 0.0f;
     vmesh_view scratch;
     vmesh_view *w = vmesh_view_of(dir, &scratch);
-#ifdef VMESH_SSE
+#ifdef VX_SSE
     float num = vmesh_cells_sse(r, order, count, w);
 #else
     float num = vmesh_cells_scalar(r, order, count, w);
