@@ -2,7 +2,8 @@
  * time (median of RUNS, alternating backends so that drift hits both alike) of OpenCL over C on the
  * same baked grid, same options (default 4 spp, or one cone per pixel for a cone marcher; cache on)
  * and the same cores; the OpenCL time excludes the kernel compile, which is reported apart (the
- * first call's, and a cached one's). The CPU time of both (process CPU time over the render; for
+ * first call's, and a cached one's), and its set-up (buffers, uploads, clears), as the C time
+ * excludes the C backend's (both are `setup_seconds`). The CPU time of both (process CPU time over the render; for
  * OpenCL over the kernel, PoCL's worker threads being in the process) is printed too: on a shared
  * machine it is steadier than the wall clock, which depends on what else runs. The images are
  * compared too (max per-pixel difference) so that a fast but wrong kernel shows.

@@ -70,13 +70,14 @@ cJSON *stats_render(const scene *s, const vx_model *m, const bake_options *bo, c
          * stall and a TLB shootdown of the other cores (issue 15). Near 0 when the render's buffers
          * were pre-faulted; a large number here means a timed frame paid for allocation. */
         cJSON_AddNumberToObject(j, "render_page_faults", (double)rc->page_faults);
-        cJSON_AddNumberToObject(j, "setup_seconds", rc->setup_seconds);
     } else {
         cJSON_AddNullToObject(j, "traversal_seconds");
         cJSON_AddNullToObject(j, "model_seconds");
         cJSON_AddNullToObject(j, "render_page_faults"); /* the device's memory: not this process's faults */
-        cJSON_AddNullToObject(j, "setup_seconds");      /* its buffers' upload is inside its `seconds` */
     }
+    /* Every backend's set-up outside `seconds`: the C backend's caches and maps, OpenCL's buffers
+     * and their upload. */
+    cJSON_AddNumberToObject(j, "setup_seconds", rc->setup_seconds);
     if (b->has_device) /* NAME_compile_seconds ...: compile time is apart from seconds */
         stats_add_backend(j, b->name, bcnt);
     cJSON_AddNumberToObject(j, "rays", (double)rc->rays);

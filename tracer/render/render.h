@@ -40,8 +40,9 @@ typedef struct {
     double traversal_seconds; /* marching and compositing (seconds - model_seconds) */
     double model_seconds;     /* inside the model's opacity and shade calls */
     double setup_seconds;     /* the marcher's set-up before the clock (its prepare: the caches, the
-                               * distance field, the shadow rays' ends, the cone marcher's bitmaps):
-                               * per render, outside `seconds`, as the truth's BVH is outside its own */
+                               * distance field, the shadow rays' ends, the cone marcher's bitmaps;
+                               * OpenCL's buffers, uploads and clears): per render, outside
+                               * `seconds`, as the truth's BVH is outside its own */
     uint64_t rays, shadow_rays, voxel_visits, model_evals, cache_hits;
     shadow_stats shadows;     /* the shadow method, its precomputation (outside `seconds`), its queries */
     long page_faults;         /* the process's minor page faults during `seconds` (getrusage): memory

@@ -73,7 +73,7 @@ static int render(opencl_launch *L, dilated_grid *skip, const opencl_runtime *rt
 {
     size_t pixels = (size_t)o->width * (size_t)o->height;
     /* Built before the clock starts, as the C backend (render_cone.c) builds its own: a like-for-like
-     * render time. Their upload stays timed. */
+     * render time. Their upload is the render's set-up (setup_seconds), as the C backend's. */
     if (dilated_build(skip, g))
         return vx_fail(e, "out of memory for the cone marcher's occupancy bitmaps");
     size_t table_bytes = 0;
@@ -111,8 +111,8 @@ static int render(opencl_launch *L, dilated_grid *skip, const opencl_runtime *rt
         opencl_launch_zero(L, C_LC_KEYS, lc * sizeof(uint64_t), e) ||
         opencl_launch_zero(L, C_LC_STATE, lc * sizeof(cl_int), e))
         return -1;
-    /* The uploads and clears complete now, inside the render's time: left queued they would run
-     * in the warm-up launch below, which counts as compile time. */
+    /* The uploads and clears complete now, in the render's set-up: left queued they would run in
+     * the warm-up launch below, which counts as compile time. */
     if (opencl_check(clFinish(rt->queue), "uploading the grid and clearing the light cache", e))
         return -1;
     c.bound = now_seconds();

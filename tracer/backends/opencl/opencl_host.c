@@ -181,8 +181,17 @@ int opencl_launch_warm_up(opencl_launch *L, opencl_clock *c, vx_err *e)
     snprintf(what, sizeof what, "preparing %s", L->kernel_name);
     if (opencl_launch_run(L, 0, what, e))
         return -1;
-    c->warm = now_seconds();
-    c->cpu_warm = opencl_cpu_seconds();
+    c->warm = c->set_up = now_seconds();
+    c->cpu_set_up = opencl_cpu_seconds();
+    return 0;
+}
+
+int opencl_launch_set_up(opencl_launch *L, opencl_clock *c, const char *what, vx_err *e)
+{
+    if (opencl_check(clFinish(L->rt->queue), what, e))
+        return -1;
+    c->set_up = now_seconds();
+    c->cpu_set_up = opencl_cpu_seconds();
     return 0;
 }
 
@@ -192,13 +201,14 @@ int opencl_launch_render(opencl_launch *L, const opencl_clock *c, int pixels, co
     if (opencl_launch_run(L, pixels, what, e))
         return -1;
     double traced = now_seconds();
-    bc->kernel_cpu_seconds = opencl_cpu_seconds() - c->cpu_warm;
+    bc->kernel_cpu_seconds = opencl_cpu_seconds() - c->cpu_set_up;
     memset(counts, 0, sizeof *counts);
     if (opencl_launch_results(L, image_which, out, (size_t)pixels * 3 * sizeof(float), counts_which, counts, e))
         return -1;
     double done = now_seconds();
     bc->compile_seconds = (c->compiled - c->start) + (c->warm - c->bound);
-    bc->kernel_seconds = traced - c->warm;
-    counts->seconds = (c->bound - c->compiled) + (done - c->warm);
+    bc->kernel_seconds = traced - c->set_up;
+    counts->seconds = done - c->set_up;
+    counts->setup_seconds = (c->bound - c->compiled) + (c->set_up - c->warm);
     return 0;
 }

@@ -60,19 +60,25 @@ int opencl_launch_results(opencl_launch *L, int image_which, float *out, size_t 
                           render_counts *counts, vx_err *e);
 void opencl_launch_release(opencl_launch *L);
 
-/* The moments a render's time is split by (now_seconds), and the CPU time at the warm-up's end. */
+/* The moments a render's time is split by (now_seconds), and the CPU time where the render's clock
+ * starts (`set_up`). */
 typedef struct {
-    double start, compiled, bound, warm, cpu_warm;
+    double start, compiled, bound, warm, set_up, cpu_set_up;
 } opencl_clock;
 
-/* The warm-up: a launch with nothing to do (opencl_launch_run with 0 pixels); sets c->warm and
- * c->cpu_warm. */
+/* The warm-up: a launch with nothing to do (opencl_launch_run with 0 pixels); sets c->warm, and
+ * c->set_up and c->cpu_set_up there (nothing left to wait for after it). */
 int opencl_launch_warm_up(opencl_launch *L, opencl_clock *c, vx_err *e);
 
-/* The timed part of a render, after the warm-up launch (c->warm set, and whatever the render needs
- * enqueued): runs the kernel over `pixels`, reads the image and the counters back into counts, and
- * splits the time as the C backend's: counts->seconds = setting up (bound - compiled) plus the run
- * and the read-back; bc->compile_seconds = building (compiled - start) plus the warm-up (warm -
+/* Waits for the uploads and clears enqueued after the warm-up (`what` names them in an error) and
+ * moves c->set_up and c->cpu_set_up to now: they are the render's set-up, not its frame. */
+int opencl_launch_set_up(opencl_launch *L, opencl_clock *c, const char *what, vx_err *e);
+
+/* The timed part of a render, from c->set_up: runs the kernel over `pixels`, reads the image and the
+ * counters back into counts, and splits the time as the C backend's: counts->seconds = the run and
+ * the read-back; counts->setup_seconds = creating the buffers (bound - compiled) plus the uploads
+ * and clears after the warm-up (set_up - warm), as the C backend's set-up (its caches, its maps) is
+ * outside its clock; bc->compile_seconds = building (compiled - start) plus the warm-up (warm -
  * bound). */
 int opencl_launch_render(opencl_launch *L, const opencl_clock *c, int pixels, const char *what, int image_which,
                          float *out, int counts_which, render_counts *counts, backend_counts *bc, vx_err *e);
