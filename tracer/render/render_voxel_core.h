@@ -40,6 +40,8 @@
  *                                 p + t dir toward light `light` meets no non-empty voxel (the C
  *                                 backend's shadow_clip.h; exact: the walk to there reports the same
  *                                 cells with the same [t0, t1]);
+ * and VOXEL_PREFETCH_RECORD(x, index): a hint that voxel `index`'s record is about to be read
+ * (the C backend's prefetch; nothing else may depend on it);
  * and it may also define
  *   VOXEL_SHADOW_MEMO(x, index, light, q)  voxel `index`'s opacity toward directional light
  *                                 `light`, asked of the model with query q once and then remembered;
@@ -75,6 +77,9 @@
 #endif
 #ifndef VOXEL_SHADOW_END
 #define VOXEL_SHADOW_END(x, light, p, dir, t_max) (t_max)
+#endif
+#ifndef VOXEL_PREFETCH_RECORD
+#define VOXEL_PREFETCH_RECORD(x, index)
 #endif
 #ifndef VOXEL_HAS_TRANSMIT
 #define VOXEL_HAS_TRANSMIT(x) 0
@@ -211,6 +216,10 @@ VX_INLINE void voxel_answer(voxel_ctx *x, const grid_hit *h, vec3 org, vec3 dir,
             x->counts.cache_hits++;
             return;
         }
+        /* The record is read first by the model, after the query is made: asked for now, its load
+         * overlaps that work (vmesh's 139-byte records: its first read was a sixth of its opacity's
+         * profile). */
+        VOXEL_PREFETCH_RECORD(x, h->index);
         voxel_query(x, h, &q, &centre);
         /* The cached direction: from the voxel's centre toward the camera. */
         vec3 to_cam = v3_sub(x->cam.position, centre);
