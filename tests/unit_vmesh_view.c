@@ -56,21 +56,6 @@ static void remembering(vmesh_view *w)
             w->ratio[s][c] = NAN;
 }
 
-/* The sub-cells holding opacity, most opaque first (vmesh_opacity_along's order). */
-static int sorted_subcells(const vmesh_record *r, int order[VMESH_SUBCELLS])
-{
-    int count = 0;
-    for (int s = 0; s < VMESH_SUBCELLS; s++) {
-        if (!r->opacity[s])
-            continue;
-        int j = count++;
-        for (; j > 0 && r->opacity[order[j - 1]] < r->opacity[s]; j--)
-            order[j] = order[j - 1];
-        order[j] = s;
-    }
-    return count;
-}
-
 static void sse_checks(rng *g)
 {
     char name[200];
@@ -164,7 +149,7 @@ static void sse_checks(rng *g)
         }
         if (kind == 4)
             r.opacity[(int)(rng_float(g) * VMESH_SUBCELLS) % VMESH_SUBCELLS] = 200;
-        int order[VMESH_SUBCELLS], count = sorted_subcells(&r, order);
+        int order[VMESH_SUBCELLS], count = vmesh_sorted_subcells(&r, order);
         if (!count)
             continue;
         vec3 d = k < 3 ? v3(k == 0, k == 1, k == 2) : random_dir(g);
@@ -177,7 +162,7 @@ static void sse_checks(rng *g)
         memset(&other, 0, sizeof other);
         for (int s = 0; s < VMESH_SUBCELLS; s += 2)
             other.opacity[s] = (unsigned char)(40 + 7 * s);
-        int other_order[VMESH_SUBCELLS], other_count = sorted_subcells(&other, other_order);
+        int other_order[VMESH_SUBCELLS], other_count = vmesh_sorted_subcells(&other, other_order);
         (void)vmesh_cells_scalar(&other, other_order, other_count, &part_view);
         float want = vmesh_cells_scalar(&r, order, count, &fresh_view);
         float got[3] = {vmesh_cells_sse(&r, order, count, &fresh_view), vmesh_cells_sse(&r, order, count, &memo_view),

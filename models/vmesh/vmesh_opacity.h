@@ -247,13 +247,10 @@ VX_INLINE float vmesh_cells_scalar(VX_GLOBAL const vmesh_record *r, const int *o
     return num;
 }
 
-/* Directional opacity of a record seen along `dir` (either sign: a projection does not depend on
- * it). */
-VX_INLINE float vmesh_opacity_along(VX_GLOBAL const vmesh_record *r, vec3 dir)
+/* The sub-cells of r holding opacity into order[], most opaque first, ties in index order
+ * (insertion sort of at most 27); returns how many. */
+VX_INLINE int vmesh_sorted_subcells(VX_GLOBAL const vmesh_record *r, int *order)
 {
-    /* The sub-cells holding opacity, most opaque first, ties in index order (insertion sort of at
-     * most 27). */
-    int order[VMESH_SUBCELLS];
     int count = 0;
     for (int s = 0; s < VMESH_SUBCELLS; s++) {
         if (!r->opacity[s])
@@ -263,6 +260,15 @@ VX_INLINE float vmesh_opacity_along(VX_GLOBAL const vmesh_record *r, vec3 dir)
             order[j] = order[j - 1];
         order[j] = s;
     }
+    return count;
+}
+
+/* Directional opacity of a record seen along `dir` (either sign: a projection does not depend on
+ * it). */
+VX_INLINE float vmesh_opacity_along(VX_GLOBAL const vmesh_record *r, vec3 dir)
+{
+    int order[VMESH_SUBCELLS];
+    int count = vmesh_sorted_subcells(r, order);
     if (!count)
         return 0.0f;
     vmesh_view scratch;
