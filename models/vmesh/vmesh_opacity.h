@@ -68,6 +68,10 @@ typedef struct {
 
 #define VMESH_RS 0.28867513f /* sphere around a sub-cell of edge 1/3: sqrt(3)/6 */
 
+/* The centre of window cell c (0 .. 3) along either of the window's axes: the one expression for the
+ * scalar code and the SSE code, which must agree bit for bit. */
+VX_INLINE float vmesh_cell_centre(const vmesh_view *w, int c) { return -w->half_side + ((float)c + 0.5f) * w->cell; }
+
 /* The C build's SSE paths (vmesh_opacity_sse.h): the same bits as the scalar code below, which is
  * the definition and the OpenCL build's code (tests/unit_vmesh_view.c compares the two). */
 #ifdef VX_SSE
@@ -96,7 +100,7 @@ VX_INLINE float vmesh_normaliser_scalar(const vmesh_view *w)
     float den = 0.0f, rc = 0.5f * w->cell;
     for (int cy = 0; cy < 2; cy++)
         for (int cx = 0; cx < 4; cx++) {
-            float u = -w->half_side + ((float)cx + 0.5f) * w->cell, v = -w->half_side + ((float)cy + 0.5f) * w->cell;
+            float u = vmesh_cell_centre(w, cx), v = vmesh_cell_centre(w, cy);
             float dmin2 = 1e30f;
             for (int s = 0; s < VMESH_SUBCELLS; s++) {
                 float du = w->pu[s] - u, dv = w->pv[s] - v, d2 = du * du + dv * dv;
@@ -151,7 +155,7 @@ VX_INLINE void vmesh_view_setup(vec3 dir, vmesh_view *w)
  * function of the view alone (the one expression, whether computed in the loop or remembered). */
 VX_INLINE float vmesh_cell_ratio(const vmesh_view *w, int cx, int cy, int s)
 {
-    float u = -w->half_side + ((float)cx + 0.5f) * w->cell, v = -w->half_side + ((float)cy + 0.5f) * w->cell;
+    float u = vmesh_cell_centre(w, cx), v = vmesh_cell_centre(w, cy);
     float du = w->pu[s] - u, dv = w->pv[s] - v, d2 = du * du + dv * dv;
     if (d2 >= w->far2)
         return 0.0f;

@@ -83,7 +83,7 @@ static inline float vmesh_normaliser_sse(const vmesh_view *w)
     float dmin2[8], ratio[8], den = 0.0f;
     for (int cy = 0; cy < 2; cy++)
         for (int cx = 0; cx < 4; cx++) {
-            float u = -w->half_side + ((float)cx + 0.5f) * w->cell, v = -w->half_side + ((float)cy + 0.5f) * w->cell;
+            float u = vmesh_cell_centre(w, cx), v = vmesh_cell_centre(w, cy);
             __m128 U = _mm_set1_ps(u), V = _mm_set1_ps(v), m = _mm_set1_ps(1e30f);
             for (int s = 0; s < VMESH_SUBCELLS + 1; s += 4) {
                 __m128 du = _mm_sub_ps(_mm_loadu_ps(&w->pu[s]), U), dv = _mm_sub_ps(_mm_loadu_ps(&w->pv[s]), V);
@@ -120,7 +120,7 @@ static inline float vmesh_cells_sse(const vmesh_record *r, const int *order, int
 {
     float centre[4];
     for (int c = 0; c < 4; c++)
-        centre[c] = -w->half_side + ((float)c + 0.5f) * w->cell;
+        centre[c] = vmesh_cell_centre(w, c);
     const __m128 all = _mm_castsi128_ps(_mm_set1_epi32(-1)), u = _mm_loadu_ps(centre);
     __m128 best[4];
     for (int cy = 0; cy < 4; cy++)
