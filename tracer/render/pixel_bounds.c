@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "grid.h"
 #include "parallel.h"
 #include "vec_d.h"
 
@@ -88,13 +89,15 @@ typedef struct {
 static double min2(double a, double b) { return a < b ? a : b; }
 static double max2(double a, double b) { return a > b ? a : b; }
 
-/* The centre of the block with packed coordinates pc (x << 20 | y << 10 | z; blocks of size vs)
- * relative to the camera at pos: what the map's build and pixel_bounds_may_fail both project. */
-static inline void block_from_camera(const voxel_grid *g, double vs, uint32_t pc, const double pos[3], double q[3])
+/* The centre of non-empty block i of `level` (blocks of size vs) relative to the camera at pos: what
+ * the map's build and pixel_bounds_may_fail both project. */
+static inline void block_from_camera(const voxel_grid *g, int level, size_t i, double vs, const double pos[3],
+                                     double q[3])
 {
-    q[0] = g->origin_d[0] + ((double)(pc >> 20) + 0.5) * vs - pos[0];
-    q[1] = g->origin_d[1] + ((double)((pc >> 10) & 1023u) + 0.5) * vs - pos[1];
-    q[2] = g->origin_d[2] + ((double)(pc & 1023u) + 0.5) * vs - pos[2];
+    int c[3];
+    grid_coords(g, level, i, &c[0], &c[1], &c[2]);
+    for (int a = 0; a < 3; a++)
+        q[a] = g->origin_d[a] + ((double)c[a] + 0.5) * vs - pos[a];
 }
 
 static void bounds_share(void *p, int64_t share, int thread)
@@ -109,7 +112,7 @@ static void bounds_share(void *p, int64_t share, int thread)
     const double vs = g->voxel_size_d * (double)(1 << J->level), hx = J->half[0], hy = J->half[1], hz = J->half[2];
     for (size_t i = first; i < last && !J->failed[thread]; i++) {
         double q[3];
-        block_from_camera(g, vs, L->coords[i], J->pos, q);
+        block_from_camera(g, J->level, i, vs, J->pos, q);
         double Z = vx_dot3d(q, J->fwd);
         if (Z + hz <= 0.0)
             continue; /* wholly behind the camera: its rays (forward of it) cannot meet it */
@@ -243,7 +246,7 @@ int pixel_bounds_may_fail(const pixel_bounds *b, const voxel_grid *g, const came
     const double hz = (vx_cube_half_extent(fwd) * (double)(1 << level) + 2 * BOUNDS_RADIUS_MARGIN) * g->voxel_size_d;
     for (size_t i = 0; i < L->count; i++) {
         double q[3];
-        block_from_camera(g, vs, L->coords[i], pos, q);
+        block_from_camera(g, level, i, vs, pos, q);
         double Z = vx_dot3d(q, fwd);
         if (Z + hz > 0.0 && Z - hz <= 1e-3 * vs)
             return 1;
