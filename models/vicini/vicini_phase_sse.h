@@ -14,6 +14,8 @@
 
 #include <smmintrin.h>
 
+#include "vec_sse.h"
+
 /* vicini_disk_sample of the 16 strata, [0]: u, [1]: v, [2]: w. */
 static inline const float (*vicini_disk_samples(void))[VICINI_DIFFUSE_SAMPLES]
 {
@@ -27,14 +29,6 @@ static inline const float (*vicini_disk_samples(void))[VICINI_DIFFUSE_SAMPLES]
     return (const float (*)[VICINI_DIFFUSE_SAMPLES])table;
 }
 
-/* x a + y b + z c per lane, as v3_add(v3_add(v3_scale(a, x), v3_scale(b, y)), v3_scale(c, z)) has
- * it for one component: (a x + b y) + c z. */
-static inline __m128 vicini_combine4(float a, float b, float c, __m128 x, __m128 y, __m128 z)
-{
-    return _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_set1_ps(a), x), _mm_mul_ps(_mm_set1_ps(b), y)),
-                      _mm_mul_ps(_mm_set1_ps(c), z));
-}
-
 static inline float vicini_phase_diffuse_sse(const float S[9], vec3 wi, vec3 wo)
 {
     const float(*disk)[VICINI_DIFFUSE_SAMPLES] = vicini_disk_samples();
@@ -44,19 +38,19 @@ static inline float vicini_phase_diffuse_sse(const float S[9], vec3 wi, vec3 wo)
     for (int i = 0; i < VICINI_DIFFUSE_SAMPLES; i += 4) {
         __m128 u = _mm_loadu_ps(&disk[0][i]), v = _mm_loadu_ps(&disk[1][i]), w = _mm_loadu_ps(&disk[2][i]);
         /* m = v3_normalize(Mk u + Mj v + Mi w), (0, 0, 1) where its length is not above 1e-30 */
-        __m128 mx = vicini_combine4(fr.Mk.x, fr.Mj.x, fr.Mi.x, u, v, w);
-        __m128 my = vicini_combine4(fr.Mk.y, fr.Mj.y, fr.Mi.y, u, v, w);
-        __m128 mz = vicini_combine4(fr.Mk.z, fr.Mj.z, fr.Mi.z, u, v, w);
+        __m128 mx = vx_dot3_ps(fr.Mk.x, fr.Mj.x, fr.Mi.x, u, v, w);
+        __m128 my = vx_dot3_ps(fr.Mk.y, fr.Mj.y, fr.Mi.y, u, v, w);
+        __m128 mz = vx_dot3_ps(fr.Mk.z, fr.Mj.z, fr.Mi.z, u, v, w);
         __m128 len = _mm_sqrt_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(mx, mx), _mm_mul_ps(my, my)), _mm_mul_ps(mz, mz)));
         __m128 long_enough = _mm_cmpgt_ps(len, _mm_set1_ps(1e-30f)), inv = _mm_div_ps(_mm_set1_ps(1.0f), len);
         mx = _mm_and_ps(long_enough, _mm_mul_ps(mx, inv));
         my = _mm_and_ps(long_enough, _mm_mul_ps(my, inv));
         mz = _mm_blendv_ps(_mm_set1_ps(1.0f), _mm_mul_ps(mz, inv), long_enough);
         /* the world's normal wk m.x + wj m.y + wi m.z, and wo . it */
-        __m128 nx = vicini_combine4(fr.wk.x, fr.wj.x, fr.wi.x, mx, my, mz);
-        __m128 ny = vicini_combine4(fr.wk.y, fr.wj.y, fr.wi.y, mx, my, mz);
-        __m128 nz = vicini_combine4(fr.wk.z, fr.wj.z, fr.wi.z, mx, my, mz);
-        __m128 d = vicini_combine4(wo.x, wo.y, wo.z, nx, ny, nz);
+        __m128 nx = vx_dot3_ps(fr.wk.x, fr.wj.x, fr.wi.x, mx, my, mz);
+        __m128 ny = vx_dot3_ps(fr.wk.y, fr.wj.y, fr.wi.y, mx, my, mz);
+        __m128 nz = vx_dot3_ps(fr.wk.z, fr.wj.z, fr.wi.z, mx, my, mz);
+        __m128 d = vx_dot3_ps(wo.x, wo.y, wo.z, nx, ny, nz);
         _mm_storeu_ps(&cosines[i], _mm_max_ps(d, _mm_setzero_ps()));
     }
     float sum = 0.0f;

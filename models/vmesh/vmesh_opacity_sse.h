@@ -20,6 +20,7 @@
 #define VX_VMESH_OPACITY_SSE_H
 
 #include "portable_acos_sse.h"
+#include "vec_sse.h"
 
 /* vmesh_disk_overlap(r1, r2, sqrtf(d2)) per lane. */
 static inline __m128 vmesh_disk_overlap4(float r1, float r2, __m128 d2)
@@ -47,7 +48,7 @@ static inline __m128 vmesh_disk_overlap4(float r1, float r2, __m128 d2)
 }
 
 /* The 27 sub-cell centres (and the pad after them) projected onto the window's axes t and b, four
- * at a time: v3_dot's (x t.x + y t.y) + z t.z per lane. The lattice's coordinates are
+ * at a time: v3_dot(c, t) per lane (vx_dot3_ps). The lattice's coordinates are
  * ((float)i - 1.0f) / 3.0f, as vmesh_view_setup's scalar loop computes them (folded by the compiler,
  * which rounds as the run-time division does). */
 #define VMESH_THIRD(i) (((float)(i) - 1.0f) / 3.0f)
@@ -65,12 +66,10 @@ static inline void vmesh_project_sse(vec3 t, vec3 b, float *pu, float *pv)
     static const float z[VMESH_SUBCELLS + 1] = {VMESH_LATTICE_1, VMESH_LATTICE_1, VMESH_LATTICE_1, VMESH_LATTICE_1,
                                                 VMESH_LATTICE_1, VMESH_LATTICE_1, VMESH_LATTICE_1, VMESH_LATTICE_1,
                                                 VMESH_LATTICE_1, 0.0f};
-    __m128 tx = _mm_set1_ps(t.x), ty = _mm_set1_ps(t.y), tz = _mm_set1_ps(t.z);
-    __m128 bx = _mm_set1_ps(b.x), by = _mm_set1_ps(b.y), bz = _mm_set1_ps(b.z);
     for (int s = 0; s < VMESH_SUBCELLS + 1; s += 4) {
         __m128 cx = _mm_loadu_ps(&x[s]), cy = _mm_loadu_ps(&y[s]), cz = _mm_loadu_ps(&z[s]);
-        _mm_storeu_ps(&pu[s], _mm_add_ps(_mm_add_ps(_mm_mul_ps(cx, tx), _mm_mul_ps(cy, ty)), _mm_mul_ps(cz, tz)));
-        _mm_storeu_ps(&pv[s], _mm_add_ps(_mm_add_ps(_mm_mul_ps(cx, bx), _mm_mul_ps(cy, by)), _mm_mul_ps(cz, bz)));
+        _mm_storeu_ps(&pu[s], vx_dot3_ps(t.x, t.y, t.z, cx, cy, cz));
+        _mm_storeu_ps(&pv[s], vx_dot3_ps(b.x, b.y, b.z, cx, cy, cz));
     }
 }
 
