@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "grid.h"
 #include "vec_d.h"
 
 /* Widening of every voxel's footprint and reach, in voxels: far above the rounding of these doubles
@@ -64,8 +65,9 @@ int shadow_clip_build(shadow_clip *c, const voxel_grid *g, vec3 to_light)
     double hw = vx_cube_half_extent(w) + CLIP_MARGIN;
     const grid_level *L = &g->level[0];
     for (size_t i = 0; i < L->count; i++) {
-        uint32_t pc = L->coords[i];
-        double centre[3] = {(double)(pc >> 20) + 0.5, (double)((pc >> 10) & 1023u) + 0.5, (double)(pc & 1023u) + 0.5};
+        int c[3];
+        grid_coords(g, 0, i, &c[0], &c[1], &c[2]);
+        double centre[3] = {(double)c[0] + 0.5, (double)c[1] + 0.5, (double)c[2] + 0.5};
         double cu = vx_dot3d(centre, u) - u0, cv = vx_dot3d(centre, v) - v0;
         int iu0 = (int)((cu - hu) / column), iu1 = (int)((cu + hu) / column); /* >= 0: floor */
         int iv0 = (int)((cv - hv) / column), iv1 = (int)((cv + hv) / column);
