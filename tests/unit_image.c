@@ -117,6 +117,59 @@ static void test_exr_roundtrip(void)
     CHECK("exr leaves no temp files", temp_leftovers(tmpdir) == 0);
 }
 
+/* Chunks that ZIP cannot shrink. OpenEXR stores such a chunk raw, and a reader takes a chunk whose
+ * stored size equals its raw size for a raw one; OpenEXR 3.1's core library (Debian 12) stored the
+ * deflated bytes when they came out exactly as long as the raw ones (it tested > where >= was
+ * needed: upstream issue 2306), and the reader then returned those bytes as pixels (a 64x64 vmesh
+ * render of island had its last 16 rows garbage, NaN among them). Images of one 16-row chunk with
+ * every degree of compressibility, from a few distinct values to noise: the deflated size sweeps
+ * across the raw size, so some land on it exactly (before the fix 1 to 2 % of these images came
+ * back altered). Each must read back bit for bit. */
+static void test_exr_incompressible_chunks(void)
+{
+    int images = 0, altered = 0, raw_sized = 0;
+    vx_err e;
+    const char *path = tmp_path("chunk.exr");
+    for (unsigned seed = 1; seed <= 3000; seed++) {
+        image img, back;
+        int width = 2 + (int)(seed % 5), nc = 1 + (int)(seed / 5 % 3);
+        if (image_alloc(&img, width, 16, nc, &e) != 0)
+            break;
+        unsigned x = seed * 2654435761u, distinct = 1u + seed % 97u;
+        size_t n = (size_t)width * 16 * (size_t)nc;
+        for (size_t i = 0; i < n; i++) {
+            x = x * 1664525u + 1013904223u;
+            img.data[i] = (x >> 16) % 100u < seed % 101u ? (float)((x >> 8) % distinct) * 0.37f
+                                                        : (float)(x >> 8) * 1e-3f;
+        }
+        if (image_write(&img, path, &e) == 0 && image_read(path, &back, &e) == 0) {
+            altered += back.width != width || back.height != 16 || back.channels != nc ||
+                       memcmp(img.data, back.data, n * sizeof(float)) != 0;
+            image_free(&back);
+            /* The one chunk's stored size: the file's last 4 + stored bytes (one chunk, no padding). */
+            struct stat st;
+            if (stat(path, &st) == 0) {
+                FILE *f = fopen(path, "rb");
+                unsigned char b[4] = {0};
+                long at = (long)st.st_size - (long)(n * sizeof(float)) - 4;
+                if (f && at > 0 && fseek(f, at, SEEK_SET) == 0 && fread(b, 1, 4, f) == 4)
+                    raw_sized += (size_t)(b[0] | b[1] << 8 | b[2] << 16 | (unsigned)b[3] << 24) == n * sizeof(float);
+                if (f)
+                    fclose(f);
+            }
+        } else {
+            altered++;
+        }
+        images++;
+        image_free(&img);
+    }
+    char label[160];
+    snprintf(label, sizeof label,
+             "exr chunks that do not compress read back bit for bit (%d images, %d stored raw, %d altered)", images,
+             raw_sized, altered);
+    CHECK(label, images == 3000 && raw_sized > 100 && altered == 0);
+}
+
 static void test_srgb_values(void)
 {
     CHECK("srgb 0 -> 0", image_linear_to_srgb8(0.0f) == 0);
@@ -383,6 +436,7 @@ int main(void)
     make_tmpdir();
     test_alloc();
     test_exr_roundtrip();
+    test_exr_incompressible_chunks();
     test_srgb_values();
     test_png_file();
     test_write_failures();

@@ -29,6 +29,24 @@ static void capture_error(exr_const_context_t ctxt, exr_result_t code, const cha
         snprintf(cap->msg, sizeof cap->msg, "%s (%s)", msg ? msg : "", exr_get_error_code_as_string(code));
 }
 
+/* A chunk that ZIP does not shrink must be stored raw: a reader takes a chunk whose stored size is
+ * its raw size for raw pixels. OpenEXR 3.1's core library (Debian 12's) keeps the deflated bytes
+ * when they come out exactly as long as the raw ones (it tests compressed > raw; upstream issue
+ * 2306, fixed in 3.4), and those bytes were then read back as pixels: 16 rows of garbage, NaN
+ * among them, in a 64x64 render (tests/unit_image.c makes such chunks). The library's compressor
+ * runs, then this stores the raw bytes in that case, as the fixed library does. Thread-local, as
+ * the capture is: the pipeline's function pointer has no user data. */
+static _Thread_local exr_result_t (*library_compress)(exr_encode_pipeline_t *);
+
+static exr_result_t compress_or_store_raw(exr_encode_pipeline_t *p)
+{
+    exr_result_t rv = library_compress(p);
+    if (rv == EXR_ERR_SUCCESS && p->compressed_bytes == p->packed_bytes && p->compressed_buffer &&
+        p->compressed_buffer != p->packed_buffer)
+        memcpy(p->compressed_buffer, p->packed_buffer, p->packed_bytes);
+    return rv;
+}
+
 static const char *channel_name(int channels, int c)
 {
     static const char *grey[] = {"Y", "A"};
@@ -87,8 +105,13 @@ static exr_result_t write_file(const image *img, const char *tmp, exr_capture *c
             ch->user_line_stride = w * nc * (int32_t)sizeof(float);
             ch->encode_from_ptr = (const uint8_t *)(img->data + ((size_t)cinfo.start_y * w * nc + c));
         }
-        if (y == 0)
+        if (y == 0) {
             rv = exr_encoding_choose_default_routines(f, part, &enc);
+            if (rv == EXR_ERR_SUCCESS && enc.compress_fn) {
+                library_compress = enc.compress_fn;
+                enc.compress_fn = compress_or_store_raw;
+            }
+        }
         if (rv == EXR_ERR_SUCCESS)
             rv = exr_encoding_run(f, part, &enc);
     }
