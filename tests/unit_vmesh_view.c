@@ -12,6 +12,7 @@
  * views that remember their ratios (empty, or part filled by the scalar code). */
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "rng.h"
@@ -128,6 +129,59 @@ static void sse_checks(rng *g)
     snprintf(name, sizeof name, "the SSE normaliser equals the scalar loop's, bit for bit (4000 directions, %d differ)",
              den_bad);
     CHECK(name, den_bad == 0);
+
+    /* The sort by ranks: the scalar insertion sort's count and order on records with random
+     * opacities, few distinct values (many ties), all opaque, none, one; each record alone in its
+     * own allocation (the loads must stay inside it: AddressSanitizer's run would see them leave),
+     * and the order checked against its definition too (descending, ties by index, a permutation of
+     * the non-empty sub-cells). */
+    int sorts = 0, sort_bad = 0, ties = 0;
+    for (int k = 0; k < 20000; k++) {
+        vmesh_record *r = malloc(sizeof *r);
+        if (!r) {
+            CHECK("memory for a record to sort", 0);
+            return;
+        }
+        memset(r, 0xA5, sizeof *r); /* the fields around the opacities are not zero */
+        int kind = k % 6;
+        for (int s = 0; s < VMESH_SUBCELLS; s++) {
+            float u = rng_float(g);
+            r->opacity[s] = kind == 0   ? (unsigned char)(256.0f * u)
+                            : kind == 1 ? (unsigned char)(u < 0.3f ? 0 : (u < 0.6f ? 17 : (u < 0.9f ? 255 : 128)))
+                            : kind == 2 ? 255
+                            : kind == 3 ? 0
+                            : kind == 4 ? (unsigned char)(s == k % VMESH_SUBCELLS ? 1 + k % 255 : 0)
+                                        : (unsigned char)(u < 0.5f ? 0 : 1 + (int)(3.0f * rng_float(g)));
+        }
+        int want[VMESH_SUBCELLS], got[VMESH_SUBCELLS];
+        for (int s = 0; s < VMESH_SUBCELLS; s++)
+            want[s] = got[s] = -1;
+        int nw = vmesh_sorted_subcells(r, want), ng = vmesh_sorted_subcells_sse(r, got);
+        int bad = nw != ng || memcmp(want, got, sizeof want) != 0;
+        int held = 0, seen = 0;
+        for (int s = 0; s < VMESH_SUBCELLS; s++)
+            held += r->opacity[s] != 0;
+        bad |= ng != held;
+        for (int i = 0; i < ng && !bad; i++) {
+            int a = got[i];
+            bad |= a < 0 || a >= VMESH_SUBCELLS || !r->opacity[a] || ((seen >> a) & 1);
+            if (bad)
+                break;
+            seen |= 1 << a;
+            if (i > 0) {
+                int b = got[i - 1];
+                bad |= r->opacity[b] < r->opacity[a] || (r->opacity[b] == r->opacity[a] && b > a);
+                ties += r->opacity[b] == r->opacity[a];
+            }
+        }
+        sort_bad += bad;
+        sorts++;
+        free(r);
+    }
+    snprintf(name, sizeof name,
+             "vmesh_sorted_subcells_sse gives the insertion sort's count and order (%d records, %d ties, %d differ)",
+             sorts, ties, sort_bad);
+    CHECK(name, sorts == 20000 && ties > 10000 && sort_bad == 0);
 
     /* The cells' sum: records with random opacities and ties, all opaque, one sub-cell, faint
      * ones; each with a fresh view, a remembering view asked first by the SSE code, and one part

@@ -252,7 +252,8 @@ VX_INLINE float vmesh_cells_scalar(VX_GLOBAL const vmesh_record *r, const int *o
 }
 
 /* The sub-cells of r holding opacity into order[], most opaque first, ties in index order
- * (insertion sort of at most 27); returns how many. */
+ * (insertion sort of at most 27); returns how many. The definition and the OpenCL build's code; the
+ * C build ranks them with SSE (vmesh_sorted_subcells_sse), the same order. */
 VX_INLINE int vmesh_sorted_subcells(VX_GLOBAL const vmesh_record *r, int *order)
 {
     int count = 0;
@@ -272,7 +273,11 @@ VX_INLINE int vmesh_sorted_subcells(VX_GLOBAL const vmesh_record *r, int *order)
 VX_INLINE float vmesh_opacity_along(VX_GLOBAL const vmesh_record *r, vec3 dir)
 {
     int order[VMESH_SUBCELLS];
+#ifdef VX_SSE
+    int count = vmesh_sorted_subcells_sse(r, order);
+#else
     int count = vmesh_sorted_subcells(r, order);
+#endif
     if (!count)
         return 0.0f;
     vmesh_view scratch;
