@@ -87,6 +87,36 @@ static void test_inverse(void)
     CHECK("f^-1(0) is a depth that transmits nothing", vicini_f(vicini_f_inv(0.0f, 0.5f), 0.5f) < 1e-30f);
 }
 
+/* The remembered inverse (the C build's per-thread table) gives vicini_f_inv's bits for every
+ * argument, asked once or again, after its entry was taken by another key (the table has 1024
+ * entries; 60000 keys collide), for the edge cases too (0, 1, above 1, negative, NaN, the mix 0). */
+static void test_inverse_remembered(void)
+{
+    rng g = rng_seed(23, 0);
+    enum { KEYS = 60000 };
+    static float ys[KEYS], gs[KEYS];
+    const float edges[] = {0.0f, -0.0f, 1.0f, 1.5f, -0.25f, NAN, 0.13533528f, 1e-30f, 0.999999f};
+    for (int k = 0; k < KEYS; k++) {
+        ys[k] = k < 9 ? edges[k] : (k % 7 == 0 ? (float)(k % 50) / 49.0f : rng_float(&g));
+        gs[k] = k % 5 == 0 ? 0.0f : (k % 11 == 0 ? NAN : (float)(k % 13) / 12.0f);
+    }
+    int bad = 0, asked = 0;
+    for (int pass = 0; pass < 3; pass++)
+        for (int k = 0; k < KEYS; k++) {
+            /* pass 1 asks in order (repeats after collisions), pass 2 asks each key twice in a row */
+            int reps = pass == 2 ? 2 : 1;
+            for (int r = 0; r < reps; r++) {
+                float want = vicini_f_inv(ys[k], gs[k]), got = vicini_f_inv_remembered(ys[k], gs[k]);
+                bad += memcmp(&want, &got, sizeof want) != 0;
+                asked++;
+            }
+        }
+    char name[160];
+    snprintf(name, sizeof name, "remembered f^-1 gives f^-1's bits (%d asks of %d keys, %d differ)", asked, KEYS,
+             bad);
+    CHECK(name, bad == 0);
+}
+
 static void test_heterogeneous(void)
 {
     rng r = rng_seed(7, 0);
@@ -445,6 +475,7 @@ static void test_moving(void)
 int main(void)
 {
     test_inverse();
+    test_inverse_remembered();
     test_heterogeneous();
     test_estimator();
     test_bake();

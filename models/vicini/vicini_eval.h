@@ -140,10 +140,42 @@ VX_INLINE float vicini_f_inv(float y, float gamma)
     return tau;
 }
 
+#ifndef __OPENCL_VERSION__
+#include <stdint.h>
+#include <string.h>
+
+/* vicini_f_inv remembered by its arguments' bits, per thread (the C build; OpenCL C has no such
+ * storage and computes it every time). Why: the transmit step inverts the voxel's own opacity at
+ * every visit, and a voxel's opacity is the same number at each of them (the shading cache's
+ * answer toward the camera, or the shadow memo's toward a light), so most of the Newton iterations
+ * (expf each) were repeats: bunny 256^3 visits its voxels about six times each. A pure function of
+ * the bits: a remembered answer is the computed one, images unchanged. Direct-mapped; an entry
+ * holds key + 1 (0: empty), so the key of all-ones bits (two NaNs) is never stored. */
+#define VICINI_INV_MEMO_BITS 10
+VX_INLINE float vicini_f_inv_remembered(float y, float gamma)
+{
+    static _Thread_local uint64_t key_plus_1[1u << VICINI_INV_MEMO_BITS];
+    static _Thread_local float value[1u << VICINI_INV_MEMO_BITS];
+    uint32_t yb, gb;
+    memcpy(&yb, &y, sizeof yb);
+    memcpy(&gb, &gamma, sizeof gb);
+    uint64_t key = (uint64_t)yb << 32 | gb;
+    size_t slot = (size_t)((key * UINT64_C(0x9E3779B97F4A7C15)) >> (64 - VICINI_INV_MEMO_BITS));
+    if (key_plus_1[slot] == key + 1u)
+        return value[slot];
+    float tau = vicini_f_inv(y, gamma);
+    key_plus_1[slot] = key + 1u;
+    value[slot] = tau;
+    return tau;
+}
+#else
+#define vicini_f_inv_remembered vicini_f_inv
+#endif
+
 /* The heterogeneous model's step: transmittance T, then a voxel of optical depth tau. */
 VX_INLINE float vicini_step(float T, float tau, float gamma)
 {
-    return vx_fminf(T, vicini_f(vicini_f_inv(T, gamma) + tau, gamma));
+    return vx_fminf(T, vicini_f(vicini_f_inv_remembered(T, gamma) + tau, gamma));
 }
 
 /* The voxel's opacity toward q->ray_dir for a ray arriving unattenuated: 1 - f(tau, gamma). */
@@ -165,7 +197,7 @@ VX_INLINE float vicini_eval_transmit(VX_GLOBAL const void *record, float opacity
 {
     VX_GLOBAL const vicini_record *r = (VX_GLOBAL const vicini_record *)record;
     float gamma = vicini_decode_gamma(r->mix);
-    return vicini_step(T, vicini_f_inv(1.0f - opacity, gamma), gamma);
+    return vicini_step(T, vicini_f_inv_remembered(1.0f - opacity, gamma), gamma);
 }
 
 /* The visible normals of the distribution S seen from wi (Heitz et al. 2015, Appendix: the ellipsoid
