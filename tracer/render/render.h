@@ -38,7 +38,8 @@ typedef struct {
 typedef struct {
     double seconds;           /* the whole render */
     double traversal_seconds; /* marching and compositing (seconds - model_seconds) */
-    double model_seconds;     /* inside the model's opacity and shade calls */
+    double model_seconds;     /* inside the model's opacity and shade calls: their share of every
+                               * 8th row's time (RENDER_TIMED_ROW_STRIDE) times seconds */
     double setup_seconds;     /* the marcher's set-up before the clock (its prepare: the caches, the
                                * distance field, the shadow rays' ends, the cone marcher's bitmaps;
                                * OpenCL's buffers, uploads and clears): per render, outside

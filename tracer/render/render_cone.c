@@ -17,6 +17,10 @@ static void call_cone_element(struct cone_ctx *x, const vx_query *q, vx_answer *
 
 static void call_cone_element(cone_ctx *x, const vx_query *q, vx_answer *a)
 {
+    if (!x->timed) {
+        x->m->cone->element.fn(q, a);
+        return;
+    }
     uint64_t c0 = cycles();
     x->m->cone->element.fn(q, a);
     x->model_cycles += cycles() - c0;
@@ -70,7 +74,8 @@ static void cone_row(void *p, int64_t row, int thread)
     const scene *s = j->s;
     cone_state *st = j->state;
     thread_counts *tc = &j->tc[thread];
-    uint64_t c0 = cycles();
+    int timed = render_row_timed(row);
+    uint64_t c0 = timed ? cycles() : 0;
     int py = (int)row;
     int dof = (s->effects & EFFECT_DOF) && s->camera.aperture_radius > 0.0f;
     for (int px = 0; px < o->width; px++) {
@@ -89,6 +94,7 @@ static void cone_row(void *p, int64_t row, int thread)
             x.lights[li] = s->lights[li];
         x.effects = s->effects;
         x.m = j->m;
+        x.timed = timed;
         shadow_set_view(j->shadows, &x.shadows);
         vec3 c = cone_trace(&x, org, dir, j->spread, dof ? s->camera.aperture_radius : 0.0f, s->camera.focus_distance,
                             s->camera.forward, s->background);
@@ -101,7 +107,8 @@ static void cone_row(void *p, int64_t row, int thread)
         float *dst = &j->out->data[3 * ((size_t)py * (size_t)o->width + (size_t)px)];
         dst[0] = c.x, dst[1] = c.y, dst[2] = c.z;
     }
-    tc->total_cycles += cycles() - c0;
+    if (timed)
+        tc->total_cycles += cycles() - c0;
 }
 
 static void cone_release(render_job *j)

@@ -54,6 +54,7 @@ typedef struct cone_ctx {
 #ifndef __OPENCL_VERSION__
     const struct vx_model *m;       /* for CONE_ELEMENT in C */
     uint64_t model_cycles;
+    int timed; /* the element calls are timed in this row (render_internal.h) */
 #endif
 } cone_ctx;
 
