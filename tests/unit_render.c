@@ -274,6 +274,21 @@ static void shading_cache_checks(void)
     free(small.slots);
 }
 
+/* Scene s baked for model m at res^3 with `rays` rays per voxel (seed 1); a failure is reported. */
+static int bake_for_test(const scene *s, const vx_model *m, int res, int rays, voxel_grid *g, void **rec)
+{
+    bake_options bo = {.rays = rays, .seed = 1, .threads = 0, .progress = 0};
+    bake_counts bc;
+    double gs;
+    vx_err e;
+    if (bake_scene(s, m, res, &bo, g, rec, &bc, &gs, &e)) {
+        printf("not ok %s: bake: %s\n", m->name, e.msg);
+        unit_failures++;
+        return -1;
+    }
+    return 0;
+}
+
 /* A width x height render with `threads` threads and `slots` shading-cache slots (0: by the image). */
 static int render_sized(const scene *s, const voxel_grid *g, const vx_model *m, const void *rec, int threads,
                         size_t slots, int width, int height, image *img, render_counts *c)
@@ -345,17 +360,10 @@ static void render_checks(const scene *s, const char *model)
         unit_failures++;
         return;
     }
-    bake_options bo = {.rays = 32, .seed = 1, .threads = 0, .progress = 0};
-    bake_counts bc;
-    double gs;
     voxel_grid g;
     void *rec = NULL;
-    vx_err e;
-    if (bake_scene(s, m, 128, &bo, &g, &rec, &bc, &gs, &e)) {
-        printf("not ok %s: bake: %s\n", model, e.msg);
-        unit_failures++;
+    if (bake_for_test(s, m, 128, 32, &g, &rec))
         return;
-    }
     band_checks(s, &g, m, rec);
     image one, two;
     render_counts c1, c2;
@@ -453,17 +461,15 @@ static void slow_element(const vx_query *q, vx_answer *a)
 static void model_share_checks(const scene *s, const char *model)
 {
     const vx_model *m = model_find(model);
-    bake_options bo = {.rays = 16, .seed = 1, .threads = 0, .progress = 0};
-    bake_counts bc;
-    double gs;
     voxel_grid g;
     void *rec = NULL;
-    vx_err e;
-    if (!m || bake_scene(s, m, 64, &bo, &g, &rec, &bc, &gs, &e)) {
-        printf("not ok model share: bake %s\n", model);
+    if (!m) {
+        printf("not ok %s: no such model\n", model);
         unit_failures++;
         return;
     }
+    if (bake_for_test(s, m, 64, 16, &g, &rec))
+        return;
     plain_model = m;
     vx_model slow = *m;
     vx_voxel_eval slow_voxel;

@@ -148,7 +148,9 @@ VX_INLINE float vicini_f_inv(float y, float gamma)
  * storage and computes it every time). Why: the transmit step inverts the voxel's own opacity at
  * every visit, and a voxel's opacity is the same number at each of them (the shading cache's
  * answer toward the camera, or the shadow memo's toward a light), so most of the Newton iterations
- * (expf each) were repeats: bunny 256^3 visits its voxels about six times each. A pure function of
+ * (expf each) were repeats: bunny 256^3 visits its voxels about six times each. The step's
+ * inversion of the transmittance a ray brings is remembered too: a pixel's rays cross the same
+ * voxels in turn and bring the same numbers. A pure function of
  * the bits: a remembered answer is the computed one, images unchanged. Direct-mapped; an entry
  * holds key + 1 (0: empty), so the key of all-ones bits (two NaNs) is never stored. */
 #define VICINI_INV_MEMO_BITS 10
