@@ -17,13 +17,7 @@ static void call_cone_element(struct cone_ctx *x, const vx_query *q, vx_answer *
 
 static void call_cone_element(cone_ctx *x, const vx_query *q, vx_answer *a)
 {
-    if (!x->timed) {
-        x->m->cone->element.fn(q, a);
-        return;
-    }
-    uint64_t c0 = cycles();
-    x->m->cone->element.fn(q, a);
-    x->model_cycles += cycles() - c0;
+    MODEL_CALL(x, x->m->cone->element.fn(q, a));
 }
 
 /* The marcher's state: the empty-space bitmaps, the model's table and (with shadows and the cache

@@ -18,6 +18,21 @@
 
 static inline int render_row_timed(int64_t row) { return row % RENDER_TIMED_ROW_STRIDE == 0; }
 
+/* One call of the model's, `call` (a statement), run in context x (x->timed: this row is timed;
+ * x->model_cycles: where its time goes), clocked only in a timed row. A macro rather than a
+ * start/stop pair of functions: the untimed call then costs one branch, as if written out (the pair
+ * tested x->timed again after the call: +0.6 to 1 % on five of six frames measured). */
+#define MODEL_CALL(x, call)                                \
+    do {                                                   \
+        if (!(x)->timed) {                                 \
+            call;                                          \
+        } else {                                           \
+            uint64_t model_call_c0 = cycles();             \
+            call;                                          \
+            (x)->model_cycles += cycles() - model_call_c0; \
+        }                                                  \
+    } while (0)
+
 /* One thread's counters, on its own cache line: model_cycles and total_cycles over the timed rows
  * only. */
 typedef struct {

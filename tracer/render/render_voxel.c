@@ -81,33 +81,21 @@ static void voxel_prefetch_record(const voxel_ctx *x, int64_t index)
 
 static float call_opacity(voxel_ctx *x, const void *rec, const vx_query *q)
 {
-    if (!x->timed)
-        return x->eval->opacity.fn(rec, q);
-    uint64_t c0 = cycles();
-    float a = x->eval->opacity.fn(rec, q);
-    x->model_cycles += cycles() - c0;
+    float a;
+    MODEL_CALL(x, a = x->eval->opacity.fn(rec, q));
     return a;
 }
 
 static float call_transmit(voxel_ctx *x, const void *rec, float a, float T)
 {
-    if (!x->timed)
-        return x->eval->transmit.fn(rec, a, T);
-    uint64_t c0 = cycles();
-    float t = x->eval->transmit.fn(rec, a, T);
-    x->model_cycles += cycles() - c0;
+    float t;
+    MODEL_CALL(x, t = x->eval->transmit.fn(rec, a, T));
     return t;
 }
 
 static void call_shade(voxel_ctx *x, const void *rec, const vx_query *q, vx_answer *a)
 {
-    if (!x->timed) {
-        x->eval->shade.fn(rec, q, a);
-        return;
-    }
-    uint64_t c0 = cycles();
-    x->eval->shade.fn(rec, q, a);
-    x->model_cycles += cycles() - c0;
+    MODEL_CALL(x, x->eval->shade.fn(rec, q, a));
 }
 
 static float memo_opacity(voxel_ctx *x, int64_t index, int light, const vx_query *q)
