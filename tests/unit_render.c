@@ -500,7 +500,8 @@ static void model_share_checks(const scene *s, const char *model)
             snprintf(name, sizeof name,
                      "%s: model share: %.0f us more per model call: frame +%.1f ms, model seconds +%.1f ms; "
                      "shares %.2f (slow) and %.2f",
-                     model, 1e6 * SLOW_MODEL_SPIN, 1e3 * grew, 1e3 * model_grew, cb.model_seconds / cb.seconds, ca.model_seconds / ca.seconds);
+                     model, 1e6 * SLOW_MODEL_SPIN, 1e3 * grew, 1e3 * model_grew, cb.model_seconds / cb.seconds,
+                     ca.model_seconds / ca.seconds);
             CHECK(name, grew > 0.01 && fabs(model_grew - grew) < 0.25 * grew && cb.model_seconds > 0.7 * cb.seconds &&
                             memcmp(a.data, b.data, (size_t)size * (size_t)size * 3 * sizeof(float)) == 0);
             image_free(&b);
