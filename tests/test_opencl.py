@@ -161,9 +161,45 @@ if "heitz-neyret" in runnable:
     report("heitz-neyret_opencl_deterministic", all(np.array_equal(runs[0], r) for r in runs[1:]),
            "runs with 1 and 2 threads differ")
 
-# Failures are messages, not crashes.
+# The GPU's launch (VOXLAB_OPENCL_WIDE=1: 16 work-groups per compute unit, one pixel at a time)
+# renders the same image as the CPU's tiles, bit for bit, for every model; --stats says which ran.
+for model in runnable:
+    vox = os.path.join(TMP, f"bunny_{model}.vox")
+    imgs, wide = [], []
+    for flag in ("0", "1"):
+        o = os.path.join(TMP, f"launch_{model}_{flag}.exr")
+        st = os.path.join(TMP, f"launch_{model}_{flag}.json")
+        p = run("render", scenes["bunny"], "--vox", vox, "--size", SIZE, "--backend", "opencl", "-o", o,
+                "--stats", st, env={"VOXLAB_OPENCL_WIDE": flag})
+        if p.returncode != 0:
+            imgs.append(None)
+            wide.append(p.stderr.strip())
+            continue
+        imgs.append(read_image(o))
+        with open(st) as f:
+            wide.append(json.load(f).get("opencl_wide_launch"))
+    same = imgs[0] is not None and imgs[1] is not None and np.array_equal(imgs[0], imgs[1])
+    report(f"{model}_wide_launch_same_image", same and wide == [False, True], f"launches {wide}, same image {same}")
+
+# The device: VOXLAB_OPENCL_DEVICE picks one by kind or by a part of its name (PoCL's is a CPU); a
+# request nothing matches is a clear error naming the devices there are.
 vox = os.path.join(TMP, "spheres_binary.vox")
 bad = os.path.join(TMP, "bad.exr")
+st = os.path.join(TMP, "device_cpu.json")
+p = run("render", scenes["spheres"], "--vox", vox, "--size", SIZE, "--backend", "opencl", "-o", bad, "--stats", st,
+        env={"VOXLAB_OPENCL_DEVICE": "cpu"})
+ok = p.returncode == 0 and os.path.exists(bad)
+if ok:
+    with open(st) as f:
+        ok = json.load(f).get("opencl_wide_launch") is False
+    os.remove(bad)
+report("device_cpu_requested", ok, f"rc {p.returncode}: {p.stderr.strip()}")
+p = run("render", scenes["spheres"], "--vox", vox, "--size", SIZE, "--backend", "opencl", "-o", bad,
+        env={"VOXLAB_OPENCL_DEVICE": "no-such-device"})
+report("device_not_found_is_a_clear_error", p.returncode == 1 and "VOXLAB_OPENCL_DEVICE=no-such-device" in p.stderr
+       and "the devices:" in p.stderr and not os.path.exists(bad), f"rc {p.returncode}: {p.stderr.strip()}")
+
+# Failures are messages, not crashes.
 p = run("render", scenes["spheres"], "--vox", vox, "--size", SIZE, "--backend", "opencl", "-o", bad,
         env={"OCL_ICD_VENDORS": "/nonexistent"})
 report("no_platform_is_a_clear_error", p.returncode == 1 and "no OpenCL platform" in p.stderr

@@ -13,6 +13,7 @@ typedef struct {
     double kernel_cpu_seconds; /* CPU time the process spent meanwhile (all threads) */
     char device[256];          /* the device's name */
     unsigned compute_units;
+    int wide_launch; /* launched as for a GPU: many work-items, one pixel at a time (opencl_host.h) */
 } backend_counts;
 
 typedef struct vx_backend {

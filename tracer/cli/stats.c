@@ -136,6 +136,8 @@ void stats_add_backend(cJSON *j, const char *name, const backend_counts *bc)
     cJSON_AddStringToObject(j, key, bc->device);
     snprintf(key, sizeof key, "%s_compute_units", name);
     cJSON_AddNumberToObject(j, key, bc->compute_units);
+    snprintf(key, sizeof key, "%s_wide_launch", name);
+    cJSON_AddBoolToObject(j, key, bc->wide_launch);
 }
 
 void provenance_common(image_meta *m, int argc, char **argv, const scene *s, int width, int height, int spp,

@@ -23,7 +23,7 @@ void stats_add_image(cJSON *j, int spp, int width, int height, uint64_t seed, in
 void stats_add_bake(cJSON *j, const vx_model *m, const struct vx_bake_params *params, const voxel_grid *g,
                     const bake_counts *c, int rays, double grid_seconds);
 /* A device backend's figures as NAME_compile_seconds, NAME_kernel_seconds, NAME_kernel_cpu_seconds,
- * NAME_device, NAME_compute_units. */
+ * NAME_device, NAME_compute_units, NAME_wide_launch. */
 void stats_add_backend(cJSON *j, const char *name, const backend_counts *bc);
 /* The shadow method's fields: shadow_method (null when the scene declares no shadows), shadow_res,
  * shadow_build_seconds (the precomputation, apart from seconds; 0 from the cache), shadow_bytes,

@@ -76,6 +76,7 @@ int render_image_opencl(const scene *s, const voxel_grid *g, const vx_model *m, 
         return -1;
     snprintf(bc->device, sizeof bc->device, "%s", rt.device_name);
     bc->compute_units = rt.compute_units;
+    bc->wide_launch = rt.wide;
     int rc = image_alloc(out, o->width, o->height, 3, e);
     if (rc == 0)
         rc = m->cone ? opencl_render_cone(&rt, s, g, m, records, o, out, counts, bc, build_dir, e)

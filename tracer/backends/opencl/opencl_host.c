@@ -11,6 +11,10 @@
 
 /* Work-group size: a size every device accepts, or the kernel's maximum when that is smaller. */
 #define LOCAL_SIZE 64
+/* Work-groups per compute unit on a wide launch (a GPU): a multiprocessor keeps up to 2,048
+ * work-items resident (32 groups of 64) to hide its memory latency; 16 groups per unit are 135,168
+ * work-items on a 132-unit H200, more than the 65,536 pixels of a 256x256 image. */
+#define WIDE_GROUPS_PER_UNIT 16
 
 /* CPU time of the whole process (PoCL's worker threads run in it). */
 static double opencl_cpu_seconds(void)
@@ -29,10 +33,16 @@ int opencl_launch_build(opencl_launch *L, const opencl_runtime *rt, const vx_mod
     L->kernel_name = kernel_name;
     L->buffers = buffers;
     L->next_tile = next_tile;
-    L->groups = rt->compute_units ? rt->compute_units : 1;
+    L->groups = (rt->compute_units ? rt->compute_units : 1) * (rt->wide ? WIDE_GROUPS_PER_UNIT : 1);
     if (buffers > OPENCL_HOST_MAX_BUFFERS)
         return vx_fail(e, "OpenCL: kernel %s has more than %d buffers", kernel_name, OPENCL_HOST_MAX_BUFFERS);
-    L->source = opencl_program_text(m, defines, kernel_file, e);
+    size_t defines_len = strlen(defines);
+    char *all_defines = malloc(defines_len + 32);
+    if (!all_defines)
+        return vx_fail(e, "out of memory for the OpenCL program of %s", m->name);
+    snprintf(all_defines, defines_len + 32, "%s%s", rt->wide ? "#define VX_CL_WIDE 1\n" : "", defines);
+    L->source = opencl_program_text(m, all_defines, kernel_file, e);
+    free(all_defines);
     if (!L->source)
         return -1;
     char what[128], log_path[PATH_MAX + 64];

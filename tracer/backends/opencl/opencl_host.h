@@ -1,7 +1,9 @@
 /* What the hosts of both OpenCL kernels share (opencl_voxel.c: vx_render; opencl_cone.c:
  * vx_render_cone): a launch's program, kernel and buffers and their release; building the model's
- * program; the grid's level tables; persistent-tile launches (one work-group per compute unit,
- * work-items taking tiles of pixels from a shared counter until the image is done); the per-group
+ * program; the grid's level tables; persistent-tile launches (work-items taking tiles of pixels
+ * from a shared counter until the image is done: on a CPU one work-group per compute unit and tiles
+ * of many pixels; launched wide on a GPU, opencl_runtime.h, 16 groups per compute unit taking one
+ * pixel at a time, VX_CL_WIDE defined in the program); the per-group
  * counters read back and summed. Each kernel's host keeps only its parameters and buffer list. */
 #ifndef VX_OPENCL_HOST_H
 #define VX_OPENCL_HOST_H
@@ -25,7 +27,7 @@ typedef struct {
     int buffers;      /* the kernel's buffer arguments, in order; then `int pixels` */
     int next_tile;    /* which buffer is the tile counter */
     size_t local;     /* work-group size */
-    size_t groups;    /* one per compute unit */
+    size_t groups;    /* one per compute unit, or 16 on a wide launch */
     uint32_t *counts; /* the slots, read back */
     char *source;
 } opencl_launch;

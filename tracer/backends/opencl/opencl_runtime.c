@@ -1,5 +1,7 @@
 #include "opencl_runtime.h"
 
+#include "opencl_pick.h"
+
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -105,33 +107,60 @@ int opencl_open(opencl_runtime *rt, const char *pocl_cache_dir, vx_err *e)
                        err != CL_SUCCESS ? opencl_error_name(err) : "0 platforms");
     if (np > 16)
         np = 16;
-    int seen = 0;
-    char without_fp64[256] = "";
-    for (cl_uint p = 0; p < np && !rt->device; p++) {
+    /* Every device of every platform, described for opencl_pick_device. */
+    enum { MAX_DEVICES = 64 };
+    cl_device_id ids[MAX_DEVICES];
+    cl_platform_id owner[MAX_DEVICES];
+    opencl_device_desc *desc = calloc(MAX_DEVICES, sizeof *desc);
+    if (!desc)
+        return vx_fail(e, "out of memory listing the OpenCL devices");
+    int n = 0;
+    for (cl_uint p = 0; p < np && n < MAX_DEVICES; p++) {
         cl_device_id devices[16];
         cl_uint nd = 0;
         if (clGetDeviceIDs(platforms[p], CL_DEVICE_TYPE_ALL, 16, devices, &nd) != CL_SUCCESS)
             continue;
-        for (cl_uint d = 0; d < nd && d < 16; d++) {
-            seen = 1;
-            if (!has_fp64(devices[d])) {
-                clGetDeviceInfo(devices[d], CL_DEVICE_NAME, sizeof without_fp64, without_fp64, NULL);
-                continue;
-            }
-            rt->device = devices[d];
-            clGetPlatformInfo(platforms[p], CL_PLATFORM_NAME, sizeof rt->platform_name, rt->platform_name, NULL);
-            break;
+        for (cl_uint d = 0; d < nd && d < 16 && n < MAX_DEVICES; d++, n++) {
+            cl_device_type type = CL_DEVICE_TYPE_CPU;
+            clGetDeviceInfo(devices[d], CL_DEVICE_TYPE, sizeof type, &type, NULL);
+            clGetDeviceInfo(devices[d], CL_DEVICE_NAME, sizeof desc[n].name, desc[n].name, NULL);
+            desc[n].name[sizeof desc[n].name - 1] = 0;
+            desc[n].cpu = (type & CL_DEVICE_TYPE_CPU) != 0;
+            desc[n].fp64 = has_fp64(devices[d]);
+            ids[n] = devices[d];
+            owner[n] = platforms[p];
         }
     }
-    if (!rt->device) {
-        if (!seen)
+    const char *want = getenv("VOXLAB_OPENCL_DEVICE");
+    int pick = opencl_pick_device(desc, n, want);
+    if (pick < 0) {
+        /* Name every device in the message, so that the user sees what there is to pick from. */
+        char listed[1024] = "";
+        for (int i = 0; i < n; i++) {
+            size_t used = strlen(listed);
+            snprintf(listed + used, sizeof listed - used, "%s%s (%s%s)", i ? ", " : "", desc[i].name,
+                     desc[i].cpu ? "CPU" : "GPU", desc[i].fp64 ? "" : ", no cl_khr_fp64");
+        }
+        free(desc);
+        if (!n)
             return vx_fail(e, "the OpenCL platform has no device; use --backend c");
+        if (want && *want)
+            return vx_fail(e, "no OpenCL device with double precision (cl_khr_fp64) matches VOXLAB_OPENCL_DEVICE=%s "
+                              "(a name's part, gpu or cpu); the devices: %s",
+                           want, listed);
         return vx_fail(e, "no OpenCL device with double precision (cl_khr_fp64), which the grid traversal needs "
-                          "(%s lacks it); use --backend c",
-                       without_fp64);
+                          "(the devices: %s); use --backend c",
+                       listed);
     }
+    rt->device = ids[pick];
+    rt->wide = !desc[pick].cpu;
+    free(desc);
+    clGetPlatformInfo(owner[pick], CL_PLATFORM_NAME, sizeof rt->platform_name, rt->platform_name, NULL);
     clGetDeviceInfo(rt->device, CL_DEVICE_NAME, sizeof rt->device_name, rt->device_name, NULL);
     clGetDeviceInfo(rt->device, CL_DEVICE_MAX_COMPUTE_UNITS, sizeof rt->compute_units, &rt->compute_units, NULL);
+    const char *wide = getenv("VOXLAB_OPENCL_WIDE");
+    if (wide && (!strcmp(wide, "0") || !strcmp(wide, "1")))
+        rt->wide = wide[0] == '1';
     cl_device_fp_config fp = 0;
     clGetDeviceInfo(rt->device, CL_DEVICE_SINGLE_FP_CONFIG, sizeof fp, &fp, NULL);
     rt->correctly_rounded_sqrt = (fp & CL_FP_CORRECTLY_ROUNDED_DIVIDE_SQRT) != 0;

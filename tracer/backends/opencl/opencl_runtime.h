@@ -17,6 +17,10 @@ typedef struct {
     char platform_name[256];
     cl_uint compute_units;
     int correctly_rounded_sqrt; /* the device honours -cl-fp32-correctly-rounded-divide-sqrt */
+    /* 1: launch wide, as a GPU needs (opencl_host.h): any device that is not a CPU. The
+     * environment's VOXLAB_OPENCL_WIDE=1 or 0 forces one launch on any device (so that the GPU's
+     * launch is tested on PoCL, and the CPU's measured on a GPU). */
+    int wide;
 } opencl_runtime;
 
 /* The name of an OpenCL error code ("CL_OUT_OF_RESOURCES"), or "OpenCL error N". */
@@ -31,8 +35,9 @@ int opencl_check(cl_int err, const char *what, vx_err *e);
  * NULL, with the reason in e, when the device cannot allocate it. */
 cl_mem opencl_buffer(const opencl_runtime *rt, cl_mem_flags flags, size_t bytes, const void *host, vx_err *e);
 
-/* Opens the first device (of the first platform that has one) with double precision, which the
- * grid traversal needs. pocl_cache_dir: where PoCL keeps compiled kernels unless POCL_CACHE_DIR is
+/* Opens the device opencl_pick_device chooses (opencl_pick.h: a GPU before a CPU, or the one
+ * VOXLAB_OPENCL_DEVICE names), among those with double precision, which the grid traversal needs.
+ * pocl_cache_dir: where PoCL keeps compiled kernels unless POCL_CACHE_DIR is
  * already set (it must be set before the first OpenCL call, which loads PoCL). */
 int opencl_open(opencl_runtime *rt, const char *pocl_cache_dir, vx_err *e);
 void opencl_close(opencl_runtime *rt);

@@ -67,8 +67,9 @@ static void cl_cache_put(voxel_ctx *x, long index, const vx_answer *a)
  * half of them) leaves one core idle at the end whenever the halves cost unlike amounts, or another
  * process slows one core. The host launches one work-group per compute unit; on a CPU device a
  * group runs its work-items one after the other on one thread, so the first takes tiles until the
- * image is done and the rest find none. Which work-item renders a pixel changes nothing in it.
- * counts: one slot per work-group (flush_counts.h). */
+ * image is done and the rest find none. On a GPU (VX_CL_WIDE) the host launches 16 groups per
+ * compute unit and each work-item takes one pixel at a time. Which work-item renders a pixel
+ * changes nothing in it. counts: one slot per work-group (flush_counts.h). */
 __kernel void vx_render(__global const vx_cl_params *P, __global ulong *cols, __global ulong *bits,
                         __global uint *prefix, __global const uchar *records, __global vx_cl_cache *cache,
                         __global int *state, __global const uchar *shadow_block, __global float *image,

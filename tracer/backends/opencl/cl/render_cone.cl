@@ -21,7 +21,8 @@ typedef char vx_cl_cone_params_size_matches_host[sizeof(vx_cl_cone_params) == VX
  * handing each thread its share of the work-groups up front: PoCL gives each of 2 threads half of
  * them) leaves one core idle at the end whenever the shares cost unlike amounts. The host launches
  * one work-group per compute unit; on a CPU device a group runs its work-items one after the other
- * on one thread, so the first takes tiles until the image is done and the rest find none. Which
+ * on one thread, so the first takes tiles until the image is done and the rest find none (on a GPU,
+ * VX_CL_WIDE: 16 groups per compute unit, one pixel at a time). Which
  * work-item renders a pixel changes nothing in it (the light cache's values depend only on their
  * cell). counts: one slot per work-group. */
 __kernel void vx_render_cone(__global const vx_cl_cone_params *P, __global ulong *cols, __global ulong *bits,

@@ -31,7 +31,11 @@ typedef struct {
 
 /* Pixels a work-item takes at a time from the shared tile counter (see vx_render_cone): small
  * enough that the last tiles even out the threads' finishing times, large enough that the counter
- * is rarely touched. */
+ * is rarely touched. One on a wide launch (a GPU), as VX_CL_TILE_PIXELS. */
+#ifdef VX_CL_WIDE
+#define VX_CONE_TILE_PIXELS 1
+#else
 #define VX_CONE_TILE_PIXELS 16
+#endif
 
 #endif

@@ -30,11 +30,18 @@ typedef struct {
     vx_cl_shadow_params shadows; /* precomputed shadows (none: method march) */
 } vx_cl_params;
 
-/* Pixels a work-item takes at a time from the shared tile counter (see vx_render): small enough
- * that the last tiles even out the threads' finishing times (a tile is ~1/1000 of a 256x256
+/* Pixels a work-item takes at a time from the shared tile counter (see vx_render). On a CPU: small
+ * enough that the last tiles even out the threads' finishing times (a tile is ~1/1000 of a 256x256
  * render), large enough that the counter is rarely touched and that the threads seldom share cache
- * lines of the image and the shading cache. 64 measured faster than 16 and than whole 256-pixel rows. */
+ * lines of the image and the shading cache; 64 measured faster than 16 and than whole 256-pixel
+ * rows. A wide launch (VX_CL_WIDE, a GPU: opencl_host.h) takes one pixel at a time, so that a
+ * 256x256 image keeps 65,536 work-items busy, not 1,024, and the neighbours of a warp take
+ * neighbouring pixels. */
+#ifdef VX_CL_WIDE
+#define VX_CL_TILE_PIXELS 1
+#else
 #define VX_CL_TILE_PIXELS 64
+#endif
 
 /* A voxel's answer for the direction voxel -> camera (the C tracer's cache_entry; its state is a
  * separate int array, zeroed by the host). */
