@@ -115,6 +115,17 @@ for model in names:
         report(f"{model}_{sname}_stats", st.get("backend") == "opencl" and st.get("opencl_compile_seconds", -1) >= 0
                and st["seconds"] > 0 and st["rays"] == cst["rays"] and st["rays"] in (64 * 48, 64 * 48 * 4)
                and st["voxel_visits"] > 0, f"{st}")
+        # The directional light's opacity memo (shadow steps answered without asking the model) runs
+        # on both backends alike: every scene here has a sun and shadows, which every voxel-marching
+        # model's shadow rays use it for (the cone marcher has its own light cache); a race between two
+        # threads or work-items over one slot moves a few hits, and so does the C backend's shading
+        # cache (a hash table whose collisions, raced by the threads, decide how many voxels are
+        # shaded twice, each with its shadow rays): the counts agree within a quarter.
+        hc, ho = cst.get("shadow_memo_hits"), st.get("shadow_memo_hits")
+        expect = model != "heitz-neyret"
+        report(f"{model}_{sname}_shadow_memo_on_both", isinstance(hc, int) and isinstance(ho, int)
+               and (hc > 0) == expect and (ho > 0) == expect and (not expect or 0.8 <= ho / hc <= 1.25),
+               f"C {hc}, OpenCL {ho} hits (used: {expect})")
         # The set-up (buffers, uploads, clears) is reported apart from `seconds`, as the C backend's
         # caches and maps are: both numbers measured, and with the compile within the process's time.
         setup = st.get("setup_seconds")

@@ -86,6 +86,7 @@ cJSON *stats_render(const scene *s, const vx_model *m, const bake_options *bo, c
     cJSON_AddNumberToObject(j, "voxel_visits", (double)rc->voxel_visits);
     cJSON_AddNumberToObject(j, "model_evals", (double)rc->model_evals);
     cJSON_AddNumberToObject(j, "cache_hits", (double)rc->cache_hits);
+    cJSON_AddNumberToObject(j, "shadow_memo_hits", (double)rc->memo_hits);
     cJSON_AddBoolToObject(j, "cache", o->cache);
     if (b->has_device) {
         cJSON_AddNullToObject(j, "cache_bytes"); /* the device's buffers, sized by its backend */

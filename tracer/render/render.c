@@ -106,6 +106,7 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
         counts->voxel_visits += j.tc[t].voxel_visits;
         counts->model_evals += j.tc[t].model_evals;
         counts->cache_hits += j.tc[t].cache_hits;
+        counts->memo_hits += j.tc[t].memo_hits;
         counts->shadows.queries += j.tc[t].shadow_queries;
         model_cycles += j.tc[t].model_cycles;
         total_cycles += j.tc[t].total_cycles;

@@ -45,6 +45,7 @@ typedef struct {
                                * OpenCL's buffers, uploads and clears): per render, outside
                                * `seconds`, as the truth's BVH is outside its own */
     uint64_t rays, shadow_rays, voxel_visits, model_evals, cache_hits;
+    uint64_t memo_hits;       /* shadow steps answered by the directional lights' opacity memo */
     shadow_stats shadows;     /* the shadow method, its precomputation (outside `seconds`), its queries */
     long page_faults;         /* the process's minor page faults during `seconds` (getrusage): memory
                                * first touched by the render threads (issue 15; tests/unit_render.c) */

@@ -37,7 +37,7 @@ static inline int render_row_timed(int64_t row) { return row % RENDER_TIMED_ROW_
  * only. */
 typedef struct {
     uint64_t rays, shadow_rays, voxel_visits, model_evals, cache_hits, model_cycles, total_cycles;
-    uint64_t shadow_queries;
+    uint64_t shadow_queries, memo_hits;
     char pad[64];
 } thread_counts;
 

@@ -104,6 +104,7 @@ static float memo_opacity(voxel_ctx *x, int64_t index, int light, const vx_query
     unsigned bits = atomic_load_explicit(slot, memory_order_relaxed);
     float a;
     if (bits != MEMO_EMPTY) {
+        x->counts.memo_hits++;
         memcpy(&a, &bits, sizeof a);
         return a;
     }
@@ -224,6 +225,7 @@ static void voxel_row(void *p, int64_t row, int thread)
     tc->voxel_visits += x.counts.visits;
     tc->model_evals += x.counts.evals;
     tc->cache_hits += x.counts.cache_hits;
+    tc->memo_hits += x.counts.memo_hits;
     tc->shadow_queries += x.shadows.queries;
     tc->model_cycles += x.model_cycles;
     if (timed)

@@ -89,6 +89,7 @@
 /* What a march counts (render statistics). */
 typedef struct {
     uint64_t rays, shadow_rays, visits, evals, cache_hits;
+    uint64_t memo_hits; /* shadow steps answered by VOXEL_SHADOW_MEMO without asking the model */
 } voxel_counts;
 
 /* Everything a march reads, and the counters it adds to: one per thread (C) or work-item (OpenCL). */

@@ -118,13 +118,19 @@ int opencl_launch_grid_upload(opencl_launch *L, int cols, int bits, int prefix, 
     return 0;
 }
 
-int opencl_launch_zero(opencl_launch *L, int which, size_t bytes, vx_err *e)
+int opencl_launch_fill(opencl_launch *L, int which, size_t bytes, uint32_t word, vx_err *e)
 {
     if (!bytes)
         return 0;
-    cl_uint zero = 0;
-    return opencl_check(clEnqueueFillBuffer(L->rt->queue, L->buf[which], &zero, sizeof zero, 0, bytes, 0, NULL, NULL),
-                        "clearing a buffer", e);
+    cl_uint pattern = word;
+    return opencl_check(
+        clEnqueueFillBuffer(L->rt->queue, L->buf[which], &pattern, sizeof pattern, 0, bytes, 0, NULL, NULL),
+        "clearing a buffer", e);
+}
+
+int opencl_launch_zero(opencl_launch *L, int which, size_t bytes, vx_err *e)
+{
+    return opencl_launch_fill(L, which, bytes, 0, e);
 }
 
 int opencl_launch_run(opencl_launch *L, int pixels, const char *what, vx_err *e)
@@ -167,6 +173,7 @@ int opencl_launch_results(opencl_launch *L, int image_which, float *out, size_t 
     counts->voxel_visits = sums[VX_CL_VISITS];
     counts->model_evals = sums[VX_CL_EVALS];
     counts->cache_hits = sums[VX_CL_CACHE_HITS];
+    counts->memo_hits = sums[VX_CL_MEMO_HITS];
     counts->shadows.queries = sums[VX_CL_SHADOW_QUERIES];
     return 0;
 }

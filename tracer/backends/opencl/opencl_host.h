@@ -48,7 +48,9 @@ int opencl_launch_counters(opencl_launch *L, int which, vx_err *e);
  * (the grid outlives them). */
 int opencl_launch_grid(opencl_launch *L, int cols, int bits, int prefix, const voxel_grid *g, vx_err *e);
 int opencl_launch_grid_upload(opencl_launch *L, int cols, int bits, int prefix, const voxel_grid *g, vx_err *e);
-/* Enqueues zeroing the first `bytes` of buffer `which`. */
+/* Enqueues filling the first `bytes` (a multiple of 4) of buffer `which` with the 32-bit `word`;
+ * opencl_launch_zero with zeros. */
+int opencl_launch_fill(opencl_launch *L, int which, size_t bytes, uint32_t word, vx_err *e);
 int opencl_launch_zero(opencl_launch *L, int which, size_t bytes, vx_err *e);
 /* Resets the tile counter, binds the buffers and `pixels`, runs the kernel and waits. With 0 pixels
  * every work-item finds no tile: PoCL compiles a kernel's work-group function at its first launch,

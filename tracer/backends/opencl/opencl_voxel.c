@@ -13,7 +13,22 @@
 #include "strata.h"
 
 /* vx_render's buffer arguments, in order (render.cl), then the pixel count. */
-enum { B_PARAMS, B_COLS, B_BITS, B_PREFIX, B_RECORDS, B_CACHE, B_STATE, B_SHADOWS, B_IMAGE, B_COUNTS, B_NEXT_TILE, B_N };
+enum {
+    B_PARAMS, B_COLS, B_BITS, B_PREFIX, B_RECORDS, B_CACHE, B_STATE, B_MEMO, B_SHADOWS, B_IMAGE, B_COUNTS, B_NEXT_TILE,
+    B_N
+};
+#define MEMO_EMPTY 0xFFFFFFFFu /* a NaN, as the C backend's (render_voxel.c) */
+
+/* The directional lights' opacity memo's slots per voxel, as the C backend decides
+ * (render_voxel.c's voxel_prepare): shadows marched toward a directional light through a model
+ * whose opacity depends on the direction alone; 0: no memo. */
+static int memo_lights(const scene *s, const vx_model *m, const shadow_set *maps)
+{
+    int directional = 0, lights = s->light_count < VX_MAX_LIGHTS ? s->light_count : VX_MAX_LIGHTS;
+    for (int li = 0; li < lights; li++)
+        directional |= s->lights[li].type == LIGHT_DIRECTIONAL;
+    return (s->effects & EFFECT_SHADOWS) && directional && m->voxel->opacity_by_direction && !maps ? lights : 0;
+}
 
 static void fill_params(vx_cl_params *p, const scene *s, const voxel_grid *g, const render_options *o,
                         const shadow_set *maps)
@@ -60,13 +75,15 @@ static int render(opencl_launch *L, const opencl_runtime *rt, const scene *s, co
     c.compiled = now_seconds();
     vx_cl_params params;
     fill_params(&params, s, g, o, maps);
-    size_t cached = o->cache ? voxels : 0;
+    params.memo_lights = memo_lights(s, m, maps);
+    size_t cached = o->cache ? voxels : 0, memo_bytes = voxels * (size_t)params.memo_lights * sizeof(cl_uint);
     const cl_mem_flags RO = CL_MEM_READ_ONLY, RW = CL_MEM_READ_WRITE;
     /* The kernel only reads the records and only writes the image: both used in place. */
     if (opencl_launch_buffer(L, B_PARAMS, RO, sizeof params, &params, e) ||
         opencl_launch_buffer(L, B_RECORDS, RO | CL_MEM_USE_HOST_PTR, voxels * m->record.bytes, records, e) ||
         opencl_launch_buffer(L, B_CACHE, RW, cached * sizeof(vx_cl_cache), NULL, e) ||
         opencl_launch_buffer(L, B_STATE, RW, cached * sizeof(cl_int), NULL, e) ||
+        opencl_launch_buffer(L, B_MEMO, RW, memo_bytes, NULL, e) ||
         opencl_launch_buffer(L, B_SHADOWS, RO | CL_MEM_USE_HOST_PTR, maps ? maps->bytes : 0, maps ? maps->block : NULL,
                              e) ||
         opencl_launch_buffer(L, B_IMAGE, CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR, pixels * 3 * sizeof(float), out->data,
@@ -82,8 +99,9 @@ static int render(opencl_launch *L, const opencl_runtime *rt, const scene *s, co
      * and reported as setup_seconds, as the C backend's caches and maps are made before its clock:
      * the two backends' `seconds` time the same work (one more wait, a wake-up of PoCL's threads). */
     if (opencl_launch_zero(L, B_STATE, cached * sizeof(cl_int), e) ||
+        opencl_launch_fill(L, B_MEMO, memo_bytes, MEMO_EMPTY, e) ||
         opencl_launch_grid_upload(L, B_COLS, B_BITS, B_PREFIX, g, e) ||
-        opencl_launch_set_up(L, &c, "uploading the grid and clearing the cache", e))
+        opencl_launch_set_up(L, &c, "uploading the grid and clearing the caches", e))
         return -1;
     return opencl_launch_render(L, &c, (int)pixels, "running vx_render", B_IMAGE, out->data, B_COUNTS, counts, bc, e);
 }

@@ -31,10 +31,36 @@ static void cl_cache_put(struct voxel_ctx *x, long index, const vx_answer *a);
 #endif
 #define VOXEL_CACHE_GET(x, index, a) cl_cache_get(x, index, a)
 #define VOXEL_CACHE_PUT(x, index, a) cl_cache_put(x, index, a)
+static float cl_memo_opacity(struct voxel_ctx *x, long index, int light, const vx_query *q);
+#define VOXEL_SHADOW_MEMO(x, index, light, q) cl_memo_opacity(x, index, light, q)
 #define VOXEL_CTX_BACKEND_FIELDS                 \
     volatile __global vx_cl_cache *cache_entries; \
-    volatile __global int *cache_state; /* per voxel: 0 empty, 1 being written, 2 ready */
+    volatile __global int *cache_state; /* per voxel: 0 empty, 1 being written, 2 ready */ \
+    volatile __global uint *memo;       /* per voxel and light: an opacity's bits, or MEMO_EMPTY */ \
+    int memo_lights;
 #include "render_voxel_core.h"
+
+#define MEMO_EMPTY 0xFFFFFFFFu
+
+/* The directional lights' opacity memo, as the C backend's (render_voxel.c's memo_opacity): a
+ * voxel's opacity toward a directional light is asked of the model once and then read back. Whoever
+ * writes a slot writes the same bits (a pure function of the record and the light's direction), so
+ * two work-items racing on it change nothing; volatile, so that a GPU reads what another
+ * multiprocessor wrote rather than a stale copy in its own cache (a stale read only costs a
+ * recomputation). Shadow rays cross the same voxels toward the same light again and again: without
+ * the memo every step re-evaluated the model (vmesh: its view and 16 window cells each time). */
+static float cl_memo_opacity(voxel_ctx *x, long index, int light, const vx_query *q)
+{
+    volatile __global uint *slot = &x->memo[index * (long)x->memo_lights + light];
+    uint bits = *slot;
+    if (bits != MEMO_EMPTY) {
+        x->counts.memo_hits++;
+        return as_float(bits);
+    }
+    float a = VOXEL_OPACITY(x, voxel_record(x, index), q);
+    *slot = as_uint(a);
+    return a;
+}
 
 static int cl_cache_get(voxel_ctx *x, long index, vx_answer *a)
 {
@@ -72,7 +98,8 @@ static void cl_cache_put(voxel_ctx *x, long index, const vx_answer *a)
  * changes nothing in it. counts: one slot per work-group (flush_counts.h). */
 __kernel void vx_render(__global const vx_cl_params *P, __global ulong *cols, __global ulong *bits,
                         __global uint *prefix, __global const uchar *records, __global vx_cl_cache *cache,
-                        __global int *state, __global const uchar *shadow_block, __global float *image,
+                        __global int *state, __global uint *memo, __global const uchar *shadow_block,
+                        __global float *image,
                         __global uint *counts,
                         volatile __global int *next_tile, int pixels)
 {
@@ -94,6 +121,9 @@ __kernel void vx_render(__global const vx_cl_params *P, __global ulong *cols, __
     x.cache = P->cache;
     x.cache_entries = cache;
     x.cache_state = state;
+    x.memo = memo;
+    x.memo_lights = P->memo_lights;
+    x.opacity_by_direction = P->memo_lights > 0;
     vx_cl_shadow_maps(&x.shadows, &P->shadows, shadow_block);
     int tiles = (pixels + VX_CL_TILE_PIXELS - 1) / VX_CL_TILE_PIXELS;
     for (int tile = atomic_inc(next_tile); tile < tiles; tile = atomic_inc(next_tile)) {
@@ -107,5 +137,6 @@ __kernel void vx_render(__global const vx_cl_params *P, __global ulong *cols, __
     vx_cl_flush_count(counts, VX_CL_COUNTERS, VX_CL_VISITS, x.counts.visits);
     vx_cl_flush_count(counts, VX_CL_COUNTERS, VX_CL_EVALS, x.counts.evals);
     vx_cl_flush_count(counts, VX_CL_COUNTERS, VX_CL_CACHE_HITS, x.counts.cache_hits);
+    vx_cl_flush_count(counts, VX_CL_COUNTERS, VX_CL_MEMO_HITS, x.counts.memo_hits);
     vx_cl_flush_count(counts, VX_CL_COUNTERS, VX_CL_SHADOW_QUERIES, x.shadows.queries);
 }

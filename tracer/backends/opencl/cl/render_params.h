@@ -27,6 +27,8 @@ typedef struct {
     unsigned effects;         /* VX_EFFECT_* */
     int shadow_skip, cache;
     int voxel_count;          /* non-empty level-0 voxels */
+    int memo_lights;          /* the directional lights' opacity memo: slots per voxel, 0 = none */
+    int memo_pad;             /* keeps the block's size a multiple of 8 on both sides */
     vx_cl_shadow_params shadows; /* precomputed shadows (none: method march) */
 } vx_cl_params;
 
