@@ -8,7 +8,10 @@ against the ground truth to 4 significant digits. A model that cannot run on Ope
 (OCL_ICD_VENDORS=/nonexistent) and a kernel that fails to build (the test hook
 VOXLAB_OPENCL_BREAK_KERNEL=1 appends a syntax error to the program) are clear errors, the latter
 with the build log; the compile is cached (POCL_CACHE_DIR) and reported apart from the render time,
-and so is the set-up (the buffers, their upload, the caches' clearing), as the C backend's.
+and so is the set-up (the buffers, their upload, the caches' clearing), as the C backend's. The
+GPU's wide launch (VOXLAB_OPENCL_WIDE=1) renders the same images bit for bit on PoCL; the device is
+picked by VOXLAB_OPENCL_DEVICE, or refused with the list of devices; the directional light's
+opacity memo answers shadow steps on both backends alike (shadow_memo_hits).
 """
 import json
 import os
