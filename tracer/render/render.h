@@ -57,6 +57,12 @@ typedef struct {
 
 void render_default_options(render_options *o);
 
+/* The directional lights' opacity memo's slots per voxel (shadow_memo.h), the one condition for
+ * both backends: shadows declared and marched (maps NULL: none precomputed) toward a directional
+ * light, through a model whose opacity depends on the direction alone; then one slot per light
+ * (at most VX_MAX_LIGHTS), else 0: no memo. */
+int render_shadow_memo_lights(const scene *s, const vx_model *m, const shadow_set *maps);
+
 int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const void *records,
                  const render_options *o, image *out, render_counts *counts, vx_err *e);
 

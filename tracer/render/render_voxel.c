@@ -10,10 +10,11 @@
 #include "prefault.h"
 #include "render_internal.h"
 #include "shading_cache.h"
+#include "shadow_memo.h"
 #include "shadow_clip.h"
 
 /* The marcher's state: the shading cache (shading_cache.h) and the directional lights' opacity memo
- * (per voxel and light, MEMO_EMPTY until computed; written by whoever computes it first, always the
+ * (per voxel and light, SHADOW_MEMO_EMPTY until computed; written by whoever computes it first, always the
  * same bits). */
 typedef struct {
     shading_cache cache;
@@ -23,7 +24,6 @@ typedef struct {
     shadow_clip clips[VX_MAX_LIGHTS]; /* the shadow rays' ends per directional light (shadow_clip.h); g NULL: none */
     pixel_bounds bounds; /* the primary rays' depth bounds per pixel (pixel_bounds.h); near_t NULL: none */
 } voxel_state;
-#define MEMO_EMPTY 0xFFFFFFFFu /* a NaN: an opacity with these bits is simply computed again */
 
 struct voxel_ctx;
 static float call_opacity(struct voxel_ctx *x, const void *rec, const vx_query *q);
@@ -103,7 +103,7 @@ static float memo_opacity(voxel_ctx *x, int64_t index, int light, const vx_query
     atomic_uint *slot = &x->memo[(size_t)index * (size_t)x->memo_lights + (size_t)light];
     unsigned bits = atomic_load_explicit(slot, memory_order_relaxed);
     float a;
-    if (bits != MEMO_EMPTY) {
+    if (bits != SHADOW_MEMO_EMPTY) {
         x->counts.memo_hits++;
         memcpy(&a, &bits, sizeof a);
         return a;
@@ -144,13 +144,10 @@ static int voxel_prepare(render_job *j, vx_err *e)
             return vx_fail(e, "out of memory for the shading cache (%zu slots)", st->cache.count);
         j->cache_bytes += st->cache.count * sizeof(shading_cache_slot);
     }
-    int directional = 0;
-    for (int li = 0; li < s->light_count && li < VX_MAX_LIGHTS; li++)
-        directional |= s->lights[li].type == LIGHT_DIRECTIONAL;
-    if ((s->effects & EFFECT_SHADOWS) && directional && j->m->voxel->opacity_by_direction && !j->shadows) {
-        st->lights = s->light_count < VX_MAX_LIGHTS ? s->light_count : VX_MAX_LIGHTS;
+    st->lights = render_shadow_memo_lights(s, j->m, j->shadows);
+    if (st->lights) {
         size_t slots = (n ? n : 1) * (size_t)st->lights;
-        st->memo = vx_alloc_touched(slots * sizeof *st->memo, 0xFF); /* MEMO_EMPTY */
+        st->memo = vx_alloc_touched(slots * sizeof *st->memo, 0xFF); /* SHADOW_MEMO_EMPTY */
         if (!st->memo)
             return vx_fail(e, "out of memory for the shadow opacity memo (%zu voxels)", n);
         j->cache_bytes += slots * sizeof *st->memo;
@@ -255,3 +252,11 @@ static void voxel_begin(render_job *j, int threads)
 }
 
 const render_marcher render_voxel_marcher = {voxel_prepare, voxel_begin, voxel_row, voxel_release};
+
+int render_shadow_memo_lights(const scene *s, const vx_model *m, const shadow_set *maps)
+{
+    int directional = 0, lights = s->light_count < VX_MAX_LIGHTS ? s->light_count : VX_MAX_LIGHTS;
+    for (int li = 0; li < lights; li++)
+        directional |= s->lights[li].type == LIGHT_DIRECTIONAL;
+    return (s->effects & EFFECT_SHADOWS) && directional && m->voxel->opacity_by_direction && !maps ? lights : 0;
+}

@@ -10,6 +10,7 @@
 #include "cl/render_params.h"
 #include "opencl_host.h"
 #include "parallel.h"
+#include "shadow_memo.h"
 #include "strata.h"
 
 /* vx_render's buffer arguments, in order (render.cl), then the pixel count. */
@@ -17,18 +18,6 @@ enum {
     B_PARAMS, B_COLS, B_BITS, B_PREFIX, B_RECORDS, B_CACHE, B_STATE, B_MEMO, B_SHADOWS, B_IMAGE, B_COUNTS, B_NEXT_TILE,
     B_N
 };
-#define MEMO_EMPTY 0xFFFFFFFFu /* a NaN, as the C backend's (render_voxel.c) */
-
-/* The directional lights' opacity memo's slots per voxel, as the C backend decides
- * (render_voxel.c's voxel_prepare): shadows marched toward a directional light through a model
- * whose opacity depends on the direction alone; 0: no memo. */
-static int memo_lights(const scene *s, const vx_model *m, const shadow_set *maps)
-{
-    int directional = 0, lights = s->light_count < VX_MAX_LIGHTS ? s->light_count : VX_MAX_LIGHTS;
-    for (int li = 0; li < lights; li++)
-        directional |= s->lights[li].type == LIGHT_DIRECTIONAL;
-    return (s->effects & EFFECT_SHADOWS) && directional && m->voxel->opacity_by_direction && !maps ? lights : 0;
-}
 
 static void fill_params(vx_cl_params *p, const scene *s, const voxel_grid *g, const render_options *o,
                         const shadow_set *maps)
@@ -75,7 +64,7 @@ static int render(opencl_launch *L, const opencl_runtime *rt, const scene *s, co
     c.compiled = now_seconds();
     vx_cl_params params;
     fill_params(&params, s, g, o, maps);
-    params.memo_lights = memo_lights(s, m, maps);
+    params.memo_lights = render_shadow_memo_lights(s, m, maps);
     size_t cached = o->cache ? voxels : 0, memo_bytes = voxels * (size_t)params.memo_lights * sizeof(cl_uint);
     const cl_mem_flags RO = CL_MEM_READ_ONLY, RW = CL_MEM_READ_WRITE;
     /* The kernel only reads the records and only writes the image: both used in place. */
@@ -99,7 +88,7 @@ static int render(opencl_launch *L, const opencl_runtime *rt, const scene *s, co
      * and reported as setup_seconds, as the C backend's caches and maps are made before its clock:
      * the two backends' `seconds` time the same work (one more wait, a wake-up of PoCL's threads). */
     if (opencl_launch_zero(L, B_STATE, cached * sizeof(cl_int), e) ||
-        opencl_launch_fill(L, B_MEMO, memo_bytes, MEMO_EMPTY, e) ||
+        opencl_launch_fill(L, B_MEMO, memo_bytes, SHADOW_MEMO_EMPTY, e) ||
         opencl_launch_grid_upload(L, B_COLS, B_BITS, B_PREFIX, g, e) ||
         opencl_launch_set_up(L, &c, "uploading the grid and clearing the caches", e))
         return -1;

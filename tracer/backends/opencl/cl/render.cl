@@ -15,6 +15,7 @@
 #define GT_ITER_INLINE static inline __attribute__((always_inline))
 #include "flush_counts.h"
 #include "render_params.h"
+#include "shadow_memo.h"
 
 /* A mismatch between the host's and this compiler's layout would read garbage: refuse to build. */
 typedef char vx_cl_params_size_matches_host[sizeof(vx_cl_params) == VX_CL_PARAMS_BYTES ? 1 : -1];
@@ -36,11 +37,9 @@ static float cl_memo_opacity(struct voxel_ctx *x, long index, int light, const v
 #define VOXEL_CTX_BACKEND_FIELDS                 \
     volatile __global vx_cl_cache *cache_entries; \
     volatile __global int *cache_state; /* per voxel: 0 empty, 1 being written, 2 ready */ \
-    __global uint *memo;                /* per voxel and light: an opacity's bits, or MEMO_EMPTY */ \
+    __global uint *memo;                /* per voxel and light: an opacity's bits, or SHADOW_MEMO_EMPTY */ \
     int memo_lights;
 #include "render_voxel_core.h"
-
-#define MEMO_EMPTY 0xFFFFFFFFu
 
 /* The directional lights' opacity memo, as the C backend's (render_voxel.c's memo_opacity): a
  * voxel's opacity toward a directional light is asked of the model once and then read back. Shadow
@@ -48,7 +47,7 @@ static float cl_memo_opacity(struct voxel_ctx *x, long index, int light, const v
  * re-evaluated the model (vmesh: its view and 16 window cells each time). Whoever writes a slot
  * writes the same bits (a pure function of the record and the light's direction) in one aligned
  * 32-bit store, so two work-items racing on it change nothing, and a stale read (a GPU
- * multiprocessor's cached MEMO_EMPTY) only costs a recomputation. Plain loads, not volatile ones as
+ * multiprocessor's cached SHADOW_MEMO_EMPTY) only costs a recomputation. Plain loads, not volatile ones as
  * the shading cache's (whose entry is four words published by a flag): measured on an H200 (bunny,
  * city 256^3), volatile slots took vmesh 29.0 / 59.6 ms a frame and vicini 6.2 / 8.1 ms, plain ones
  * 16.7 / 29.8 and 4.3 / 4.8 ms (vicini's 4.2 / 4.7 before the memo). */
@@ -56,7 +55,7 @@ static float cl_memo_opacity(voxel_ctx *x, long index, int light, const vx_query
 {
     __global uint *slot = &x->memo[index * (long)x->memo_lights + light];
     uint bits = *slot;
-    if (bits != MEMO_EMPTY) {
+    if (bits != SHADOW_MEMO_EMPTY) {
         x->counts.memo_hits++;
         return as_float(bits);
     }
