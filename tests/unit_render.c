@@ -465,6 +465,33 @@ static void slow_element(const vx_query *q, vx_answer *a)
     plain_model->cone->element.fn(q, a);
 }
 
+/* The fastest of MODEL_SHARE_TRIES one-thread size x size renders, its image and counts: a frame on
+ * a shared machine may lose the core for a while (a CI run beside other jobs: 15 ms of a 55 ms
+ * difference once), which the comparison below would read as the model's time gone missing; the
+ * fastest is the one least disturbed. */
+#define MODEL_SHARE_TRIES 5
+static int render_least_disturbed(const scene *s, const voxel_grid *g, const vx_model *m, const void *rec, int size,
+                                  image *img, render_counts *c)
+{
+    for (int k = 0; k < MODEL_SHARE_TRIES; k++) {
+        image i;
+        render_counts ck;
+        if (render_sized(s, g, m, rec, 1, 0, size, size, &i, &ck)) {
+            if (k > 0)
+                image_free(img);
+            return -1;
+        }
+        if (k == 0 || ck.seconds < c->seconds) {
+            if (k > 0)
+                image_free(img);
+            *img = i;
+            *c = ck;
+        } else
+            image_free(&i);
+    }
+    return 0;
+}
+
 static void model_share_checks(const scene *s, const char *model)
 {
     const vx_model *m = model_find(model);
@@ -493,8 +520,8 @@ static void model_share_checks(const scene *s, const char *model)
     image a, b;
     render_counts ca, cb;
     int size = m->cone ? 64 : 128; /* a cone model calls its element far more often */
-    if (render_sized(s, &g, m, rec, 1, 0, size, size, &a, &ca) == 0) {
-        if (render_sized(s, &g, &slow, rec, 1, 0, size, size, &b, &cb) == 0) {
+    if (render_least_disturbed(s, &g, m, rec, size, &a, &ca) == 0) {
+        if (render_least_disturbed(s, &g, &slow, rec, size, &b, &cb) == 0) {
             double grew = cb.seconds - ca.seconds, model_grew = cb.model_seconds - ca.model_seconds;
             char name[240];
             snprintf(name, sizeof name,
