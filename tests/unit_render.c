@@ -466,9 +466,9 @@ static void slow_element(const vx_query *q, vx_answer *a)
 }
 
 /* The fastest of MODEL_SHARE_TRIES one-thread size x size renders, its image and counts: a frame on
- * a shared machine may lose the core for a while (a CI run beside other jobs: 15 ms of a 55 ms
- * difference once), which the comparison below would read as the model's time gone missing; the
- * fastest is the one least disturbed. */
+ * a shared machine may lose the core for a while, which the comparison below reads as the model's
+ * time gone missing (one render each, beside a CI run: frame +55 ms, model seconds +40 ms, a
+ * failure); the fastest is the least disturbed. */
 #define MODEL_SHARE_TRIES 5
 static int render_least_disturbed(const scene *s, const voxel_grid *g, const vx_model *m, const void *rec, int size,
                                   image *img, render_counts *c)
