@@ -36,6 +36,10 @@ run_one() {
   printf '%-40s %3d passed %3d failed  %3ds\n' "$name" "$p" "$f" $((SECONDS - start))
   if [ "$f" -ne 0 ]; then
     failed_names+=("$name")
+    # The failing cases first: a long log's end may not hold them (a CI log once showed 40 lines of
+    # "ok" for a test with one failure, and nothing said which).
+    grep '^not ok ' "$log" | head -20 | sed 's/^/    /'
+    echo "    ... the end of its output:"
     sed 's/^/    /' "$log" | tail -40
   fi
 }
