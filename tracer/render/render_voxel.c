@@ -10,8 +10,8 @@
 #include "prefault.h"
 #include "render_internal.h"
 #include "shading_cache.h"
-#include "shadow_memo.h"
 #include "shadow_clip.h"
+#include "shadow_memo.h"
 
 /* The marcher's state: the shading cache (shading_cache.h) and the directional lights' opacity memo
  * (per voxel and light, SHADOW_MEMO_EMPTY until computed; written by whoever computes it first, always the
@@ -147,7 +147,10 @@ static int voxel_prepare(render_job *j, vx_err *e)
     st->lights = render_shadow_memo_lights(s, j->m, j->shadows);
     if (st->lights) {
         size_t slots = (n ? n : 1) * (size_t)st->lights;
-        st->memo = vx_alloc_touched(slots * sizeof *st->memo, 0xFF); /* SHADOW_MEMO_EMPTY */
+        /* Filled byte by byte: the empty slot's bits must be one byte repeated. */
+        _Static_assert(SHADOW_MEMO_EMPTY == (SHADOW_MEMO_EMPTY & 0xFFu) * 0x01010101u,
+                       "SHADOW_MEMO_EMPTY is not one byte repeated");
+        st->memo = vx_alloc_touched(slots * sizeof *st->memo, (int)(SHADOW_MEMO_EMPTY & 0xFFu));
         if (!st->memo)
             return vx_fail(e, "out of memory for the shadow opacity memo (%zu voxels)", n);
         j->cache_bytes += slots * sizeof *st->memo;
