@@ -470,6 +470,7 @@ static void slow_element(const vx_query *q, vx_answer *a)
  * time gone missing (one render each, beside a CI run: frame +55 ms, model seconds +40 ms, a
  * failure); the fastest is the least disturbed. */
 #define MODEL_SHARE_TRIES 5
+#define MODEL_SHARE_ATTEMPTS 5
 static int render_least_disturbed(const scene *s, const voxel_grid *g, const vx_model *m, const void *rec, int size,
                                   image *img, render_counts *c)
 {
@@ -517,23 +518,36 @@ static void model_share_checks(const scene *s, const char *model)
         slow_voxel.opacity.fn = slow_opacity;
         slow.voxel = &slow_voxel;
     }
-    image a, b;
-    render_counts ca, cb;
     int size = m->cone ? 64 : 128; /* a cone model calls its element far more often */
-    if (render_least_disturbed(s, &g, m, rec, size, &a, &ca) == 0) {
-        if (render_least_disturbed(s, &g, &slow, rec, size, &b, &cb) == 0) {
-            double grew = cb.seconds - ca.seconds, model_grew = cb.model_seconds - ca.model_seconds;
-            char name[240];
-            snprintf(name, sizeof name,
-                     "%s: model share: %.0f us more per model call: frame +%.1f ms, model seconds +%.1f ms; "
-                     "shares %.2f (slow) and %.2f",
-                     model, 1e6 * SLOW_MODEL_SPIN, 1e3 * grew, 1e3 * model_grew, cb.model_seconds / cb.seconds,
-                     ca.model_seconds / ca.seconds);
-            CHECK(name, grew > 0.01 && fabs(model_grew - grew) < 0.25 * grew && cb.model_seconds > 0.7 * cb.seconds &&
-                            memcmp(a.data, b.data, (size_t)size * (size_t)size * 3 * sizeof(float)) == 0);
-            image_free(&b);
+    /* Up to MODEL_SHARE_ATTEMPTS comparisons, the first that holds passes: a timer that stops counting
+     * the model (or counts the tracer) fails every one, while a comparison spoilt by another process
+     * (the fastest of 5 renders still lost the core once, under two busy loops beside the tests:
+     * frame +18.9 ms, model seconds +27.0 ms) is done again. */
+    for (int attempt = 1; attempt <= MODEL_SHARE_ATTEMPTS; attempt++) {
+        image a, b;
+        render_counts ca, cb;
+        if (render_least_disturbed(s, &g, m, rec, size, &a, &ca))
+            break;
+        if (render_least_disturbed(s, &g, &slow, rec, size, &b, &cb)) {
+            image_free(&a);
+            break;
         }
+        double grew = cb.seconds - ca.seconds, model_grew = cb.model_seconds - ca.model_seconds;
+        int timer_agrees = grew > 0.01 && fabs(model_grew - grew) < 0.25 * grew && cb.model_seconds > 0.7 * cb.seconds &&
+                    memcmp(a.data, b.data, (size_t)size * (size_t)size * 3 * sizeof(float)) == 0;
+        image_free(&b);
         image_free(&a);
+        char name[260];
+        snprintf(name, sizeof name,
+                 "%s: model share: %.0f us more per model call: frame +%.1f ms, model seconds +%.1f ms; "
+                 "shares %.2f (slow) and %.2f (comparison %d of at most %d)",
+                 model, 1e6 * SLOW_MODEL_SPIN, 1e3 * grew, 1e3 * model_grew, cb.model_seconds / cb.seconds,
+                 ca.model_seconds / ca.seconds, attempt, MODEL_SHARE_ATTEMPTS);
+        if (timer_agrees || attempt == MODEL_SHARE_ATTEMPTS) {
+            CHECK(name, timer_agrees);
+            break;
+        }
+        printf("# %s: did not hold, done again\n", name);
     }
     free(rec);
     grid_free(&g);
