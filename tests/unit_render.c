@@ -534,7 +534,7 @@ static void model_share_checks(const scene *s, const char *model)
         }
         double grew = cb.seconds - ca.seconds, model_grew = cb.model_seconds - ca.model_seconds;
         int timer_agrees = grew > 0.01 && fabs(model_grew - grew) < 0.25 * grew && cb.model_seconds > 0.7 * cb.seconds &&
-                    memcmp(a.data, b.data, (size_t)size * (size_t)size * 3 * sizeof(float)) == 0;
+                           memcmp(a.data, b.data, (size_t)size * (size_t)size * 3 * sizeof(float)) == 0;
         image_free(&b);
         image_free(&a);
         char name[260];
