@@ -465,16 +465,16 @@ static void slow_element(const vx_query *q, vx_answer *a)
     plain_model->cone->element.fn(q, a);
 }
 
-/* The fastest of MODEL_SHARE_TRIES one-thread size x size renders, its image and counts: a frame on
+/* The fastest of MODEL_SHARE_RENDERS one-thread size x size renders, its image and counts: a frame on
  * a shared machine may lose the core for a while, which the comparison below reads as the model's
  * time gone missing (one render each, beside a CI run: frame +55 ms, model seconds +40 ms, a
  * failure); the fastest is the least disturbed. */
-#define MODEL_SHARE_TRIES 5
-#define MODEL_SHARE_ATTEMPTS 5
+#define MODEL_SHARE_RENDERS 5
+#define MODEL_SHARE_COMPARISONS 5
 static int render_least_disturbed(const scene *s, const voxel_grid *g, const vx_model *m, const void *rec, int size,
                                   image *img, render_counts *c)
 {
-    for (int k = 0; k < MODEL_SHARE_TRIES; k++) {
+    for (int k = 0; k < MODEL_SHARE_RENDERS; k++) {
         image i;
         render_counts ck;
         if (render_sized(s, g, m, rec, 1, 0, size, size, &i, &ck)) {
@@ -519,11 +519,12 @@ static void model_share_checks(const scene *s, const char *model)
         slow.voxel = &slow_voxel;
     }
     int size = m->cone ? 64 : 128; /* a cone model calls its element far more often */
-    /* Up to MODEL_SHARE_ATTEMPTS comparisons, the first that holds passes: a timer that stops counting
-     * the model (or counts the tracer) fails every one, while a comparison spoilt by another process
-     * (the fastest of 5 renders still lost the core once, under two busy loops beside the tests:
-     * frame +18.9 ms, model seconds +27.0 ms) is done again. */
-    for (int attempt = 1; attempt <= MODEL_SHARE_ATTEMPTS; attempt++) {
+    /* Up to MODEL_SHARE_COMPARISONS comparisons (each of two least disturbed renders), the first that
+     * holds passes: a timer that stops counting the model (or counts the tracer) fails every one,
+     * while a comparison spoilt by another process (the fastest of 5 renders still lost the core
+     * once, under two busy loops beside the tests: frame +18.9 ms, model seconds +27.0 ms) is done
+     * again. */
+    for (int comparison = 1; comparison <= MODEL_SHARE_COMPARISONS; comparison++) {
         image a, b;
         render_counts ca, cb;
         if (render_least_disturbed(s, &g, m, rec, size, &a, &ca))
@@ -542,8 +543,8 @@ static void model_share_checks(const scene *s, const char *model)
                  "%s: model share: %.0f us more per model call: frame +%.1f ms, model seconds +%.1f ms; "
                  "shares %.2f (slow) and %.2f (comparison %d of at most %d)",
                  model, 1e6 * SLOW_MODEL_SPIN, 1e3 * grew, 1e3 * model_grew, cb.model_seconds / cb.seconds,
-                 ca.model_seconds / ca.seconds, attempt, MODEL_SHARE_ATTEMPTS);
-        if (timer_agrees || attempt == MODEL_SHARE_ATTEMPTS) {
+                 ca.model_seconds / ca.seconds, comparison, MODEL_SHARE_COMPARISONS);
+        if (timer_agrees || comparison == MODEL_SHARE_COMPARISONS) {
             CHECK(name, timer_agrees);
             break;
         }
