@@ -15,7 +15,9 @@
  *  - the 16 bests are summed in the scalar loop's order.
  * A view that remembers its ratios (a light's) keeps them per sub-cell and row here, computed for
  * the whole row the first time any of its four is missing (a row the scalar code filled in part is
- * computed again: the same values). */
+ * computed again: the same values). A fresh view (a voxel's own direction toward the camera) queues
+ * the cells that need an overlap across rows and sub-cells, and computes them four at a time
+ * (vmesh_cells_fresh_sse says why that is the same value). */
 #ifndef VX_VMESH_OPACITY_SSE_H
 #define VX_VMESH_OPACITY_SSE_H
 
@@ -103,14 +105,14 @@ static inline float vmesh_normaliser_sse(const vmesh_view *w)
 }
 
 /* vmesh_cell_ratio for the four cells of row `cy` (centres u, v) with sub-cell s; the overlaps only
- * when a lane of `need` is between the near and far distances. */
-static inline __m128 vmesh_row_ratio(const vmesh_view *w, int s, __m128 u, float v, __m128 need)
+ * when a lane is between the near and far distances. */
+static inline __m128 vmesh_row_ratio(const vmesh_view *w, int s, __m128 u, float v)
 {
     __m128 du = _mm_sub_ps(_mm_set1_ps(w->pu[s]), u), dv = _mm_set1_ps(w->pv[s] - v);
     __m128 d2 = _mm_add_ps(_mm_mul_ps(du, du), _mm_mul_ps(dv, dv));
     __m128 beyond = _mm_cmpge_ps(d2, _mm_set1_ps(w->far2)), within = _mm_cmple_ps(d2, _mm_set1_ps(w->near2));
     __m128 ratio = _mm_setzero_ps();
-    if (_mm_movemask_ps(_mm_andnot_ps(_mm_or_ps(beyond, within), need)))
+    if (_mm_movemask_ps(_mm_or_ps(beyond, within)) != 0xF)
         ratio = _mm_mul_ps(vmesh_disk_overlap4(VMESH_RS, 0.5f * w->cell, d2), _mm_set1_ps(w->inv_cell_disk));
     return _mm_andnot_ps(beyond, _mm_blendv_ps(ratio, _mm_set1_ps(1.0f), within));
 }
@@ -145,12 +147,94 @@ static inline int vmesh_sorted_subcells_sse(const vmesh_record *r, int *order)
     return count;
 }
 
-static inline float vmesh_cells_sse(const vmesh_record *r, const int *order, int count, vmesh_view *w)
+/* The overlaps a fresh view's cells wait for (vmesh_cells_fresh_sse), four to a vector: per entry
+ * the window cell (cy * 4 + cx), its d2 to the sub-cell's centre and the sub-cell's opacity. */
+typedef struct {
+    float d2[4], a[4];
+    int cell[4], n;
+} vmesh_pending;
+
+/* The waiting overlaps' products a x ratio, each kept by its cell as the scalar loop keeps it
+ * (prod > best ? prod : best), in the order they were queued; the queue is then empty. Lanes past n
+ * are computed on whatever they hold and not read. */
+static inline void vmesh_pending_flush(const vmesh_view *w, vmesh_pending *q, float *best)
+{
+    __m128 ratio = _mm_mul_ps(vmesh_disk_overlap4(VMESH_RS, 0.5f * w->cell, _mm_loadu_ps(q->d2)),
+                              _mm_set1_ps(w->inv_cell_disk));
+    float prod[4];
+    _mm_storeu_ps(prod, _mm_mul_ps(_mm_loadu_ps(q->a), ratio));
+    for (int i = 0; i < q->n; i++) {
+        float *b = &best[q->cell[i]];
+        *b = prod[i] > *b ? prod[i] : *b;
+    }
+    q->n = 0;
+}
+
+/* vmesh_cells_sse for a view that does not remember its ratios (a voxel's own direction toward the
+ * camera, used once). A cell's value is max(0, max over the sub-cells of opacity x ratio): each
+ * product is rounded once and max is exact, so the order in which the products are taken does not
+ * change it, and the scalar loop's break only skips products at most the cell's best (its opacity,
+ * the next ones' bound, is). So the cells between the near and far distances of a sub-cell, the
+ * only ones whose ratio needs the two arc cosines, are queued across rows and sub-cells and their
+ * overlaps computed four at a time, instead of one vector per row and sub-cell with 1.6 of its 4
+ * lanes wanted on average (bunny 256^3: 2.57 M wanted lanes in 1.57 M overlaps a frame). A cell
+ * looks at a sub-cell while that sub-cell's opacity is above its best so far, which with products
+ * still queued is a lower bound of the scalar loop's best: at most some more products are queued,
+ * never one fewer. The within cells' ratio is 1: their product is the opacity itself. */
+static inline float vmesh_cells_fresh_sse(const vmesh_record *r, const int *order, int count, const vmesh_view *w)
+{
+    float centre[4], best[16] = {0};
+    for (int c = 0; c < 4; c++)
+        centre[c] = vmesh_cell_centre(w, c);
+    const __m128 u = _mm_loadu_ps(centre), far2 = _mm_set1_ps(w->far2), near2 = _mm_set1_ps(w->near2);
+    vmesh_pending q = {{0.0f}, {0.0f}, {0}, 0}; /* lanes past n: numbers, never read */
+    for (int o = 0; o < count; o++) {
+        int s = order[o];
+        float a = vmesh_decode_unorm(r->opacity[s]);
+        __m128 A = _mm_set1_ps(a), du = _mm_sub_ps(_mm_set1_ps(w->pu[s]), u), du2 = _mm_mul_ps(du, du);
+        /* The four rows without a branch each: which cells still look, the within ones updated,
+         * the between ones as one 16-bit mask. */
+        int looking = 0, between = 0;
+        float d2s[16];
+        for (int cy = 0; cy < 4; cy++) {
+            __m128 row_best = _mm_loadu_ps(&best[4 * cy]);
+            __m128 active = _mm_cmpgt_ps(A, row_best); /* the scalar loop's !(a <= best) */
+            float dv = w->pv[s] - centre[cy];
+            __m128 d2 = _mm_add_ps(du2, _mm_set1_ps(dv * dv));
+            __m128 within = _mm_and_ps(_mm_cmple_ps(d2, near2), active);
+            /* a x 1 is a: maxps(a, best) is the scalar a > best ? a : best */
+            _mm_storeu_ps(&best[4 * cy], _mm_blendv_ps(row_best, _mm_max_ps(A, row_best), within));
+            _mm_storeu_ps(&d2s[4 * cy], d2);
+            looking |= _mm_movemask_ps(active);
+            between |= _mm_movemask_ps(_mm_andnot_ps(_mm_or_ps(_mm_cmpge_ps(d2, far2), within), active)) << (4 * cy);
+        }
+        if (!looking)
+            break;
+        for (; between; between &= between - 1) {
+            int c = __builtin_ctz((unsigned)between);
+            q.d2[q.n] = d2s[c];
+            q.a[q.n] = a;
+            q.cell[q.n] = c;
+            if (++q.n == 4)
+                vmesh_pending_flush(w, &q, best);
+        }
+    }
+    if (q.n)
+        vmesh_pending_flush(w, &q, best);
+    float num = 0.0f;
+    for (int c = 0; c < 16; c++)
+        num += best[c];
+    return num;
+}
+
+/* vmesh_cells_sse for a view that remembers its ratios (a light's): per sub-cell and row, the four
+ * ratios read, or computed for the whole row the first time any of them is missing. */
+static inline float vmesh_cells_remembered_sse(const vmesh_record *r, const int *order, int count, vmesh_view *w)
 {
     float centre[4];
     for (int c = 0; c < 4; c++)
         centre[c] = vmesh_cell_centre(w, c);
-    const __m128 all = _mm_castsi128_ps(_mm_set1_epi32(-1)), u = _mm_loadu_ps(centre);
+    const __m128 u = _mm_loadu_ps(centre);
     __m128 best[4];
     for (int cy = 0; cy < 4; cy++)
         best[cy] = _mm_setzero_ps();
@@ -162,16 +246,11 @@ static inline float vmesh_cells_sse(const vmesh_record *r, const int *order, int
             if (!_mm_movemask_ps(active))
                 continue;
             looking = 1;
-            __m128 ratio;
-            if (w->ratios) {
-                float *row = &w->ratio[s][4 * cy];
-                ratio = _mm_loadu_ps(row);
-                if (_mm_movemask_ps(_mm_cmpunord_ps(ratio, ratio))) {
-                    ratio = vmesh_row_ratio(w, s, u, centre[cy], all);
-                    _mm_storeu_ps(row, ratio);
-                }
-            } else {
-                ratio = vmesh_row_ratio(w, s, u, centre[cy], active);
+            float *row = &w->ratio[s][4 * cy];
+            __m128 ratio = _mm_loadu_ps(row);
+            if (_mm_movemask_ps(_mm_cmpunord_ps(ratio, ratio))) {
+                ratio = vmesh_row_ratio(w, s, u, centre[cy]);
+                _mm_storeu_ps(row, ratio);
             }
             __m128 prod = _mm_mul_ps(a, ratio);
             best[cy] = _mm_blendv_ps(best[cy], _mm_max_ps(prod, best[cy]), active);
@@ -185,6 +264,11 @@ static inline float vmesh_cells_sse(const vmesh_record *r, const int *order, int
     for (int c = 0; c < 16; c++)
         num += b[c];
     return num;
+}
+
+static inline float vmesh_cells_sse(const vmesh_record *r, const int *order, int count, vmesh_view *w)
+{
+    return w->ratios ? vmesh_cells_remembered_sse(r, order, count, w) : vmesh_cells_fresh_sse(r, order, count, w);
 }
 
 #endif
