@@ -144,7 +144,7 @@ typedef struct {
 /* The interface version a model was written against: the registry refuses a model built for
  * another (tests/unit_models.c checks every registered model). Bump it when a field's meaning
  * changes, so that an out-of-tree model fails loudly instead of rendering garbage. */
-#define VX_MODEL_ABI_VERSION 5
+#define VX_MODEL_ABI_VERSION 6
 
 /* A portable evaluation function as both backends see it: the C function and its name in the
  * model's portable source, which the OpenCL program calls (OpenCL C has no function pointers).
@@ -167,6 +167,8 @@ typedef struct {
     const char *name;
 } vx_transmit_fn;
 
+#define VX_VIEW_TILE_MAX_PIXELS 16 /* vx_voxel_eval.view_tile_pixels' bound: the direction within 11 pixels */
+
 /* Protocol 1, voxel evaluation: the tracer visits the level-0 voxels along each ray (3D-DDA) and
  * composites their answers with `compositing` (VX_COMPOSITE_FIRST_HIT or VX_COMPOSITE_ALPHA). */
 typedef struct {
@@ -181,6 +183,17 @@ typedef struct {
      * once and reuse it for every shadow ray (the same number, so the same image). 0 (the safe
      * default): every shadow step asks the model. */
     int opacity_by_direction;
+    /* 0 (the default): the opacity of a voxel's answer toward the camera, which the tracer computes
+     * once and caches (render_options.cache), is asked along the exact direction between the voxel's
+     * centre and the camera. k > 0: along the direction through the centre of the cell, k pixels
+     * wide, of a lattice on the image plane that the voxel's centre projects into
+     * (tracer/render/view_tile.h): q->ray_dir is then the same for every voxel seen through one cell,
+     * and a model whose opacity splits into a part that depends on the direction alone and a part
+     * per record (vmesh's views) can do the first once per cell. q->to_viewer, for the shading,
+     * stays exact. The direction turns by at most k / sqrt(2) pixels' angle;
+     * render_options.view_tiles = 0 (`render --exact-view`) turns it off. At most
+     * VX_VIEW_TILE_MAX_PIXELS. (ABI 6.) */
+    int view_tile_pixels;
     /* Optional (fn NULL: the exponential rule T (1 - opacity)), alpha compositing only: the
      * transmittance behind the voxel for a ray that reaches it with transmittance `transmittance`,
      * `opacity` being what `opacity` answered (the fraction a ray arriving unattenuated loses).

@@ -63,6 +63,9 @@ int model_check(const vx_model *m, char *why, size_t why_size)
             return BROKEN("transmit must be declared with VX_PORTABLE");
         if (v->transmit.fn && v->compositing != VX_COMPOSITE_ALPHA)
             return BROKEN("transmit changes how opacities accumulate: it needs alpha compositing");
+        if (v->view_tile_pixels < 0 || v->view_tile_pixels > VX_VIEW_TILE_MAX_PIXELS)
+            return BROKEN("view_tile_pixels %d: expected 0 (the exact direction) to %d", v->view_tile_pixels,
+                          VX_VIEW_TILE_MAX_PIXELS);
     } else {
         if (!m->cone->source || !m->cone->element.fn || !portable_name_ok(m->cone->element.name))
             return BROKEN("cone evaluation needs its source and element declared with VX_PORTABLE");

@@ -250,6 +250,34 @@ report("shading cache sized by the image: 1024 slots for a 16x16 image",
        st_small["voxels"] > 1024 and st_small["cache_bytes"] == 1024 * 24 + 4 * st_small["voxels"],
        f"{st_small['cache_bytes']} B for {st_small['voxels']} voxels")
 
+# ---------- (g2) view tiles: vmesh's primary opacity asked once per 4 x 4 pixels ----------
+# vmesh asks for view tiles (tracer/render/view_tile.h): the opacity of a voxel's cached answer is
+# asked along the direction through the centre of its 4 x 4-pixel lattice cell, not its own. The image
+# moves, but far less than its distance to the truth: the ranking of the models cannot change. A
+# model that does not ask (alpha) is untouched, and --exact-view / --no-cache turn the tiles off.
+TILE = ["--res", "64", "--rays", "32", "--size", "128x128", "--spp", "4"]
+tiled, st_tiled = render(SPHERES, "tile_vmesh", *TILE, model="vmesh")
+exact, st_exact = render(SPHERES, "tile_vmesh_exact", *TILE, "--exact-view", model="vmesh")
+_, st_nocache = render(SPHERES, "tile_vmesh_nocache", *TILE, "--no-cache", model="vmesh")
+report("--stats view_tile_pixels: vmesh 4, 0 with --exact-view or --no-cache",
+       st_tiled["view_tile_pixels"] == 4 and st_exact["view_tile_pixels"] == 0
+       and st_nocache["view_tile_pixels"] == 0,
+       f"{st_tiled['view_tile_pixels']}, {st_exact['view_tile_pixels']}, {st_nocache['view_tile_pixels']}")
+m_tiled, m_exact = metrics(path("tile_vmesh.exr"), truth128), metrics(path("tile_vmesh_exact.exr"), truth128)
+moved = float(np.mean((tiled.astype(np.float64) - exact) ** 2))
+print(f"# vmesh spheres 64^3, 128x128: view tiles vs exact direction MSE {moved:.3g}; against the truth "
+      f"MSE {m_tiled['mse']:.6f} (exact {m_exact['mse']:.6f}), SSIM {m_tiled['ssim']:.5f} ({m_exact['ssim']:.5f})")
+report("view tiles move vmesh's image (they are on)", moved > 0, f"MSE {moved}")
+report("view tiles move vmesh's image 1000 times less than its distance to the truth",
+       moved < 1e-3 * m_exact["mse"], f"MSE {moved} against {m_exact['mse']}")
+report("view tiles: vmesh's MSE and SSIM against the truth within 0.1 % and 1e-4",
+       abs(m_tiled["mse"] - m_exact["mse"]) <= 1e-3 * m_exact["mse"] and abs(m_tiled["ssim"] - m_exact["ssim"]) <= 1e-4,
+       f"MSE {m_tiled['mse']} / {m_exact['mse']}, SSIM {m_tiled['ssim']} / {m_exact['ssim']}")
+a_tiled, st_a = render(SPHERES, "tile_alpha", *TILE, model="alpha")
+a_exact, _ = render(SPHERES, "tile_alpha_exact", *TILE, "--exact-view", model="alpha")
+report("a model without view tiles: --exact-view changes nothing (alpha)",
+       st_a["view_tile_pixels"] == 0 and np.array_equal(a_tiled, a_exact), f"{st_a['view_tile_pixels']}")
+
 # ---------- (h) bad command lines ----------
 def bad_cli(what, args, words):
     out_dir = path("cli_" + what.replace(" ", "_"))

@@ -71,6 +71,10 @@ static const vx_voxel_eval vmesh_eval = {
     .opacity = VX_PORTABLE(vmesh_eval_opacity),
     .shade = VX_PORTABLE(vmesh_eval_shade),
     .opacity_by_direction = 1, /* vmesh_eval_opacity reads the record and q->ray_dir only */
+    /* A view (vmesh_opacity.h: the window, the 27 projected centres, the normaliser and the ratios)
+     * is most of a primary evaluation; with a direction per 4 x 4 pixels the voxels seen through them
+     * share one, kept by vmesh_view_of. */
+    .view_tile_pixels = 4,
 };
 
 const vx_model model_vmesh = {

@@ -1,6 +1,6 @@
 /* voxlab render SCENE --model M (--res N [--rays K] [--param NAME=VALUE]... | --vox FILE) [--spp N]
- *               [--size WxH] [--seed S] [--threads T] [--no-cache] [--no-shadow-skip] [--backend NAME]
- *               [--shadows METHOD] [--shadow-res N] [--frame F | --frames A:B]
+ *               [--size WxH] [--seed S] [--threads T] [--no-cache] [--exact-view] [--no-shadow-skip]
+ *               [--backend NAME] [--shadows METHOD] [--shadow-res N] [--frame F | --frames A:B]
  *               [--filter rebake|nearest|split8] -o OUT [--stats S.json] */
 #include <stdio.h>
 #include <stdlib.h>
@@ -23,8 +23,8 @@
 
 #define RENDER_SYNOPSIS                                                                                      \
     "voxlab render SCENE --model M (--res N [--rays K] [--param NAME=VALUE]... | --vox FILE) [--spp N]\n"         \
-    "                     [--size WxH] [--seed S] [--threads T] [--no-cache] [--no-shadow-skip] [--backend c|opencl]\n" \
-    "                     [--shadows march|slicemap|slicemap-model] [--shadow-res N]\n"                  \
+    "                     [--size WxH] [--seed S] [--threads T] [--no-cache] [--exact-view] [--no-shadow-skip]\n" \
+    "                     [--backend c|opencl] [--shadows march|slicemap|slicemap-model] [--shadow-res N]\n"    \
     "                     [--frame F | --frames A:B] [--filter rebake|nearest|split8]\n"                          \
     "                     [--dry-run] -o OUT.exr|OUT.png [--stats S.json]"
 static const char usage[] = "usage: " RENDER_SYNOPSIS "\n";
@@ -45,6 +45,8 @@ const cli_command cmd_render_help = {
         {"--threads", "T", "every core", "threads"},
         {"--backend", "NAME", "c", "c or opencl"},
         {"--no-cache", NULL, NULL, "evaluate every voxel per ray (default: cache each voxel's answer toward the camera)"},
+        {"--exact-view", NULL, NULL, "ask each voxel's cached opacity along its own direction to the camera (default: "
+         "the model's view tiles, if it asks for them: one direction per k x k pixels; vmesh: 4)"},
         {"--no-shadow-skip", NULL, NULL, "shadow rays test the voxels next to the shaded one too (default: skip 1.5 voxels)"},
         {"--shadows", "METHOD", "the scene's (march)",
          "how declared shadows are computed: march (the model's opacity per shading point), slicemap (the "
@@ -80,6 +82,10 @@ int cmd_render(int argc, char **argv)
         const char *a = argv[i], *val = NULL;
         if (strcmp(a, "--no-cache") == 0) {
             o.cache = 0;
+            continue;
+        }
+        if (strcmp(a, "--exact-view") == 0) {
+            o.view_tiles = 0;
             continue;
         }
         if (strcmp(a, "--no-shadow-skip") == 0) {

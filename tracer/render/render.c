@@ -29,6 +29,7 @@ void render_default_options(render_options *o)
     o->empty_skip = 1;
     o->shadow_clip = 1;
     o->pixel_bounds = 1;
+    o->view_tiles = 1;
 }
 
 /* The threads take the image in bands of this many rows, not row by row. Neighbouring rows see

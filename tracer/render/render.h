@@ -33,6 +33,10 @@ typedef struct {
                           * their way (shadow_clip.h); exact: the image is the same without it */
     int pixel_bounds;    /* C backend: primary rays walk only between their pixel's depth bounds
                           * (pixel_bounds.h), built per frame inside its clock; exact */
+    int view_tiles;      /* the cached answers asked along their view tile's direction when the model
+                          * asks for it (vx_voxel_eval.view_tile_pixels; default 1); 0: along the exact
+                          * direction voxel -> camera (`render --exact-view`). Not exact: the
+                          * direction moves by up to k / sqrt(2) pixels' angle */
 } render_options;
 
 typedef struct {

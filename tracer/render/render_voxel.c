@@ -207,6 +207,7 @@ static void voxel_row(void *p, int64_t row, int thread)
     x.memo = st->memo;
     x.memo_lights = st->lights;
     x.opacity_by_direction = st->memo != NULL;
+    x.view_tile = view_tile_width(j->m->voxel->view_tile_pixels, j->spread, o->view_tiles);
     x.skip = &st->skip;
     x.clips = st->clips;
     x.bounds = &st->bounds;

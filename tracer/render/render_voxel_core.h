@@ -57,6 +57,7 @@
 #include "rng.h"
 #include "shadow_maps_core.h"
 #include "strata.h"
+#include "view_tile.h"
 
 #if !defined(VOXEL_OPACITY) || !defined(VOXEL_SHADE) || !defined(VOXEL_COMPOSITING) || !defined(VOXEL_CACHE_GET) || \
     !defined(VOXEL_CACHE_PUT)
@@ -107,6 +108,7 @@ typedef struct voxel_ctx {
     int shadow_skip;
     int cache;
     int opacity_by_direction; /* the model's vx_voxel_eval.opacity_by_direction */
+    float view_tile;          /* the cached answers' direction lattice (view_tile.h); 0: the exact direction */
     shadow_maps shadows;      /* precomputed shadows (shadow_maps_core.h); p NULL: march */
     voxel_counts counts;
     VOXEL_CTX_BACKEND_FIELDS
@@ -222,11 +224,12 @@ VX_INLINE void voxel_answer(voxel_ctx *x, const grid_hit *h, vec3 org, vec3 dir,
          * profile). */
         VOXEL_PREFETCH_RECORD(x, h->index);
         voxel_query(x, h, &q, &centre);
-        /* The cached direction: from the voxel's centre toward the camera. */
+        /* The cached direction: from the voxel's centre toward the camera; the opacity's, with the
+         * model's view tiles, from its view tile's centre (view_tile.h). */
         vec3 to_cam = v3_sub(x->cam.position, centre);
         float dist = v3_length(to_cam);
         q.to_viewer = v3_normalize_or(to_cam, v3_scale(dir, -1.0f));
-        q.ray_dir = v3_scale(q.to_viewer, -1.0f);
+        q.ray_dir = v3_scale(view_tile_direction(&x->cam, x->view_tile, q.to_viewer), -1.0f);
         q.ray_origin = x->cam.position;
         q.t0 = dist - 0.5f * x->g->voxel_size;
         q.t1 = dist + 0.5f * x->g->voxel_size;

@@ -126,6 +126,7 @@ __kernel void vx_render(__global const vx_cl_params *P, __global ulong *cols, __
     x.memo = memo;
     x.memo_lights = P->memo_lights;
     x.opacity_by_direction = P->memo_lights > 0;
+    x.view_tile = P->view_tile;
     vx_cl_shadow_maps(&x.shadows, &P->shadows, shadow_block);
     int tiles = (pixels + VX_CL_TILE_PIXELS - 1) / VX_CL_TILE_PIXELS;
     for (int tile = atomic_inc(next_tile); tile < tiles; tile = atomic_inc(next_tile)) {
