@@ -173,8 +173,8 @@ static inline void vmesh_pending_flush(const vmesh_view *w, vmesh_pending *q, fl
 /* vmesh_cells_sse for a view that does not remember its ratios (a voxel's own direction toward the
  * camera, used once). A cell's value is max(0, max over the sub-cells of opacity x ratio): each
  * product is rounded once and max is exact, so the order in which the products are taken does not
- * change it, and the scalar loop's break only skips products at most the cell's best (its opacity,
- * the next ones' bound, is). So the cells between the near and far distances of a sub-cell, the
+ * change it, and the scalar loop's break only skips products that cannot exceed the cell's best
+ * (the next opacities are at most the best, and a ratio at most 1). So the cells between the near and far distances of a sub-cell, the
  * only ones whose ratio needs the two arc cosines, are queued across rows and sub-cells and their
  * overlaps computed four at a time, instead of one vector per row and sub-cell with 1.6 of its 4
  * lanes wanted on average (bunny 256^3: 2.57 M wanted lanes in 1.57 M overlaps a frame). A cell
@@ -187,7 +187,7 @@ static inline float vmesh_cells_fresh_sse(const vmesh_record *r, const int *orde
     for (int c = 0; c < 4; c++)
         centre[c] = vmesh_cell_centre(w, c);
     const __m128 u = _mm_loadu_ps(centre), far2 = _mm_set1_ps(w->far2), near2 = _mm_set1_ps(w->near2);
-    vmesh_pending q = {{0.0f}, {0.0f}, {0}, 0}; /* lanes past n: numbers, never read */
+    vmesh_pending q = {{0.0f}, {0.0f}, {0}, 0}; /* lanes past n: numbers whose results go unread */
     for (int o = 0; o < count; o++) {
         int s = order[o];
         float a = vmesh_decode_unorm(r->opacity[s]);

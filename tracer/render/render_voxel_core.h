@@ -108,7 +108,7 @@ typedef struct voxel_ctx {
     int shadow_skip;
     int cache;
     int opacity_by_direction; /* the model's vx_voxel_eval.opacity_by_direction */
-    float view_tile;          /* the cached answers' direction lattice (view_tile.h); 0: the exact direction */
+    float view_tile;          /* the cached opacities' direction lattice (view_tile.h); 0: the exact direction */
     shadow_maps shadows;      /* precomputed shadows (shadow_maps_core.h); p NULL: march */
     voxel_counts counts;
     VOXEL_CTX_BACKEND_FIELDS

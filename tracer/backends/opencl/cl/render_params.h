@@ -28,7 +28,7 @@ typedef struct {
     int shadow_skip, cache;
     int voxel_count;          /* non-empty level-0 voxels */
     int memo_lights;          /* the directional lights' opacity memo: slots per voxel, 0 = none */
-    float view_tile;          /* the cached answers' direction lattice (voxel_view_tile); 0: exact */
+    float view_tile;          /* the cached opacities' direction lattice (view_tile.h); 0: exact */
     vx_cl_shadow_params shadows; /* precomputed shadows (none: method march) */
 } vx_cl_params;
 
