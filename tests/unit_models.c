@@ -775,6 +775,14 @@ static void check_interface_rules(void)
     CHECK("model_check: voxel evaluation with coverage compositing is refused",
           model_check(&m, why, sizeof why) && strstr(why, "first hit or alpha"));
     ve = *binary->voxel;
+    ve.view_tile_pixels = VX_VIEW_TILE_MAX_PIXELS;
+    int widest_ok = model_check(&m, why, sizeof why) == 0;
+    ve.view_tile_pixels = VX_VIEW_TILE_MAX_PIXELS + 1;
+    int wider_refused = model_check(&m, why, sizeof why) && strstr(why, "view_tile_pixels");
+    ve.view_tile_pixels = -1;
+    CHECK("model_check: view tiles of 0 to VX_VIEW_TILE_MAX_PIXELS pass, wider or negative ones are refused",
+          widest_ok && wider_refused && model_check(&m, why, sizeof why) && strstr(why, "view_tile_pixels"));
+    ve = *binary->voxel;
     ve.shade.name = "binary eval shade";
     CHECK("model_check: a portable name that is not an identifier is refused",
           model_check(&m, why, sizeof why) && strstr(why, "VX_PORTABLE"));
