@@ -10,11 +10,14 @@
  *    neighbouring cells get other directions;
  *  - off: tile 0, or a centre beside or behind the eye (below VIEW_TILE_MIN_COS), gives to_cam's
  *    own bits;
- *  - view_tile_width: k pixels of 2 spread each, 0 when off or asked for none. */
+ *  - view_tile_width: k pixels of 2 spread each, 0 for none; render_view_tile_pixels, the tiles in
+ *    effect for both backends and --stats: vmesh's 4 by default, 0 without the cache, with
+ *    view_tiles off, for a model that asks for none (alpha) and for a cone model. */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
 
+#include "render.h"
 #include "rng.h"
 #include "unit.h"
 #include "view_tile.h"
@@ -71,7 +74,7 @@ int main(void)
     for (int k = 0; k < 20000; k++) {
         camera c = random_camera(&g);
         int height = 32 + (int)(rng_float(&g) * 1000.0f), pixels = 1 + (int)(rng_float(&g) * 16.0f) % 16;
-        float tile = view_tile_width(pixels, camera_pixel_spread(&c, height), 1);
+        float tile = view_tile_width(pixels, camera_pixel_spread(&c, height));
         /* inside a frustum of half-angle up to about 80 degrees */
         float u = (2.0f * rng_float(&g) - 1.0f) * 5.0f, v = (2.0f * rng_float(&g) - 1.0f) * 5.0f;
         vec3 p = point_at(&c, u, v, 0.01f + 50.0f * rng_float(&g));
@@ -91,7 +94,7 @@ int main(void)
     int cells = 0, split = 0, off_centre = 0, same_as_neighbour = 0;
     for (int k = 0; k < 2000; k++) {
         camera c = random_camera(&g);
-        float tile = view_tile_width(4, camera_pixel_spread(&c, 256), 1);
+        float tile = view_tile_width(4, camera_pixel_spread(&c, 256));
         int i = (int)(rng_float(&g) * 60.0f) - 30, j = (int)(rng_float(&g) * 60.0f) - 30;
         vec3 first = {0};
         for (int n = 0; n < 8; n++) {
@@ -136,8 +139,19 @@ int main(void)
     camera c = random_camera(&g);
     float spread = camera_pixel_spread(&c, 200);
     CHECK("view_tile_width: k pixels of 2 spread each",
-          view_tile_width(4, spread, 1) == 8.0f * spread && view_tile_width(1, spread, 1) == 2.0f * spread);
-    CHECK("view_tile_width: 0 when turned off or asked for none",
-          view_tile_width(4, spread, 0) == 0.0f && view_tile_width(0, spread, 1) == 0.0f);
+          view_tile_width(4, spread) == 8.0f * spread && view_tile_width(1, spread) == 2.0f * spread);
+    CHECK("view_tile_width: 0 for no tiles", view_tile_width(0, spread) == 0.0f);
+
+    const vx_model *vmesh = model_find("vmesh"), *alpha = model_find("alpha"), *hn = model_find("heitz-neyret");
+    render_options o, no_cache, exact;
+    render_default_options(&o);
+    no_cache = exact = o;
+    no_cache.cache = 0;
+    exact.view_tiles = 0;
+    CHECK("render_view_tile_pixels: vmesh's 4 by default; 0 without the cache or with view tiles off",
+          vmesh && render_view_tile_pixels(vmesh, &o) == 4 && render_view_tile_pixels(vmesh, &no_cache) == 0 &&
+              render_view_tile_pixels(vmesh, &exact) == 0);
+    CHECK("render_view_tile_pixels: 0 for a model that asks for none (alpha) and a cone model (heitz-neyret)",
+          alpha && hn && render_view_tile_pixels(alpha, &o) == 0 && render_view_tile_pixels(hn, &o) == 0);
     return unit_exit();
 }

@@ -88,10 +88,9 @@ cJSON *stats_render(const scene *s, const vx_model *m, const bake_options *bo, c
     cJSON_AddNumberToObject(j, "cache_hits", (double)rc->cache_hits);
     cJSON_AddNumberToObject(j, "shadow_memo_hits", (double)rc->memo_hits);
     cJSON_AddBoolToObject(j, "cache", o->cache);
-    /* The cached answers' direction lattice in pixels (tracer/render/view_tile.h), 0: the exact
-     * direction voxel -> camera (or no cache, or a model that asks for none). */
-    cJSON_AddNumberToObject(j, "view_tile_pixels",
-                            o->cache && o->view_tiles && m->voxel ? (double)m->voxel->view_tile_pixels : 0.0);
+    /* The cached opacities' direction lattice in pixels (tracer/render/view_tile.h), 0: the exact
+     * direction voxel -> camera. */
+    cJSON_AddNumberToObject(j, "view_tile_pixels", (double)render_view_tile_pixels(m, o));
     if (b->has_device) {
         cJSON_AddNullToObject(j, "cache_bytes"); /* the device's buffers, sized by its backend */
         cJSON_AddNullToObject(j, "map_bytes");

@@ -67,6 +67,11 @@ void render_default_options(render_options *o);
  * (at most VX_MAX_LIGHTS), else 0: no memo. */
 int render_shadow_memo_lights(const scene *s, const vx_model *m, const shadow_set *maps);
 
+/* The view tiles in effect, in pixels (tracer/render/view_tile.h), the one condition for both
+ * backends and --stats: the model's view_tile_pixels when it evaluates per voxel and the render
+ * caches its answers with view tiles on; else 0, the exact direction. */
+int render_view_tile_pixels(const vx_model *m, const render_options *o);
+
 int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const void *records,
                  const render_options *o, image *out, render_counts *counts, vx_err *e);
 

@@ -207,7 +207,7 @@ static void voxel_row(void *p, int64_t row, int thread)
     x.memo = st->memo;
     x.memo_lights = st->lights;
     x.opacity_by_direction = st->memo != NULL;
-    x.view_tile = view_tile_width(j->m->voxel->view_tile_pixels, j->spread, o->view_tiles);
+    x.view_tile = view_tile_width(render_view_tile_pixels(j->m, o), j->spread);
     x.skip = &st->skip;
     x.clips = st->clips;
     x.bounds = &st->bounds;
@@ -263,4 +263,9 @@ int render_shadow_memo_lights(const scene *s, const vx_model *m, const shadow_se
     for (int li = 0; li < lights; li++)
         directional |= s->lights[li].type == LIGHT_DIRECTIONAL;
     return (s->effects & EFFECT_SHADOWS) && directional && m->voxel->opacity_by_direction && !maps ? lights : 0;
+}
+
+int render_view_tile_pixels(const vx_model *m, const render_options *o)
+{
+    return m->voxel && o->cache && o->view_tiles ? m->voxel->view_tile_pixels : 0;
 }

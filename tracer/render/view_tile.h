@@ -23,13 +23,10 @@
 
 #include "camera.h"
 
-/* The lattice's cell width on the image plane at distance 1 for a model asking `pixels` (its
- * view_tile_pixels) on an image whose pixel spread is `spread`; 0 (the exact direction) when `on`
- * is 0 (render_options.view_tiles) or the model asks for none. */
-VX_INLINE float view_tile_width(int pixels, float spread, int on)
-{
-    return on && pixels > 0 ? 2.0f * spread * (float)pixels : 0.0f;
-}
+/* The lattice's cell width on the image plane at distance 1 for tiles of `pixels` (the render's,
+ * render_view_tile_pixels) on an image whose pixel spread is `spread`; 0 (the exact direction) when
+ * `pixels` is 0. */
+VX_INLINE float view_tile_width(int pixels, float spread) { return pixels > 0 ? 2.0f * spread * (float)pixels : 0.0f; }
 
 /* Below this cosine between the camera's axis and the direction to a voxel's centre the exact
  * direction is kept: the image plane's coordinates grow without bound toward 90 degrees (and a

@@ -66,7 +66,7 @@ static int render(opencl_launch *L, const opencl_runtime *rt, const scene *s, co
     vx_cl_params params;
     fill_params(&params, s, g, o, maps);
     params.memo_lights = render_shadow_memo_lights(s, m, maps);
-    params.view_tile = view_tile_width(m->voxel->view_tile_pixels, params.spread, o->view_tiles);
+    params.view_tile = view_tile_width(render_view_tile_pixels(m, o), params.spread);
     size_t cached = o->cache ? voxels : 0, memo_bytes = voxels * (size_t)params.memo_lights * sizeof(cl_uint);
     const cl_mem_flags RO = CL_MEM_READ_ONLY, RW = CL_MEM_READ_WRITE;
     /* The kernel only reads the records and only writes the image: both used in place. */
