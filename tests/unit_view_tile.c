@@ -8,8 +8,8 @@
  *  - one direction per cell: centres at random depths projecting into one lattice cell get the same
  *    bits, and that direction passes through the cell's centre on the image plane (in double);
  *    neighbouring cells get other directions;
- *  - off: tile 0, or a centre beside or behind the eye (below VIEW_TILE_MIN_COS), gives to_cam's
- *    own bits;
+ *  - off: tile 0, or a centre beside or behind the eye (below VIEW_TILE_MIN_COS), gives the exact
+ *    direction's own bits;
  *  - view_tile_width: k pixels of 2 spread each, 0 for none; render_view_tile_pixels, the tiles in
  *    effect for both backends and --stats: vmesh's 4 by default, 0 without the cache, with
  *    view_tiles off, for a model that asks for none (alpha) and for a cone model. */
@@ -52,8 +52,8 @@ static void plane_point(const camera *c, vec3 d, double *u, double *v)
     *v = ((double)d.x * c->up.x + (double)d.y * c->up.y + (double)d.z * c->up.z) / along;
 }
 
-/* The unit vector from point p toward the camera. */
-static vec3 toward_camera(const camera *c, vec3 p) { return v3_normalize(v3_sub(c->position, p)); }
+/* The unit vector from the camera toward point p. */
+static vec3 from_camera(const camera *c, vec3 p) { return v3_normalize(v3_sub(p, c->position)); }
 
 /* A point in front of the camera whose image-plane coordinates are (u, v), at distance `depth`
  * along the axis. */
@@ -78,9 +78,9 @@ int main(void)
         /* inside a frustum of half-angle up to about 80 degrees */
         float u = (2.0f * rng_float(&g) - 1.0f) * 5.0f, v = (2.0f * rng_float(&g) - 1.0f) * 5.0f;
         vec3 p = point_at(&c, u, v, 0.01f + 50.0f * rng_float(&g));
-        vec3 to_cam = toward_camera(&c, p);
-        vec3 got = view_tile_direction(&c, tile, to_cam);
-        double bound = (double)tile / sqrt(2.0), a = angle(got, to_cam);
+        vec3 exact = from_camera(&c, p);
+        vec3 got = view_tile_direction(&c, tile, exact);
+        double bound = (double)tile / sqrt(2.0), a = angle(got, exact);
         over += !(a <= bound * (1.0 + 1e-4) + 1e-6);
         worst_ratio = a / bound > worst_ratio ? a / bound : worst_ratio;
         tried++;
@@ -100,15 +100,15 @@ int main(void)
         for (int n = 0; n < 8; n++) {
             /* a point well inside cell (i, j): away from its edges by a tenth of the cell */
             float u = ((float)i + 0.1f + 0.8f * rng_float(&g)) * tile, v = ((float)j + 0.1f + 0.8f * rng_float(&g)) * tile;
-            vec3 got = view_tile_direction(&c, tile, toward_camera(&c, point_at(&c, u, v, 0.5f + 20.0f * rng_float(&g))));
+            vec3 got = view_tile_direction(&c, tile, from_camera(&c, point_at(&c, u, v, 0.5f + 20.0f * rng_float(&g))));
             if (n == 0)
                 first = got;
             split += !same_vec(got, first);
         }
         double pu, pv;
-        plane_point(&c, v3_scale(first, -1.0f), &pu, &pv);
+        plane_point(&c, first, &pu, &pv);
         off_centre += fabs(pu - ((double)i + 0.5) * tile) > 1e-4 * tile + 1e-6 || fabs(pv - ((double)j + 0.5) * tile) > 1e-4 * tile + 1e-6;
-        vec3 next = view_tile_direction(&c, tile, toward_camera(&c, point_at(&c, ((float)i + 1.5f) * tile, ((float)j + 0.5f) * tile, 3.0f)));
+        vec3 next = view_tile_direction(&c, tile, from_camera(&c, point_at(&c, ((float)i + 1.5f) * tile, ((float)j + 0.5f) * tile, 3.0f)));
         same_as_neighbour += same_vec(next, first);
         cells++;
     }
@@ -123,12 +123,12 @@ int main(void)
     for (int k = 0; k < 1000; k++) {
         camera c = random_camera(&g);
         vec3 p = point_at(&c, 2.0f * rng_float(&g) - 1.0f, 2.0f * rng_float(&g) - 1.0f, 1.0f + rng_float(&g));
-        vec3 to_cam = toward_camera(&c, p);
-        kept += same_vec(view_tile_direction(&c, 0.0f, to_cam), to_cam);
+        vec3 exact = from_camera(&c, p);
+        kept += same_vec(view_tile_direction(&c, 0.0f, exact), exact);
         /* behind the eye, and beside it (cosine 0.05 with the axis) */
         vec3 behind = v3_madd(c.position, c.forward, -1.0f - rng_float(&g));
         vec3 beside = v3_add(c.position, v3_add(v3_scale(c.right, 1.0f), v3_scale(c.forward, 0.05f)));
-        vec3 tb = toward_camera(&c, behind), ts = toward_camera(&c, beside);
+        vec3 tb = from_camera(&c, behind), ts = from_camera(&c, beside);
         kept += same_vec(view_tile_direction(&c, 0.01f, tb), tb) + same_vec(view_tile_direction(&c, 0.01f, ts), ts);
         n_off += 3;
     }

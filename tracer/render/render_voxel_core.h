@@ -229,7 +229,7 @@ VX_INLINE void voxel_answer(voxel_ctx *x, const grid_hit *h, vec3 org, vec3 dir,
         vec3 to_cam = v3_sub(x->cam.position, centre);
         float dist = v3_length(to_cam);
         q.to_viewer = v3_normalize_or(to_cam, v3_scale(dir, -1.0f));
-        q.ray_dir = v3_scale(view_tile_direction(&x->cam, x->view_tile, q.to_viewer), -1.0f);
+        q.ray_dir = view_tile_direction(&x->cam, x->view_tile, v3_scale(q.to_viewer, -1.0f));
         q.ray_origin = x->cam.position;
         q.t0 = dist - 0.5f * x->g->voxel_size;
         q.t1 = dist + 0.5f * x->g->voxel_size;

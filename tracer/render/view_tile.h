@@ -34,20 +34,19 @@ VX_INLINE float view_tile_width(int pixels, float spread) { return pixels > 0 ? 
  * above it. */
 #define VIEW_TILE_MIN_COS 0.1f
 
-/* The direction to ask a voxel's answer along, given to_cam, the unit vector from its centre toward
- * the camera c: to_cam itself when tile is 0, else from the camera through the centre of the
- * lattice cell the voxel's centre projects into, negated (toward the camera, as to_cam). */
-VX_INLINE vec3 view_tile_direction(const camera *c, float tile, vec3 to_cam)
+/* The direction to ask a voxel's opacity along, given d, the unit vector from the camera c toward
+ * the voxel's centre: d itself when tile is 0, else the unit vector from the camera through the
+ * centre of the lattice cell the voxel's centre projects into. */
+VX_INLINE vec3 view_tile_direction(const camera *c, float tile, vec3 d)
 {
-    vec3 d = v3_scale(to_cam, -1.0f); /* camera -> voxel */
     float along = v3_dot(d, c->forward);
     if (!(tile > 0.0f) || !(along >= VIEW_TILE_MIN_COS))
-        return to_cam;
+        return d;
     float u = v3_dot(d, c->right) / along, v = v3_dot(d, c->up) / along;
     u = (floorf(u / tile) + 0.5f) * tile;
     v = (floorf(v / tile) + 0.5f) * tile;
     vec3 p = v3_add(c->forward, v3_add(v3_scale(c->right, u), v3_scale(c->up, v)));
-    return v3_scale(v3_normalize_or(p, d), -1.0f);
+    return v3_normalize_or(p, d);
 }
 
 #endif
