@@ -158,6 +158,11 @@ VX_INLINE float vicini_f_inv_remembered(float y, float gamma)
 {
     static _Thread_local uint64_t key_plus_1[1u << VICINI_INV_MEMO_BITS];
     static _Thread_local float value[1u << VICINI_INV_MEMO_BITS];
+    /* The inversions that take no Newton step are answered as vicini_f_inv answers them, without
+     * the table: an unattenuated T (every ray's and shadow ray's first step brings 1) and a purely
+     * linear mix. They cost less than a lookup and would only crowd out the entries that do. */
+    if (y >= 1.0f || gamma <= 0.0f)
+        return vicini_f_inv(y, gamma);
     uint32_t yb, gb;
     memcpy(&yb, &y, sizeof yb);
     memcpy(&gb, &gamma, sizeof gb);
