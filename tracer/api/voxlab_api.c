@@ -121,15 +121,18 @@ static int image_size(const scene *s, int width, int height, int *w, int *h, vx_
 }
 
 /* The shadow method and resolution as --shadows and --shadow-res check them (truth: no
- * slicemap-model). */
+ * slicemap-model, no voxel). */
 static int shadow_args(const char *shadows, int shadow_res, int truth, int *method, char *err, size_t err_size)
 {
     *method = -1;
     if (shadows && (*method = shadow_method_from_name(shadows)) < 0)
         return give_error("shadows: expected one of " SHADOW_METHOD_NAMES, err, err_size);
-    if (truth && *method == SHADOW_SLICEMAP_MODEL)
-        return give_error("shadows: the truth takes march or slicemap (slicemap-model needs a model's bake)", err,
-                          err_size);
+    if (truth && (*method == SHADOW_SLICEMAP_MODEL || *method == SHADOW_VOXEL))
+        return give_error(*method == SHADOW_VOXEL ? "shadows: the truth takes march or slicemap (voxel precomputes a "
+                                                    "model's shadow rays)"
+                                                  : "shadows: the truth takes march or slicemap (slicemap-model needs "
+                                                    "a model's bake)",
+                          err, err_size);
     if (shadow_res < 0 || shadow_res > SHADOW_MAX_RES)
         return give_error("shadow_res: expected 0 (the default) to 2048 columns per side", err, err_size);
     return 0;

@@ -24,7 +24,7 @@
 #define RENDER_SYNOPSIS                                                                                      \
     "voxlab render SCENE --model M (--res N [--rays K] [--param NAME=VALUE]... | --vox FILE) [--spp N]\n"         \
     "                     [--size WxH] [--seed S] [--threads T] [--no-cache] [--exact-view] [--no-shadow-skip]\n" \
-    "                     [--backend c|opencl] [--shadows march|slicemap|slicemap-model] [--shadow-res N]\n"    \
+    "                     [--backend c|opencl] [--shadows march|slicemap|slicemap-model|voxel] [--shadow-res N]\n" \
     "                     [--frame F | --frames A:B] [--filter rebake|nearest|split8]\n"                          \
     "                     [--dry-run] -o OUT.exr|OUT.png [--stats S.json]"
 static const char usage[] = "usage: " RENDER_SYNOPSIS "\n";
@@ -51,7 +51,8 @@ const cli_command cmd_render_help = {
         {"--shadows", "METHOD", "the scene's (march)",
          "how declared shadows are computed: march (the model's opacity per shading point), slicemap (the "
          "triangles' light-space slicemap, per-material shadow_sigma), slicemap-model (the model's opacity "
-         "precomputed per light)"},
+         "precomputed per light), voxel (march's shadow rays cast once per voxel and light before the frame, as "
+         "Brito et al. precompute them: march's image; C backend, per-voxel models)"},
         {"--shadow-res", "N", "512; slicemap-model: 1.5 x the grid's N", "columns per side of the precomputed shadow maps"},
         {"--frame", "F", "the scene's first", "animated scenes: the frame to render"},
         {"--frames", "A:B", "none", "animated scenes: frames A to B, written as OUT_000A.exr ... (and S_000A.json)"},

@@ -79,7 +79,10 @@ int cmd_truth(int argc, char **argv)
             o.shadow_method = shadow_method_from_name(val);
             if (o.shadow_method != SHADOW_MARCH && o.shadow_method != SHADOW_SLICEMAP) {
                 fprintf(stderr, "voxlab truth: --shadows %s: expected march or slicemap%s\n%s", val,
-                        o.shadow_method == SHADOW_SLICEMAP_MODEL ? " (slicemap-model needs a model's bake)" : "",
+                        o.shadow_method == SHADOW_SLICEMAP_MODEL ? " (slicemap-model needs a model's bake)"
+                        : o.shadow_method == SHADOW_VOXEL        ? " (voxel precomputes a model's shadow rays: "
+                                                                   "the truth's own are march)"
+                                                                 : "",
                         usage);
                 return 1;
             }

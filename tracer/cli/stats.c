@@ -79,7 +79,7 @@ void stats_add_shadows(cJSON *j, const shadow_stats *st)
         cJSON_AddNullToObject(j, "shadow_res");
     } else {
         cJSON_AddStringToObject(j, "shadow_method", shadow_method_name(st->method));
-        if (st->method == SHADOW_MARCH)
+        if (st->method == SHADOW_MARCH || st->method == SHADOW_VOXEL) /* no columns */
             cJSON_AddNullToObject(j, "shadow_res");
         else
             cJSON_AddNumberToObject(j, "shadow_res", st->res);

@@ -66,13 +66,19 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
     shadow_request sr = {o->shadow_method, o->shadow_res, o->threads, slicemap_fill_model};
     const shadow_set *maps = NULL;
     shadow_stats sst;
+    if (m->cone && shadow_effective_method(s, &sr) == SHADOW_VOXEL) {
+        image_free(out);
+        return vx_fail(e, "--shadows voxel: %s marches cones, whose elements are not voxels (no per-voxel shadow to "
+                          "precompute): use march or slicemap-model",
+                       m->name);
+    }
     if (shadow_prepare(s, g, m, records, &sr, &maps, &sst, e)) {
         image_free(out);
         return -1;
     }
     double p0 = now_seconds();
     render_job j = {s, g, m, records, o, out, calloc((size_t)threads, sizeof(thread_counts)),
-                    camera_pixel_spread(&s->camera, o->height), NULL, maps, 0, 0};
+                    camera_pixel_spread(&s->camera, o->height), NULL, maps, 0, 0, sst.method, 0.0, 0};
     if (!j.tc || marcher->prepare(&j, e)) {
         if (!j.tc)
             vx_fail(e, "out of memory for the render");
@@ -86,7 +92,7 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
     /* The image's pages touched here, not by the render threads (see render_voxel.c's prepare). */
     memset(out->data, 0, (size_t)o->width * (size_t)o->height * 3 * sizeof *out->data);
     long f0 = minor_faults();
-    double t0 = now_seconds(), setup = t0 - p0;
+    double t0 = now_seconds(), setup = t0 - p0 - j.shadow_build_seconds; /* the precomputation apart */
     if (marcher->begin)
         marcher->begin(&j, threads);
     band_job bands = {&j, marcher->row, o->height};
@@ -98,6 +104,10 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
     counts->setup_seconds = setup;
     counts->page_faults = minor_faults() - f0;
     counts->shadows = sst;
+    if (sst.method == SHADOW_VOXEL) {
+        counts->shadows.build_seconds = j.shadow_build_seconds;
+        counts->shadows.bytes = j.shadow_bytes;
+    }
     counts->cache_bytes = j.cache_bytes;
     counts->map_bytes = j.map_bytes;
     uint64_t model_cycles = 0, total_cycles = 0;

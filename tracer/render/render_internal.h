@@ -54,6 +54,9 @@ typedef struct render_job {
     const shadow_set *shadows; /* precomputed shadow maps, or NULL: shadows are marched */
     size_t cache_bytes;        /* the marcher's caches, set by prepare (render_counts.cache_bytes) */
     size_t map_bytes;          /* its maps, set by prepare (render_counts.map_bytes) */
+    int shadow_method;         /* the shadow method in effect (SHADOW_*; -1: no shadows) */
+    double shadow_build_seconds; /* the `voxel` method's precomputation, set by prepare (render_counts.shadows) */
+    size_t shadow_bytes;         /* and its memory */
 } render_job;
 
 /* A way of marching the pixels of a model's protocol. prepare allocates the marcher's state before

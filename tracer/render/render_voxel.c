@@ -23,6 +23,7 @@ typedef struct {
     grid_distance skip; /* the primary rays' empty-space skip (pixel_skip.h); dist NULL: none */
     shadow_clip clips[VX_MAX_LIGHTS]; /* the shadow rays' ends per directional light (shadow_clip.h); g NULL: none */
     pixel_bounds bounds; /* the primary rays' depth bounds per pixel (pixel_bounds.h); near_t NULL: none */
+    float *shadow_T;     /* the `voxel` shadow method's transmittance per voxel and light; NULL: none */
 } voxel_state;
 
 struct voxel_ctx;
@@ -44,6 +45,8 @@ static void cache_put(struct voxel_ctx *x, int64_t index, const vx_answer *a);
 #define VOXEL_RAY_BOUNDS(x, px, py, dir, t_min, t_max) \
     pixel_bounds_ray((x)->bounds, (x)->cam.forward, px, py, dir, t_min, t_max)
 #define VOXEL_PREFETCH_RECORD(x, index) voxel_prefetch_record(x, index)
+#define VOXEL_SHADOW_PRECOMPUTED(x, index, light) \
+    ((x)->shadow_T ? (x)->shadow_T[(size_t)(index) * (size_t)(x)->light_count + (size_t)(light)] : -1.0f)
 #define VOXEL_SKIP_GROUP 16
 /* Pixels of a row that share one skip (voxel_render_span): 4 pixels' 4 rays fill a group. Measured on
  * binary 256^3 (bunny, city, trees): 1 pixel 28.1 / 31.0 / 38.1 ms, 4 pixels 25.3 / 29.6 / 35.5,
@@ -62,6 +65,7 @@ static void cache_put(struct voxel_ctx *x, int64_t index, const vx_answer *a);
     const grid_distance *skip;   \
     const shadow_clip *clips;    \
     const pixel_bounds *bounds;  \
+    const float *shadow_T;       \
     uint64_t model_cycles;       \
     int timed; /* the model's calls are timed in this row (render_internal.h) */
 static float memo_opacity(struct voxel_ctx *x, int64_t index, int light, const vx_query *q);
@@ -128,6 +132,8 @@ static void cache_put(voxel_ctx *x, int64_t index, const vx_answer *a)
  * written by the render threads cost a zero-page fault and a TLB shootdown of the other core each
  * (issue 15: binary gained almost nothing from a second thread). vx_alloc_touched (prefault.h), not
  * malloc + memset: GCC turns that pair into a calloc, whose pages stay untouched. */
+static int voxel_precompute(render_job *j, voxel_state *st, vx_err *e);
+
 static int voxel_prepare(render_job *j, vx_err *e)
 {
     const scene *s = j->s;
@@ -174,6 +180,91 @@ static int voxel_prepare(render_job *j, vx_err *e)
                 return vx_fail(e, "out of memory for the shadow rays' ends (light %d)", li + 1);
             j->map_bytes += shadow_clip_bytes(&st->clips[li]);
         }
+    /* Last: the precomputation marches through the memo and the shadow rays' ends made above. */
+    if (j->shadow_method == SHADOW_VOXEL && voxel_precompute(j, st, e))
+        return -1;
+    return 0;
+}
+
+/* A march's context for job j (one per row, or per share of the shadows' precomputation). */
+static void voxel_ctx_init(const render_job *j, voxel_ctx *x, int timed)
+{
+    const render_options *o = j->o;
+    const scene *s = j->s;
+    memset(x, 0, sizeof *x);
+    x->timed = timed;
+    x->g = j->g;
+    x->records = j->records;
+    x->record_bytes = j->m->record.bytes;
+    x->cam = s->camera;
+    x->background = s->background;
+    x->light_count = s->light_count < VX_MAX_LIGHTS ? s->light_count : VX_MAX_LIGHTS;
+    for (int li = 0; li < x->light_count; li++)
+        x->lights[li] = s->lights[li];
+    x->effects = s->effects;
+    x->spread = j->spread;
+    x->stop_opacity = o->stop_opacity;
+    x->shadow_skip = o->shadow_skip;
+    x->cache = o->cache;
+    const voxel_state *st = j->state;
+    x->eval = j->m->voxel;
+    x->compositing = j->m->voxel->compositing;
+    x->shading = st->cache;
+    x->memo = st->memo;
+    x->memo_lights = st->lights;
+    x->opacity_by_direction = st->memo != NULL;
+    x->view_tile = view_tile_width(render_view_tile_pixels(j->m, o), j->spread);
+    x->skip = &st->skip;
+    x->clips = st->clips;
+    x->bounds = &st->bounds;
+    x->shadow_T = st->shadow_T;
+    shadow_set_view(j->shadows, &x->shadows);
+}
+
+/* The `voxel` shadow method's precomputation: every voxel's transmittance toward every light
+ * (render_voxel_core.h's voxel_precompute_shadows), SHADOW_PRECOMPUTE_SHARES shares of the voxels
+ * taken by the threads in turn; each voxel's numbers depend on it alone, so they do not depend on
+ * the thread count. */
+#define SHADOW_PRECOMPUTE_SHARES 256
+
+typedef struct {
+    const render_job *j;
+    float *T;
+    size_t voxels;
+} shadow_precompute_job;
+
+static void shadow_precompute_share(void *p, int64_t share, int thread)
+{
+    const shadow_precompute_job *J = p;
+    (void)thread;
+    voxel_ctx x;
+    voxel_ctx_init(J->j, &x, 0);
+    x.shadow_T = NULL; /* marched, not read back */
+    size_t lo = J->voxels * (size_t)share / SHADOW_PRECOMPUTE_SHARES;
+    size_t hi = J->voxels * (size_t)(share + 1) / SHADOW_PRECOMPUTE_SHARES;
+    for (size_t i = lo; i < hi; i++) {
+        grid_hit h = {0};
+        grid_coords(x.g, 0, i, &h.x, &h.y, &h.z);
+        h.index = (int64_t)i;
+        voxel_precompute_shadows(&x, &h, &J->T[i * (size_t)x.light_count]);
+    }
+}
+
+static int voxel_precompute(render_job *j, voxel_state *st, vx_err *e)
+{
+    size_t voxels = grid_count(j->g, 0);
+    int lights = j->s->light_count < VX_MAX_LIGHTS ? j->s->light_count : VX_MAX_LIGHTS;
+    size_t bytes = (voxels ? voxels : 1) * (size_t)lights * sizeof *st->shadow_T;
+    double t0 = now_seconds();
+    float *T = vx_alloc_touched(bytes, 0);
+    if (!T)
+        return vx_fail(e, "out of memory for the voxels' precomputed shadows (%zu voxels, %d lights)", voxels, lights);
+    shadow_precompute_job J = {j, T, voxels};
+    parallel_for(SHADOW_PRECOMPUTE_SHARES, j->o->threads, shadow_precompute_share, &J,
+                 j->o->progress ? "shadows" : NULL);
+    st->shadow_T = T;
+    j->shadow_build_seconds = now_seconds() - t0;
+    j->shadow_bytes = bytes;
     return 0;
 }
 
@@ -181,37 +272,10 @@ static void voxel_row(void *p, int64_t row, int thread)
 {
     render_job *j = p;
     const render_options *o = j->o;
-    const scene *s = j->s;
     int timed = render_row_timed(row);
     uint64_t c0 = timed ? cycles() : 0;
     voxel_ctx x;
-    memset(&x, 0, sizeof x);
-    x.timed = timed;
-    x.g = j->g;
-    x.records = j->records;
-    x.record_bytes = j->m->record.bytes;
-    x.cam = s->camera;
-    x.background = s->background;
-    x.light_count = s->light_count < VX_MAX_LIGHTS ? s->light_count : VX_MAX_LIGHTS;
-    for (int li = 0; li < x.light_count; li++)
-        x.lights[li] = s->lights[li];
-    x.effects = s->effects;
-    x.spread = j->spread;
-    x.stop_opacity = o->stop_opacity;
-    x.shadow_skip = o->shadow_skip;
-    x.cache = o->cache;
-    const voxel_state *st = j->state;
-    x.eval = j->m->voxel;
-    x.compositing = j->m->voxel->compositing;
-    x.shading = st->cache;
-    x.memo = st->memo;
-    x.memo_lights = st->lights;
-    x.opacity_by_direction = st->memo != NULL;
-    x.view_tile = view_tile_width(render_view_tile_pixels(j->m, o), j->spread);
-    x.skip = &st->skip;
-    x.clips = st->clips;
-    x.bounds = &st->bounds;
-    shadow_set_view(j->shadows, &x.shadows);
+    voxel_ctx_init(j, &x, timed);
     int sx, sy;
     truth_strata(o->spp, &sx, &sy);
     int py = (int)row;
@@ -239,6 +303,7 @@ static void voxel_release(render_job *j)
     if (st) {
         free(st->cache.slots);
         free(st->memo);
+        free(st->shadow_T);
         grid_distance_free(&st->skip);
         pixel_bounds_free(&st->bounds);
         for (int li = 0; li < VX_MAX_LIGHTS; li++)

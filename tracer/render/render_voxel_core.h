@@ -42,6 +42,9 @@
  *                                 cells with the same [t0, t1]);
  * and VOXEL_PREFETCH_RECORD(x, index): a hint that voxel `index`'s record is about to be read
  * (the C backend's prefetch; nothing else may depend on it);
+ * and VOXEL_SHADOW_PRECOMPUTED(x, index, light): voxel `index`'s transmittance toward light `light`
+ *                                 as voxel_precompute_shadows computed it before the frame (the
+ *                                 `voxel` shadow method), or a negative number when there is none;
  * and it may also define
  *   VOXEL_SHADOW_MEMO(x, index, light, q)  voxel `index`'s opacity toward directional light
  *                                 `light`, asked of the model with query q once and then remembered;
@@ -78,6 +81,9 @@
 #endif
 #ifndef VOXEL_SHADOW_END
 #define VOXEL_SHADOW_END(x, light, p, dir, t_max) (t_max)
+#endif
+#ifndef VOXEL_SHADOW_PRECOMPUTED
+#define VOXEL_SHADOW_PRECOMPUTED(x, index, light) (-1.0f)
 #endif
 #ifndef VOXEL_PREFETCH_RECORD
 #define VOXEL_PREFETCH_RECORD(x, index)
@@ -165,20 +171,35 @@ VX_INLINE float voxel_shadow_transmittance(voxel_ctx *x, const vx_query *q, int6
     return T;
 }
 
-/* Fills q's lights for a voxel centred at c (shadows applied when declared). */
-VX_INLINE void voxel_gather_lights(voxel_ctx *x, vx_query *q, int64_t self, vec3 c)
+/* The transmittance toward light li (direction dir, at distance dist) of voxel `self` centred at c,
+ * the scene declaring shadows: the precomputed maps', the `voxel` method's precomputation
+ * (VOXEL_SHADOW_PRECOMPUTED), or a shadow ray marched now. */
+VX_INLINE float voxel_light_transmittance(voxel_ctx *x, const vx_query *q, int64_t self, vec3 c, vec3 dir, float dist,
+                                          int li)
+{
+    if (shadow_maps_active(&x->shadows))
+        return shadow_maps_transmittance(&x->shadows, li, c, shadow_maps_voxel_skip(x->g->voxel_size, x->shadow_skip));
+    float T = VOXEL_SHADOW_PRECOMPUTED(x, self, li);
+    if (T >= 0.0f)
+        return T;
+    return voxel_shadow_transmittance(x, q, self, c, dir, dist, li, x->opacity_by_direction && !(dist < INFINITY));
+}
+
+/* Fills q's lights for a voxel centred at c (shadows applied when declared). T_out, when not NULL,
+ * receives each light's transmittance (voxel_precompute_shadows). */
+VX_INLINE void voxel_gather_lights(voxel_ctx *x, vx_query *q, int64_t self, vec3 c, float *T_out)
 {
     q->light_count = x->light_count;
     for (int li = 0; li < q->light_count; li++) {
         vec3 dir, irr;
         float dist;
         light_at(&x->lights[li], c, &dir, &irr, &dist);
-        if ((x->effects & VX_EFFECT_SHADOWS) && shadow_maps_active(&x->shadows))
-            irr = v3_scale(irr, shadow_maps_transmittance(&x->shadows, li, c, shadow_maps_voxel_skip(x->g->voxel_size,
-                                                                                                     x->shadow_skip)));
-        else if (x->effects & VX_EFFECT_SHADOWS)
-            irr = v3_scale(irr, voxel_shadow_transmittance(x, q, self, c, dir, dist, li,
-                                                           x->opacity_by_direction && !(dist < INFINITY)));
+        if (x->effects & VX_EFFECT_SHADOWS) {
+            float T = voxel_light_transmittance(x, q, self, c, dir, dist, li);
+            irr = v3_scale(irr, T);
+            if (T_out)
+                T_out[li] = T;
+        }
         q->to_light[li] = dir;
         q->irradiance[li] = irr;
     }
@@ -193,7 +214,7 @@ VX_INLINE void voxel_evaluate(voxel_ctx *x, vx_query *q, int64_t index, vec3 cen
     x->counts.evals++;
     if (!(a->opacity > 0.0f))
         return;
-    voxel_gather_lights(x, q, index, centre);
+    voxel_gather_lights(x, q, index, centre, NULL);
     VOXEL_SHADE(x, rec, q, a);
 }
 
@@ -207,6 +228,22 @@ VX_INLINE void voxel_query(const voxel_ctx *x, const grid_hit *h, vx_query *q, v
     *centre = v3_scale(v3_add(q->voxel_lo, hi), 0.5f);
     q->voxel_size = x->g->voxel_size;
     q->effects = x->effects;
+}
+
+/* The query of a cached evaluation of the voxel h: the direction from its centre toward the camera
+ * (dir, the ray's, only where the two coincide); the opacity's, with the model's view tiles, from
+ * its view tile's centre (view_tile.h). */
+VX_INLINE void voxel_cached_query(const voxel_ctx *x, const grid_hit *h, vec3 dir, vx_query *q, vec3 *centre)
+{
+    voxel_query(x, h, q, centre);
+    vec3 to_cam = v3_sub(x->cam.position, *centre);
+    float dist = v3_length(to_cam);
+    q->to_viewer = v3_normalize_or(to_cam, v3_scale(dir, -1.0f));
+    q->ray_dir = view_tile_direction(&x->cam, x->view_tile, v3_scale(q->to_viewer, -1.0f));
+    q->ray_origin = x->cam.position;
+    q->t0 = dist - 0.5f * x->g->voxel_size;
+    q->t1 = dist + 0.5f * x->g->voxel_size;
+    q->footprint = dist * x->spread;
 }
 
 /* The voxel's answer: from the cache (for the direction voxel -> camera), or as this ray sees it. */
@@ -223,17 +260,7 @@ VX_INLINE void voxel_answer(voxel_ctx *x, const grid_hit *h, vec3 org, vec3 dir,
          * overlaps that work (vmesh's 139-byte records: its first read was a sixth of its opacity's
          * profile). */
         VOXEL_PREFETCH_RECORD(x, h->index);
-        voxel_query(x, h, &q, &centre);
-        /* The cached direction: from the voxel's centre toward the camera; the opacity's, with the
-         * model's view tiles, from its view tile's centre (view_tile.h). */
-        vec3 to_cam = v3_sub(x->cam.position, centre);
-        float dist = v3_length(to_cam);
-        q.to_viewer = v3_normalize_or(to_cam, v3_scale(dir, -1.0f));
-        q.ray_dir = view_tile_direction(&x->cam, x->view_tile, v3_scale(q.to_viewer, -1.0f));
-        q.ray_origin = x->cam.position;
-        q.t0 = dist - 0.5f * x->g->voxel_size;
-        q.t1 = dist + 0.5f * x->g->voxel_size;
-        q.footprint = dist * x->spread;
+        voxel_cached_query(x, h, dir, &q, &centre);
         voxel_evaluate(x, &q, h->index, centre, a);
         VOXEL_CACHE_PUT(x, h->index, a);
         return;
@@ -249,6 +276,21 @@ VX_INLINE void voxel_answer(voxel_ctx *x, const grid_hit *h, vec3 org, vec3 dir,
     if ((x->effects & VX_EFFECT_DOF) && x->cam.aperture_radius > 0.0f)
         q.footprint += x->cam.aperture_radius * fabsf(tm - x->cam.focus_distance) / x->cam.focus_distance;
     voxel_evaluate(x, &q, h->index, centre, a);
+}
+
+/* The `voxel` shadow method's precomputation (Brito et al. 2023, §5: "In a precomputation, we cast
+ * a shadow ray from a light source toward the center of a voxel"): voxel h's transmittance toward
+ * each light, into T[0 .. light_count - 1], computed as voxel_gather_lights computes it for the
+ * voxel's cached evaluation (the same query, the same march), so a frame that reads it back has
+ * the march's image bit for bit. The frame asks it only of voxels that are not transparent toward
+ * the camera; this asks it of every voxel (the frame's voxels are not known before it). x must not
+ * have precomputed shadows yet (VOXEL_SHADOW_PRECOMPUTED negative). */
+VX_INLINE void voxel_precompute_shadows(voxel_ctx *x, const grid_hit *h, float *T)
+{
+    vx_query q;
+    vec3 centre;
+    voxel_cached_query(x, h, x->cam.forward, &q, &centre);
+    voxel_gather_lights(x, &q, h->index, centre, T);
 }
 
 /* One ray: the voxels' answers composited front to back over the background. [t_min, t_max]: where

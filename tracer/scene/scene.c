@@ -238,7 +238,7 @@ static int parse_effects(scene *s, const cJSON *root, vx_err *e)
     return 0;
 }
 
-/* "shadows": {"method": "march" | "slicemap" | "slicemap-model", "resolution": N}: how the declared
+/* "shadows": {"method": "march" | "slicemap" | "slicemap-model" | "voxel", "resolution": N}: how the declared
  * shadows effect is computed (voxlab's --shadows and --shadow-res override it). Only with the
  * effect: a method for shadows the scene does not have is a contradiction, refused. */
 static int parse_shadows(scene *s, const cJSON *root, vx_err *e)
@@ -258,14 +258,15 @@ static int parse_shadows(scene *s, const cJSON *root, vx_err *e)
         json_int_in(sh, "resolution", where, 1, SCENE_MAX_SHADOW_RES, &s->shadow_res, e))
         return -1;
     if (method) {
-        static const char *const names[] = {"march", "slicemap", "slicemap-model"};
+        /* In the order of SHADOW_* (shadow_maps_core.h). */
+        static const char *const names[] = {"march", "slicemap", "slicemap-model", "voxel"};
         s->shadow_method = -1;
-        for (int i = 0; i < 3; i++)
+        for (int i = 0; i < (int)(sizeof names / sizeof *names); i++)
             if (strcmp(method, names[i]) == 0)
                 s->shadow_method = i;
         if (s->shadow_method < 0)
             return vx_fail(e, "%s.method: unknown shadow method \"%s\" (expected one of march, slicemap, "
-                              "slicemap-model)",
+                              "slicemap-model, voxel)",
                            where, method);
     }
     return 0;

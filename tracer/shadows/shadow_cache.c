@@ -12,11 +12,12 @@
 
 #define CACHE_ENTRIES 8
 
-static const char *const names[] = {"march", "slicemap", "slicemap-model"};
+static const char *const names[] = {"march", "slicemap", "slicemap-model", "voxel"};
+#define METHODS ((int)(sizeof names / sizeof *names))
 
 int shadow_method_from_name(const char *name)
 {
-    for (int i = 0; i < 3; i++)
+    for (int i = 0; i < METHODS; i++)
         if (strcmp(name, names[i]) == 0)
             return i;
     return -1;
@@ -24,7 +25,7 @@ int shadow_method_from_name(const char *name)
 
 const char *shadow_method_name(int method)
 {
-    return method >= 0 && method < 3 ? names[method] : "none";
+    return method >= 0 && method < METHODS ? names[method] : "none";
 }
 
 int shadow_effective_method(const scene *s, const shadow_request *r)
@@ -90,7 +91,7 @@ int shadow_prepare(const scene *s, const voxel_grid *g, const vx_model *m, const
     memset(st, 0, sizeof *st);
     int method = shadow_effective_method(s, r);
     st->method = method;
-    if (method <= SHADOW_MARCH)
+    if (method <= SHADOW_MARCH || method == SHADOW_VOXEL) /* no maps (the voxel marcher precomputes its own) */
         return 0;
     if (method == SHADOW_SLICEMAP_MODEL && (!m || !g || !records || !r || !r->fill_model))
         return vx_fail(e, "--shadows slicemap-model: needs a model's bake (the ground truth has none: use march or "

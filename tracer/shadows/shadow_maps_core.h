@@ -29,7 +29,9 @@
 #include "model.h"
 
 /* Shadow methods (`--shadows`, a scene's "shadows": {"method"}). */
-enum { SHADOW_MARCH = 0, SHADOW_SLICEMAP = 1, SHADOW_SLICEMAP_MODEL = 2 };
+/* SHADOW_VOXEL builds no map: the voxel marcher precomputes the march's transmittance per voxel
+ * (render_voxel_core.h's voxel_precompute_shadows). */
+enum { SHADOW_MARCH = 0, SHADOW_SLICEMAP = 1, SHADOW_SLICEMAP_MODEL = 2, SHADOW_VOXEL = 3 };
 
 /* One light's map. Only types that C on x86-64 and OpenCL C lay out alike (it travels inside the
  * OpenCL kernels' parameter blocks): 64-bit integers first, then 4-byte fields. */

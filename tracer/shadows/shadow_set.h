@@ -55,11 +55,11 @@ typedef struct {
     uint64_t queries;
 } shadow_stats;
 
-/* "march", "slicemap", "slicemap-model" -> SHADOW_*; -1 for another name. */
+/* "march", "slicemap", "slicemap-model", "voxel" -> SHADOW_*; -1 for another name. */
 int shadow_method_from_name(const char *name);
 const char *shadow_method_name(int method);
 /* "march, slicemap, slicemap-model" (for messages and --help). */
-#define SHADOW_METHOD_NAMES "march, slicemap, slicemap-model"
+#define SHADOW_METHOD_NAMES "march, slicemap, slicemap-model, voxel"
 
 /* The method a render of s uses under request r: -1 when s does not declare shadows (nothing is
  * computed), else r's or the scene's. */

@@ -349,8 +349,11 @@ int truth_render(const rt_scene *rt, const truth_options *o, image *out, truth_c
     while (gcd(j.lens_a, m) != 1)
         j.lens_a++;
     /* The slicemap (--shadows slicemap), built before the clock starts: its time is reported apart. */
-    /* A scene that asks for slicemap-model: the truth has no model, its shadow rays are the reference. */
-    int method = o->shadow_method < 0 && s->shadow_method == SHADOW_SLICEMAP_MODEL ? SHADOW_MARCH : o->shadow_method;
+    /* A scene that asks for slicemap-model or voxel: the truth has no model, its shadow rays are the
+     * reference. */
+    int method = o->shadow_method < 0 && (s->shadow_method == SHADOW_SLICEMAP_MODEL || s->shadow_method == SHADOW_VOXEL)
+                     ? SHADOW_MARCH
+                     : o->shadow_method;
     shadow_request sr = {method, o->shadow_res, o->threads, NULL};
     shadow_stats sst;
     if (shadow_prepare(s, NULL, NULL, NULL, &sr, &j.maps, &sst, e)) {
