@@ -17,7 +17,8 @@
  *      the voxelisation needs and the rebuild does not;
  *  (f) (a) on the other scenes the issue is checked on, city and trees: every model's frame time at
  *      256^3, 256x256, 4 spp, and over the Embree truth's at 4 spp on the same image (medians of RUNS
- *      interleaved), the models baked together in one pass of the sampler.
+ *      interleaved), the models baked together in one pass of the sampler; and the per-voxel models'
+ *      frames with --shadows voxel, their precomputation beside.
  * usage: bench_frame [BUNNY_SCENE [CITY_SCENE [MAX_RES [TREES_SCENE]]]] */
 #include <stdio.h>
 #include <stdlib.h>
@@ -148,11 +149,15 @@ static int scene_frames(const scene *s)
         rt_free(&rt);
         return die("bake", &e);
     }
-    double t[BAKE_MAX_MODELS + 1][RUNS];
+    double t[BAKE_MAX_MODELS + 1][RUNS], pre[BAKE_MAX_MODELS][RUNS], pre_build[BAKE_MAX_MODELS][RUNS];
     for (int run = 0; run < RUNS; run++) {
         for (int k = 0; k < n; k++) {
             baked b = {m[k], g, records[k]};
             t[k][run] = frame(s, &b, 256, 0);
+            if (!m[k]->cone) {
+                pre[k][run] = frame_shadows(s, &b, 256, 0, SHADOW_VOXEL);
+                pre_build[k][run] = last_shadow_build;
+            }
         }
         t[n][run] = truth_frame(&rt, 256);
     }
@@ -161,6 +166,10 @@ static int scene_frames(const scene *s)
            1e3 * truth);
     for (int k = 0; k < n; k++)
         printf(" %s %.1f ms (x%.1f)", m[k]->name, 1e3 * bench_median(t[k], RUNS), bench_median(t[k], RUNS) / truth);
+    printf("\n    with shadows precomputed per voxel (--shadows voxel), frame (precomputation):");
+    for (int k = 0; k < n; k++)
+        if (!m[k]->cone)
+            printf(" %s %.1f ms (%.1f)", m[k]->name, 1e3 * bench_median(pre[k], RUNS), 1e3 * bench_median(pre_build[k], RUNS));
     printf("\n");
     for (int k = 0; k < n; k++)
         free(records[k]);

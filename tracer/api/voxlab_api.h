@@ -44,9 +44,9 @@ int vxapi_bake_save(const vxapi_bake *b, const char *vox_path, char *err, size_t
 void vxapi_bake_free(vxapi_bake *b);
 
 /* `voxlab render` of a bake (from vxapi_bake_run or vxapi_bake_load, for the same scene): seed is
- * the render's; backend "c" or "opencl" (NULL: "c"); shadows "march", "slicemap" or "slicemap-model"
- * (NULL: the scene's method), shadow_res its --shadow-res (0: the default). Precomputed shadow maps
- * stay cached in the process (tracer/shadows/shadow_cache.c). */
+ * the render's; backend "c" or "opencl" (NULL: "c"); shadows "march", "slicemap", "slicemap-model" or
+ * "voxel" (NULL: the scene's method), shadow_res its --shadow-res (0: the default). Precomputed
+ * shadow maps stay cached in the process (tracer/shadows/shadow_cache.c); voxel's are built per render. */
 int vxapi_render(const vxapi_scene *s, const vxapi_bake *b, int width, int height, int spp, long long seed,
                  int threads, int cache, int shadow_skip, const char *backend, const char *shadows, int shadow_res,
                  float **pixels, int *out_width, int *out_height, char **stats, char *err, size_t err_size);
