@@ -52,7 +52,7 @@ const cli_command cmd_render_help = {
          "how declared shadows are computed: march (the model's opacity per shading point), slicemap (the "
          "triangles' light-space slicemap, per-material shadow_sigma), slicemap-model (the model's opacity "
          "precomputed per light), voxel (march's shadow rays cast once per voxel and light before the frame, as "
-         "Brito et al. precompute them: march's image; C backend, per-voxel models)"},
+         "Brito et al. precompute them: march's image; per-voxel models)"},
         {"--shadow-res", "N", "512; slicemap-model: 1.5 x the grid's N", "columns per side of the precomputed shadow maps"},
         {"--frame", "F", "the scene's first", "animated scenes: the frame to render"},
         {"--frames", "A:B", "none", "animated scenes: frames A to B, written as OUT_000A.exr ... (and S_000A.json)"},

@@ -52,6 +52,16 @@ static void render_band(void *p, int64_t band, int thread)
         b->row(b->j, r, thread);
 }
 
+int render_shadow_method_refused(const scene *s, const vx_model *m, const render_options *o, vx_err *e)
+{
+    shadow_request r = {o->shadow_method, o->shadow_res, o->threads, NULL};
+    if (m->cone && shadow_effective_method(s, &r) == SHADOW_VOXEL)
+        return vx_fail(e, "--shadows voxel: %s marches cones, whose elements are not voxels (no per-voxel shadow to "
+                          "precompute): use march or slicemap-model",
+                       m->name);
+    return 0;
+}
+
 int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const void *records,
                  const render_options *o, image *out, render_counts *counts, vx_err *e)
 {
@@ -66,11 +76,9 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
     shadow_request sr = {o->shadow_method, o->shadow_res, o->threads, slicemap_fill_model};
     const shadow_set *maps = NULL;
     shadow_stats sst;
-    if (m->cone && shadow_effective_method(s, &sr) == SHADOW_VOXEL) {
+    if (render_shadow_method_refused(s, m, o, e)) {
         image_free(out);
-        return vx_fail(e, "--shadows voxel: %s marches cones, whose elements are not voxels (no per-voxel shadow to "
-                          "precompute): use march or slicemap-model",
-                       m->name);
+        return -1;
     }
     if (shadow_prepare(s, g, m, records, &sr, &maps, &sst, e)) {
         image_free(out);

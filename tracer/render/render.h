@@ -75,4 +75,15 @@ int render_view_tile_pixels(const vx_model *m, const render_options *o);
 int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const void *records,
                  const render_options *o, image *out, render_counts *counts, vx_err *e);
 
+/* Nonzero (e says why) when the shadow method o asks for (or s declares) does not apply to m: the
+ * voxel method to a cone model. Both backends ask before anything else. */
+int render_shadow_method_refused(const scene *s, const vx_model *m, const render_options *o, vx_err *e);
+
+/* The `voxel` shadow method's precomputation alone (render_voxel_core.h's voxel_precompute_shadows,
+ * on the C tracer's threads), for a backend that reads it back (the OpenCL host uploads it): every
+ * level-0 voxel's transmittance toward every light (the scene declaring shadows), at
+ * [voxel * lights + light], lights = min(light_count, VX_MAX_LIGHTS); *T is the caller's to free. */
+int render_voxel_shadows(const scene *s, const voxel_grid *g, const vx_model *m, const void *records,
+                         const render_options *o, float **T, size_t *bytes, vx_err *e);
+
 #endif

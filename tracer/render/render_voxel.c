@@ -134,6 +134,34 @@ static void cache_put(voxel_ctx *x, int64_t index, const vx_answer *a)
  * malloc + memset: GCC turns that pair into a calloc, whose pages stay untouched. */
 static int voxel_precompute(render_job *j, voxel_state *st, vx_err *e);
 
+/* What shadow rays march through: the directional lights' opacity memo and the rays' ends (only
+ * marched shadows cast shadow rays). */
+static int voxel_prepare_shadow_rays(render_job *j, voxel_state *st, vx_err *e)
+{
+    const scene *s = j->s;
+    size_t n = grid_count(j->g, 0);
+    st->lights = render_shadow_memo_lights(s, j->m, j->shadows);
+    if (st->lights) {
+        size_t slots = (n ? n : 1) * (size_t)st->lights;
+        /* Filled byte by byte: the empty slot's bits must be one byte repeated. */
+        _Static_assert(SHADOW_MEMO_EMPTY == (SHADOW_MEMO_EMPTY & 0xFFu) * 0x01010101u,
+                       "SHADOW_MEMO_EMPTY is not one byte repeated");
+        st->memo = vx_alloc_touched(slots * sizeof *st->memo, (int)(SHADOW_MEMO_EMPTY & 0xFFu));
+        if (!st->memo)
+            return vx_fail(e, "out of memory for the shadow opacity memo (%zu voxels)", n);
+        j->cache_bytes += slots * sizeof *st->memo;
+    }
+    if (j->o->shadow_clip && (s->effects & EFFECT_SHADOWS) && !j->shadows)
+        for (int li = 0; li < s->light_count && li < VX_MAX_LIGHTS; li++) {
+            if (s->lights[li].type != LIGHT_DIRECTIONAL)
+                continue;
+            if (shadow_clip_build(&st->clips[li], j->g, s->lights[li].direction))
+                return vx_fail(e, "out of memory for the shadow rays' ends (light %d)", li + 1);
+            j->map_bytes += shadow_clip_bytes(&st->clips[li]);
+        }
+    return 0;
+}
+
 static int voxel_prepare(render_job *j, vx_err *e)
 {
     const scene *s = j->s;
@@ -150,17 +178,8 @@ static int voxel_prepare(render_job *j, vx_err *e)
             return vx_fail(e, "out of memory for the shading cache (%zu slots)", st->cache.count);
         j->cache_bytes += st->cache.count * sizeof(shading_cache_slot);
     }
-    st->lights = render_shadow_memo_lights(s, j->m, j->shadows);
-    if (st->lights) {
-        size_t slots = (n ? n : 1) * (size_t)st->lights;
-        /* Filled byte by byte: the empty slot's bits must be one byte repeated. */
-        _Static_assert(SHADOW_MEMO_EMPTY == (SHADOW_MEMO_EMPTY & 0xFFu) * 0x01010101u,
-                       "SHADOW_MEMO_EMPTY is not one byte repeated");
-        st->memo = vx_alloc_touched(slots * sizeof *st->memo, (int)(SHADOW_MEMO_EMPTY & 0xFFu));
-        if (!st->memo)
-            return vx_fail(e, "out of memory for the shadow opacity memo (%zu voxels)", n);
-        j->cache_bytes += slots * sizeof *st->memo;
-    }
+    if (voxel_prepare_shadow_rays(j, st, e))
+        return -1;
     /* The skip serves only the frames without the pixels' depth bounds: under depth of field, or when
      * a voxel may straddle the camera's plane (the camera inside the grid). Elsewhere its build
      * (6.5 ms on bunny 256^3, where alpha's frame takes 45) would be work for nothing. */
@@ -171,15 +190,6 @@ static int voxel_prepare(render_job *j, vx_err *e)
     if (j->o->empty_skip && (!bounds || pixel_bounds_may_fail(&st->bounds, j->g, &s->camera)) &&
         grid_distance_build(&st->skip, j->g))
         return vx_fail(e, "out of memory for the empty-space skip's distance field");
-    /* Only marched shadows cast shadow rays. */
-    if (j->o->shadow_clip && (s->effects & EFFECT_SHADOWS) && !j->shadows)
-        for (int li = 0; li < s->light_count && li < VX_MAX_LIGHTS; li++) {
-            if (s->lights[li].type != LIGHT_DIRECTIONAL)
-                continue;
-            if (shadow_clip_build(&st->clips[li], j->g, s->lights[li].direction))
-                return vx_fail(e, "out of memory for the shadow rays' ends (light %d)", li + 1);
-            j->map_bytes += shadow_clip_bytes(&st->clips[li]);
-        }
     /* Last: the precomputation marches through the memo and the shadow rays' ends made above. */
     if (j->shadow_method == SHADOW_VOXEL && voxel_precompute(j, st, e))
         return -1;
@@ -333,4 +343,27 @@ int render_shadow_memo_lights(const scene *s, const vx_model *m, const shadow_se
 int render_view_tile_pixels(const vx_model *m, const render_options *o)
 {
     return m->voxel && o->cache && o->view_tiles ? m->voxel->view_tile_pixels : 0;
+}
+
+int render_voxel_shadows(const scene *s, const voxel_grid *g, const vx_model *m, const void *records,
+                         const render_options *o, float **T, size_t *bytes, vx_err *e)
+{
+    *T = NULL;
+    *bytes = 0;
+    if (!m->voxel)
+        return vx_fail(e, "--shadows voxel: %s marches cones, whose elements are not voxels", m->name);
+    render_job j = {s, g, m, records, o, NULL, NULL, camera_pixel_spread(&s->camera, o->height), NULL, NULL,
+                    0, 0, SHADOW_VOXEL, 0.0, 0};
+    voxel_state *st = calloc(1, sizeof *st);
+    if (!st)
+        return vx_fail(e, "out of memory for the voxels' precomputed shadows");
+    j.state = st;
+    int rc = voxel_prepare_shadow_rays(&j, st, e) || voxel_precompute(&j, st, e) ? -1 : 0;
+    if (!rc) {
+        *T = st->shadow_T;
+        *bytes = j.shadow_bytes;
+        st->shadow_T = NULL;
+    }
+    voxel_release(&j);
+    return rc;
 }

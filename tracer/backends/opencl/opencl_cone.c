@@ -130,9 +130,8 @@ int opencl_render_cone(const opencl_runtime *rt, const scene *s, const voxel_gri
     shadow_request sr = {o->shadow_method, o->shadow_res, o->threads, slicemap_fill_model};
     const shadow_set *maps = NULL;
     shadow_stats sst;
-    if (shadow_effective_method(s, &sr) == SHADOW_VOXEL)
-        return vx_fail(e, "--shadows voxel: the OpenCL backend does not precompute the voxels' shadows (use "
-                          "--backend c, or --shadows march: the same image, its shadow rays in the frame)");
+    if (render_shadow_method_refused(s, m, o, e))
+        return -1;
     if (shadow_prepare(s, g, m, records, &sr, &maps, &sst, e))
         return -1;
     opencl_launch L;

@@ -4,6 +4,7 @@
 #include "opencl_voxel.h"
 
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "camera.h"
@@ -16,8 +17,8 @@
 
 /* vx_render's buffer arguments, in order (render.cl), then the pixel count. */
 enum {
-    B_PARAMS, B_COLS, B_BITS, B_PREFIX, B_RECORDS, B_CACHE, B_STATE, B_MEMO, B_SHADOWS, B_IMAGE, B_COUNTS, B_NEXT_TILE,
-    B_N
+    B_PARAMS, B_COLS, B_BITS, B_PREFIX, B_RECORDS, B_CACHE, B_STATE, B_MEMO, B_SHADOWS, B_SHADOW_T, B_IMAGE, B_COUNTS,
+    B_NEXT_TILE, B_N
 };
 
 static void fill_params(vx_cl_params *p, const scene *s, const voxel_grid *g, const render_options *o,
@@ -44,9 +45,11 @@ static void fill_params(vx_cl_params *p, const scene *s, const voxel_grid *g, co
     vx_cl_shadow_params_fill(&p->shadows, maps);
 }
 
+/* shadow_T (shadow_T_bytes): the voxel method's transmittances (render_voxel_shadows), or NULL. */
 static int render(opencl_launch *L, const opencl_runtime *rt, const scene *s, const voxel_grid *g, const vx_model *m,
-                  const void *records, const render_options *o, const shadow_set *maps, image *out,
-                  render_counts *counts, backend_counts *bc, const char *build_dir, vx_err *e)
+                  const void *records, const render_options *o, const shadow_set *maps, const float *shadow_T,
+                  size_t shadow_T_bytes, image *out, render_counts *counts, backend_counts *bc, const char *build_dir,
+                  vx_err *e)
 {
     size_t voxels = grid_count(g, 0), pixels = (size_t)o->width * (size_t)o->height;
     opencl_clock c = {.start = now_seconds()};
@@ -65,7 +68,9 @@ static int render(opencl_launch *L, const opencl_runtime *rt, const scene *s, co
     c.compiled = now_seconds();
     vx_cl_params params;
     fill_params(&params, s, g, o, maps);
-    params.memo_lights = render_shadow_memo_lights(s, m, maps);
+    /* With the transmittances precomputed the frame casts no shadow ray: no memo. */
+    params.memo_lights = shadow_T ? 0 : render_shadow_memo_lights(s, m, maps);
+    params.shadow_T_lights = shadow_T ? params.light_count : 0;
     params.view_tile = view_tile_width(render_view_tile_pixels(m, o), params.spread);
     size_t cached = o->cache ? voxels : 0, memo_bytes = voxels * (size_t)params.memo_lights * sizeof(cl_uint);
     const cl_mem_flags RO = CL_MEM_READ_ONLY, RW = CL_MEM_READ_WRITE;
@@ -77,6 +82,7 @@ static int render(opencl_launch *L, const opencl_runtime *rt, const scene *s, co
         opencl_launch_buffer(L, B_MEMO, RW, memo_bytes, NULL, e) ||
         opencl_launch_buffer(L, B_SHADOWS, RO | CL_MEM_USE_HOST_PTR, maps ? maps->bytes : 0, maps ? maps->block : NULL,
                              e) ||
+        opencl_launch_buffer(L, B_SHADOW_T, RO | CL_MEM_USE_HOST_PTR, shadow_T ? shadow_T_bytes : 0, shadow_T, e) ||
         opencl_launch_buffer(L, B_IMAGE, CL_MEM_WRITE_ONLY | CL_MEM_USE_HOST_PTR, pixels * 3 * sizeof(float), out->data,
                              e) ||
         opencl_launch_counters(L, B_COUNTS, e) || opencl_launch_buffer(L, B_NEXT_TILE, RW, sizeof(cl_int), NULL, e) ||
@@ -101,21 +107,28 @@ int opencl_render_voxels(const opencl_runtime *rt, const scene *s, const voxel_g
                          const void *records, const render_options *o, image *out, render_counts *counts,
                          backend_counts *bc, const char *build_dir, vx_err *e)
 {
-    /* The precomputed shadows, as the C backend builds them (the same maps: the same image), before
-     * the render's clock; uploaded in place. */
+    /* The precomputed shadows, as the C backend builds them (the same maps, the same transmittances
+     * per voxel: the same image), before the render's clock; uploaded in place. */
     shadow_request sr = {o->shadow_method, o->shadow_res, o->threads, slicemap_fill_model};
     const shadow_set *maps = NULL;
     shadow_stats sst;
-    if (shadow_effective_method(s, &sr) == SHADOW_VOXEL)
-        return vx_fail(e, "--shadows voxel: the OpenCL backend does not precompute the voxels' shadows (use "
-                          "--backend c, or --shadows march: the same image, its shadow rays in the frame)");
     if (shadow_prepare(s, g, m, records, &sr, &maps, &sst, e))
         return -1;
+    float *shadow_T = NULL;
+    size_t shadow_T_bytes = 0;
+    if (sst.method == SHADOW_VOXEL) {
+        double t0 = now_seconds();
+        if (render_voxel_shadows(s, g, m, records, o, &shadow_T, &shadow_T_bytes, e))
+            return -1;
+        sst.build_seconds = now_seconds() - t0;
+        sst.bytes = shadow_T_bytes;
+    }
     opencl_launch L;
     memset(&L, 0, sizeof L);
-    int rc = render(&L, rt, s, g, m, records, o, maps, out, counts, bc, build_dir, e);
+    int rc = render(&L, rt, s, g, m, records, o, maps, shadow_T, shadow_T_bytes, out, counts, bc, build_dir, e);
     opencl_launch_release(&L);
     shadow_release(maps);
+    free(shadow_T);
     if (!rc) {
         uint64_t queries = counts->shadows.queries;
         counts->shadows = sst;

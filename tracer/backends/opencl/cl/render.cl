@@ -34,11 +34,16 @@ static void cl_cache_put(struct voxel_ctx *x, long index, const vx_answer *a);
 #define VOXEL_CACHE_PUT(x, index, a) cl_cache_put(x, index, a)
 static float cl_memo_opacity(struct voxel_ctx *x, long index, int light, const vx_query *q);
 #define VOXEL_SHADOW_MEMO(x, index, light, q) cl_memo_opacity(x, index, light, q)
+/* The `voxel` shadow method's transmittances, precomputed by the host (render_voxel_shadows). */
+#define VOXEL_SHADOW_PRECOMPUTED(x, index, light) \
+    ((x)->shadow_T_lights ? (x)->shadow_T[(index) * (long)(x)->shadow_T_lights + (light)] : -1.0f)
 #define VOXEL_CTX_BACKEND_FIELDS                 \
     volatile __global vx_cl_cache *cache_entries; \
     volatile __global int *cache_state; /* per voxel: 0 empty, 1 being written, 2 ready */ \
     __global uint *memo;                /* per voxel and light: an opacity's bits, or SHADOW_MEMO_EMPTY */ \
-    int memo_lights;
+    int memo_lights; \
+    __global const float *shadow_T;     /* per voxel and light: the voxel method's transmittance */ \
+    int shadow_T_lights;                /* its slots per voxel; 0: none */
 #include "render_voxel_core.h"
 
 /* The directional lights' opacity memo, as the C backend's (render_voxel.c's memo_opacity): a
@@ -101,7 +106,7 @@ static void cl_cache_put(voxel_ctx *x, long index, const vx_answer *a)
 __kernel void vx_render(__global const vx_cl_params *P, __global ulong *cols, __global ulong *bits,
                         __global uint *prefix, __global const uchar *records, __global vx_cl_cache *cache,
                         __global int *state, __global uint *memo, __global const uchar *shadow_block,
-                        __global float *image,
+                        __global const float *shadow_T, __global float *image,
                         __global uint *counts,
                         volatile __global int *next_tile, int pixels)
 {
@@ -127,6 +132,8 @@ __kernel void vx_render(__global const vx_cl_params *P, __global ulong *cols, __
     x.memo_lights = P->memo_lights;
     x.opacity_by_direction = P->memo_lights > 0;
     x.view_tile = P->view_tile;
+    x.shadow_T = shadow_T;
+    x.shadow_T_lights = P->shadow_T_lights;
     vx_cl_shadow_maps(&x.shadows, &P->shadows, shadow_block);
     int tiles = (pixels + VX_CL_TILE_PIXELS - 1) / VX_CL_TILE_PIXELS;
     for (int tile = atomic_inc(next_tile); tile < tiles; tile = atomic_inc(next_tile)) {

@@ -29,6 +29,7 @@ typedef struct {
     int voxel_count;          /* non-empty level-0 voxels */
     int memo_lights;          /* the directional lights' opacity memo: slots per voxel, 0 = none */
     float view_tile;          /* the cached opacities' direction lattice (view_tile.h); 0: exact */
+    int shadow_T_lights;      /* the voxel shadow method's transmittances: slots per voxel, 0 = none */
     vx_cl_shadow_params shadows; /* precomputed shadows (none: method march) */
 } vx_cl_params;
 
