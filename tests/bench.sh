@@ -22,8 +22,9 @@ BUILD=${BUILD:-build}
 "$BUILD"/tests/bench_shadows scenes/bunny.json 256 256 5
 # Frame times (issue 15): every model at bunny 256^3 against 50 ms, binary over the 4-spp truth, growth
 # per doubling of the grid up to 1024^3, binary's 2-thread speed-up on city, render --vox's grid from the
-# file's cells over voxelising at 1024^3, every model's frame on city and trees at 256^3 over the truth's
-# (medians; ~2 min).
+# file's cells over voxelising at 1024^3, every model's frame on city and trees at 256^3 over the truth's,
+# and the per-voxel models' frames with their shadows precomputed per voxel (--shadows voxel, Brito et
+# al.'s protocol) beside (medians; ~4 min).
 "$BUILD"/tests/bench_frame scenes/bunny.json scenes/city.json 1024 scenes/trees.json
 # Moving objects (issue 17): transforming the records of 1 and 256 moving tori (split8) over re-baking
 # them as posed, per object, 128^3, every model with transform/combine (medians of 5 frames; ~3 min).

@@ -10,7 +10,8 @@
  *      fixed (goal <= 2 per doubling); the growth grids are baked with GROWTH_RAYS rays per voxel,
  *      which changes the records a little, not the marching. Beside each, the growth of the model's
  *      evaluations (render_counts.model_evals: voxels shaded, or cone elements), which is what a
- *      model whose own work dominates grows with;
+ *      model whose own work dominates grows with; and, in square brackets, the per-voxel models'
+ *      growth with --shadows voxel (the frame without its shadow rays, precomputed before it);
  *  (d) binary's speed-up from 1 to 2 threads on city 256^3 (goal >= 1.8);
  *  (e) `render --vox`'s grid at MAX^3: rebuilt from the file's level-0 cells (grid_build_sorted_cells)
  *      over voxelising the scene again (what it did before .vox version 4), and the bit array that
@@ -250,7 +251,7 @@ int main(int argc, char **argv)
            "the model's evaluations):\n",
            GROWTH_RAYS);
     for (int k = 0; k < n; k++) {
-        double prev = 0, prev_evals = 0;
+        double prev = 0, prev_evals = 0, prev_pre = 0;
         printf("    %-14s", all[k]->name);
         for (int res = 128; res <= max_res; res *= 2) {
             baked g;
@@ -259,11 +260,21 @@ int main(int argc, char **argv)
             double v[3];
             for (int run = 0; run < 3; run++)
                 v[run] = frame(&bunny, &g, 256, 0);
-            double m = bench_median(v, 3), evals = (double)last_evals;
+            double m = bench_median(v, 3), evals = (double)last_evals, pre = 0;
+            if (!all[k]->cone) {
+                for (int run = 0; run < 3; run++)
+                    v[run] = frame_shadows(&bunny, &g, 256, 0, SHADOW_VOXEL);
+                pre = bench_median(v, 3);
+            }
             if (prev > 0)
                 printf("  %d^3 x%.2f%s (x%.2f)", res, m / prev, m / prev <= 2.0 ? "" : "!", evals / prev_evals);
             else
                 printf("  %d^3 %.1f ms (%.0fk evals)", res, 1e3 * m, 1e-3 * evals);
+            if (pre > 0 && prev_pre > 0)
+                printf(" [x%.2f%s]", pre / prev_pre, pre / prev_pre <= 2.0 ? "" : "!");
+            else if (pre > 0)
+                printf(" [%.1f ms]", 1e3 * pre);
+            prev_pre = pre;
             prev = m;
             prev_evals = evals > 0 ? evals : 1;
             unbake(&g);
