@@ -128,10 +128,6 @@ static void cache_put(voxel_ctx *x, int64_t index, const vx_answer *a)
     shading_cache_put(&x->shading, index, a->radiance, a->opacity);
 }
 
-/* Allocated and touched here, before the threads start and outside the render's clock: pages first
- * written by the render threads cost a zero-page fault and a TLB shootdown of the other core each
- * (issue 15: binary gained almost nothing from a second thread). vx_alloc_touched (prefault.h), not
- * malloc + memset: GCC turns that pair into a calloc, whose pages stay untouched. */
 static int voxel_precompute(render_job *j, voxel_state *st, vx_err *e);
 
 /* What shadow rays march through: the directional lights' opacity memo and the rays' ends (only
@@ -162,6 +158,10 @@ static int voxel_prepare_shadow_rays(render_job *j, voxel_state *st, vx_err *e)
     return 0;
 }
 
+/* Allocated and touched here, before the threads start and outside the render's clock: pages first
+ * written by the render threads cost a zero-page fault and a TLB shootdown of the other core each
+ * (issue 15: binary gained almost nothing from a second thread). vx_alloc_touched (prefault.h), not
+ * malloc + memset: GCC turns that pair into a calloc, whose pages stay untouched. */
 static int voxel_prepare(render_job *j, vx_err *e)
 {
     const scene *s = j->s;
