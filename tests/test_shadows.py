@@ -277,6 +277,11 @@ for m in models():
         p = run("render", two, "--vox", mvox, "--shadows", "voxel", "-o", os.path.join(TMP, "x.exr"))
         report(f"voxel: {m} (cones) is refused, saying why", p.returncode != 0 and "--shadows voxel" in p.stderr and
                "cones" in p.stderr and not os.path.exists(os.path.join(TMP, "x.exr")), p.stderr.strip()[-200:])
+        # Before anything is baked: --dry-run, which bakes nothing, refuses it too.
+        p = run("render", two, "--model", m, "--res", 1024, "--shadows", "voxel", "--dry-run", "-o",
+                os.path.join(TMP, "x.exr"))
+        report(f"voxel: {m} is refused before the bake (--dry-run)", p.returncode != 0 and "cones" in p.stderr,
+               p.stderr.strip()[-200:])
         continue
     for extra in ((), ("--no-shadow-skip",)):
         tag = "".join(extra).strip("-")

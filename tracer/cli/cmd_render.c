@@ -229,6 +229,9 @@ int cmd_render(int argc, char **argv)
         estimate_vox(&s, &vh, o.width, o.height, o.spp, o.cache, o.threads, &est);
     } else
         estimate_voxels(&s, em, res, bo.rays, o.width, o.height, o.spp, o.cache, o.threads, &est);
+    /* Before anything is baked or read: a shadow method the model cannot take. */
+    if (em && render_shadow_method_refused(&s, em, &o, &e))
+        goto fail;
     if (dry_run) {
         estimate_print(stdout, "render", &est);
         rc = estimate_check(&est, &e) ? (fprintf(stdout, "  refused: %s\n", e.msg), 1) : 0;
