@@ -299,7 +299,8 @@ for m in models():
            s_v["shadow_build_seconds"] > 0 and s_v["shadow_bytes"] == s_v["voxels"] * 2 * 4,
            json.dumps({k: v for k, v in s_v.items() if "shadow" in k or k == "voxels"}))
 # The shadows matter in that scene: march's image is not the unshadowed one.
-plain = scene("sm_two_plain", effects=(), extra={"lights": json.load(open(two))["lights"]})
+with open(two) as f:
+    plain = scene("sm_two_plain", effects=(), extra={"lights": json.load(f)["lights"]})
 voxlab("bake", plain, "--model", "binary", "--res", RES, "-o", os.path.join(TMP, "two_plain_binary.vox"))
 unshadowed, _ = render(plain, "two_plain", "--vox", os.path.join(TMP, "two_plain_binary.vox"))
 shadowed, _ = render(two, "two_binary_march_again", "--vox", os.path.join(TMP, "two_binary.vox"))

@@ -174,9 +174,9 @@ static inline void vmesh_pending_flush(const vmesh_view *w, vmesh_pending *q, fl
  * camera, used once). A cell's value is max(0, max over the sub-cells of opacity x ratio): each
  * product is rounded once and max is exact, so the order in which the products are taken does not
  * change it, and the scalar loop's break only skips products that cannot exceed the cell's best
- * (the next opacities are at most the best, and a ratio at most 1). So the cells between the near and far distances of a sub-cell, the
- * only ones whose ratio needs the two arc cosines, are queued across rows and sub-cells and their
- * overlaps computed four at a time, instead of one vector per row and sub-cell with 1.6 of its 4
+ * (the next opacities are at most the best, and a ratio at most 1). So the cells between the near
+ * and far distances of a sub-cell, the only ones whose ratio needs the two arc cosines, are queued
+ * across rows and sub-cells and their overlaps computed four at a time, instead of one vector per row and sub-cell with 1.6 of its 4
  * lanes wanted on average (bunny 256^3: 2.57 M wanted lanes in 1.57 M overlaps a frame). A cell
  * looks at a sub-cell while that sub-cell's opacity is above its best so far, which with products
  * still queued is a lower bound of the scalar loop's best: at most some more products are queued,

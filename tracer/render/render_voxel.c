@@ -350,8 +350,8 @@ int render_voxel_shadows(const scene *s, const voxel_grid *g, const vx_model *m,
 {
     *T = NULL;
     *bytes = 0;
-    if (!m->voxel)
-        return vx_fail(e, "--shadows voxel: %s marches cones, whose elements are not voxels", m->name);
+    if (!m->voxel) /* callers refuse a cone model first (render_shadow_method_refused) */
+        return vx_fail(e, "render_voxel_shadows: %s has no per-voxel evaluation", m->name);
     render_job j = {s, g, m, records, o, NULL, NULL, camera_pixel_spread(&s->camera, o->height), NULL, NULL,
                     0, 0, SHADOW_VOXEL, 0.0, 0};
     voxel_state *st = calloc(1, sizeof *st);
