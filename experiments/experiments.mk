@@ -3,7 +3,7 @@
 #   make table1      Tables 1 and 2 (every scene x 128^3, 256^3 x every model)     results/table1/
 #   make pareto      error against render time and memory, Pareto fronts            results/pareto/
 #   make figures     image grids, view-angle colour, silhouette coverage, DoF       results/figures/
-#   make shadows     shadow methods (march, slicemap, slicemap-model) x every model  results/shadows/
+#   make shadows     shadow methods (march, slicemap, slicemap-model, voxel) x every model  results/shadows/
 #   make dynamic     moving objects: transform (nearest/split8) vs re-bake per model  results/dynamic/
 #                    (DYNAMIC_ARGS="--quick" for a CI-sized run; experiments/dynamic.py --help)
 #   make crossover   where voxels pay: every model against the triangles at equal error,    results/crossover/

@@ -4,22 +4,27 @@
     /usr/bin/python3 experiments/shadows.py [--experiment experiments/shadows.json] [--results results]
         [--jobs 2] [--voxlab build/voxlab] [--fresh] [--repeats R]
 
-Runs the declared sweep (its runs list "shadows": march, slicemap, slicemap-model; cached as every
-sweep is), plus per scene and image size the truth without the shadows effect (which pixels the truth
-has in shadow: where its shadows take away more than 5 % of the light) and the truth with its
+Runs the declared sweep (its runs list "shadows": march, slicemap, slicemap-model, voxel; cached as
+every sweep is; "models": "all" leaves out voxel for a cone model, which has no voxels to
+precompute), plus per scene and image size the truth without the shadows effect (which pixels the
+truth has in shadow: where its shadows take away more than 5 % of the light) and the truth with its
 slicemap instead of shadow rays (`voxlab truth --shadows slicemap`: a comparison of shadow
 techniques on the triangles themselves). Writes into <results>/<name>/:
 
   shadows.csv/.md  per scene, resolution, model and method: MSE and SSIM against the truth, MSE over
                    the truth's shadowed pixels (mse_shadow), frame ms (median of the repeats), the
-                   precomputation's ms (shadow_build_ms: built once per light, apart from the frame),
-                   memory (the model's MB + the shadow maps' MB); the truth's slicemap rows beside.
+                   precomputation's ms (shadow_build_ms: apart from the frame), memory (the model's
+                   MB + the shadow maps' or the per-voxel transmittances' MB); the truth's slicemap
+                   rows beside. The .md's second table sets each precomputing method's frame against
+                   march's (same run) and gives the largest pixel difference between voxel's image
+                   and march's (0: voxel casts march's shadow rays, only before the frame).
   shadows_crops.png/.pdf/.svg  crops of the figure scene's ground where its shadows are partial
                    (the window with the most partly shadowed truth pixels): truth | march | slicemap |
-                   slicemap-model, one row per model.
+                   slicemap-model, one row per model (voxel's image is march's).
   rows.csv, rows.json  the sweep's rows.
 """
 import argparse
+import math
 import os
 import sys
 
@@ -35,9 +40,11 @@ from voxlab_exp.scheduler import Sweep  # noqa: E402
 from voxlab_exp.schema import load_declaration  # noqa: E402
 from voxlab_exp.scenes import write_variant  # noqa: E402
 
-METHODS = ["march", "slicemap", "slicemap-model"]
+METHODS = ["march", "slicemap", "slicemap-model", "voxel"]
+CROP_METHODS = ["march", "slicemap", "slicemap-model"]  # voxel's image is march's: no column of its own
 FIELDS = ["scene", "res", "width", "height", "model", "shadows", "mse", "ssim", "mse_shadow", "shadow_pixels",
-          "render_ms", "render_ms_spread", "shadow_build_ms", "mb", "shadow_mb", "total_mb", "status", "error"]
+          "render_ms", "render_ms_spread", "shadow_build_ms", "mb", "shadow_mb", "total_mb", "max_diff_march",
+          "status", "error"]
 SHADOWED = 0.05  # a truth pixel is in shadow where its shadows take away more than this fraction
 
 
@@ -116,9 +123,19 @@ def build(decl, sw, meta, rows, results, out):
             masks[key] = None
             continue
         masks[key] = shadow_mask(img(ref.path("image.exr")), img(pl.path("image.exr")))
+    # voxel casts march's shadow rays, only before the frame: its image must be march's, which the
+    # largest difference from march's image (any pixel and channel) shows on every voxel row.
+    def same_render(r):
+        return tuple(r.get(k) for k in ("scene", "res", "width", "height", "model", "spp", "rays", "cache",
+                                        "shadow_skip"))
+    march_images = {same_render(r): r["image"] for r in models if r["shadows"] == "march" and r["status"] == "ok"}
     for r in models:
         key = (r["scene"], r["width"], r["height"])
         row = {k: r.get(k) for k in FIELDS if k in r}
+        if r["shadows"] == "voxel" and r["status"] == "ok" and same_render(r) in march_images:
+            a = img(os.path.join(results, r["image"]))[..., :3]
+            b = img(os.path.join(results, march_images[same_render(r)]))[..., :3]
+            row["max_diff_march"] = float(np.max(np.abs(a - b))) if a.shape == b.shape else math.inf
         row.update(shadow_build_ms=r["shadow_build_s"] * 1e3 if r.get("shadow_build_s") is not None else None,
                    shadow_mb=r["shadow_bytes"] / 1e6 if r.get("shadow_bytes") is not None else None)
         row["total_mb"] = (row["mb"] or 0) + (row["shadow_mb"] or 0) if row.get("mb") is not None else None
@@ -161,15 +178,21 @@ def build(decl, sw, meta, rows, results, out):
         lines.append(f"| {r['scene']} | {res} | {r['model']} | {r['shadows']} | {f(r['mse'], -3)} | "
                      f"{f(r['ssim'], 4)} | {f(r.get('mse_shadow'), -3)} | {f(r.get('render_ms'), 1)} | "
                      f"{f(r.get('shadow_build_ms'), 1)} | {f(r.get('mb'), 2)} + {f(r.get('shadow_mb'), 2)} |")
-    # Per model: slicemap-model's frame time over march's (same run), and the errors side by side.
-    lines += ["", "## slicemap-model / march per frame (same run), and the error in shadow", "",
-              "| scene | res | model | frame ratio | MSE in shadow: march | slicemap | slicemap-model |", "|---|---|---|---|---|---|---|"]
+    # Per model: the precomputing methods' frame times over march's (same run), voxel's image against
+    # march's, and the errors side by side.
+    lines += ["", "## Frames over march's (same run), voxel's image against march's, and the error in shadow", "",
+              "| scene | res | model | slicemap-model / march | voxel / march | voxel − march (max) | "
+              "MSE in shadow: march | slicemap | slicemap-model | voxel |", "|---|---|---|---|---|---|---|---|---|---|"]
     cell = {(r["scene"], r["res"], r["model"], r["shadows"]): r for r in table}
+
+    def frame_ratio(c, method):
+        return (c[method].get("render_ms") / c["march"]["render_ms"]
+                if c["march"].get("render_ms") and c[method].get("render_ms") else None)
+
     for sc, res, model in sorted({(r["scene"], r["res"], r["model"]) for r in table if r["model"] != "truth"}):
         c = {m: cell.get((sc, res, model, m), {}) for m in METHODS}
-        ratio = (c["slicemap-model"].get("render_ms") / c["march"]["render_ms"]
-                 if c["march"].get("render_ms") and c["slicemap-model"].get("render_ms") else None)
-        lines.append(f"| {sc} | {res} | {model} | {f(ratio, 2)} | " +
+        lines.append(f"| {sc} | {res} | {model} | {f(frame_ratio(c, 'slicemap-model'), 2)} | "
+                     f"{f(frame_ratio(c, 'voxel'), 2)} | {f(c['voxel'].get('max_diff_march'), -2)} | " +
                      " | ".join(f(c[m].get("mse_shadow"), -3) for m in METHODS) + " |")
     write_text(os.path.join(out, "shadows.md"), "\n".join(lines) + "\n")
 
@@ -190,10 +213,11 @@ def build(decl, sw, meta, rows, results, out):
 
     model_names = list(dict.fromkeys(r["model"] for r in frows))
     by = {(r["model"], r["shadows"]): r for r in frows}
-    fig, axes = plt.subplots(len(model_names), 4, figsize=(8, 2.1 * len(model_names)), squeeze=False)
+    fig, axes = plt.subplots(len(model_names), 1 + len(CROP_METHODS), figsize=(8, 2.1 * len(model_names)),
+                             squeeze=False)
     for i, m in enumerate(model_names):
         tiles = [("truth", truth_img)] + [(meth, img(os.path.join(results, by[(m, meth)]["image"]))
-                                           if (m, meth) in by else None) for meth in METHODS]
+                                           if (m, meth) in by else None) for meth in CROP_METHODS]
         for j, (title, im) in enumerate(tiles):
             ax = axes[i][j]
             ax.set_xticks([])

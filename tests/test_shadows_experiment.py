@@ -1,9 +1,12 @@
 """`make shadows` (experiments/shadows.py, issue 18) on a tiny declaration: spheres at 16^3, 32x32,
-every model x the three shadow methods, a 16-spp truth, one timed run each.
+every model x the four shadow methods, a 16-spp truth, one timed run each.
 
 1. It exits 0 and writes shadows.csv/.md and the crop figure (PNG, PDF, SVG); one row per model and
    method plus the truth's slicemap, every one ok, with the MSE over the truth's shadowed pixels;
-   precomputation time and map memory only where a method precomputes.
+   precomputation time and map memory only where a method precomputes. `voxel` has a row for each
+   model the binary renders with it (asked of `voxlab render --dry-run`, not of the experiment's
+   own rule), none for the others; its image is march's (read back from the EXRs here), which
+   its rows' max_diff_march says too, and a wrong image would show there.
 2. The runs' "shadows" dimension leaves march's cache keys as they were: the same declaration
    without it (sweep.py) runs no render job again.
 3. A bad method in a declaration is refused (exit 2) naming the field.
@@ -22,7 +25,10 @@ PY = "/usr/bin/python3"
 RESULTS = os.path.join(TMP, "results")
 
 
-def declaration(name, shadows=True, methods=("march", "slicemap", "slicemap-model")):
+METHODS = ("march", "slicemap", "slicemap-model", "voxel")
+
+
+def declaration(name, shadows=True, methods=METHODS):
     d = {"name": name, "description": "tiny shadows", "seed": 1, "truth_spp": 16, "repeats": 1,
          "scenes": ["spheres"], "runs": [{"models": "all", "res": [16], "size": 32}],
          "figure": {"crop_scene": "spheres", "crop_res": 16, "crop_fraction": 0.5}}
@@ -39,6 +45,12 @@ def run(*args):
 
 
 models = [line.split()[0] for line in voxlab("models").stdout.splitlines() if line.strip()]
+# The models that take `voxel`, as the binary answers (the refusal comes before anything is baked).
+takes_voxel = {m for m in models if voxlab("render", os.path.join(REPO, "scenes", "spheres.json"), "--model", m,
+                                           "--res", "16", "--size", "32x32", "--shadows", "voxel", "--dry-run",
+                                           "-o", os.path.join(TMP, "dry.exr"), check=False).returncode == 0}
+report("some model takes voxel and some does not (heitz-neyret marches cones)",
+       takes_voxel and takes_voxel != set(models) and "heitz-neyret" not in takes_voxel, str(takes_voxel))
 p = run("experiments/shadows.py", "--experiment", declaration("shadows-tiny"), "--results", RESULTS, "--voxlab",
         VOXLAB, "--jobs", "2")
 out = os.path.join(RESULTS, "shadows-tiny")
@@ -47,9 +59,10 @@ rows = []
 if os.path.isfile(os.path.join(out, "shadows.csv")):
     with open(os.path.join(out, "shadows.csv"), newline="") as f:
         rows = list(csv.DictReader(f))
-report("a row per model and method, and the truth's slicemap", len(rows) == 3 * len(models) + 1 and
-       {(r["model"], r["shadows"]) for r in rows} ==
-       {(m, s) for m in models for s in ("march", "slicemap", "slicemap-model")} | {("truth", "slicemap")},
+want = ({(m, s) for m in models for s in METHODS if s != "voxel"} | {(m, "voxel") for m in takes_voxel} |
+        {("truth", "slicemap")})
+report("a row per model and method it takes, and the truth's slicemap",
+       len(rows) == len(want) and {(r["model"], r["shadows"]) for r in rows} == want,
        str([(r["model"], r["shadows"]) for r in rows]))
 report("every row ok, with the MSE over the truth's shadowed pixels",
        rows and all(r["status"] == "ok" and r["mse_shadow"] and math.isfinite(float(r["mse_shadow"])) and
@@ -60,6 +73,28 @@ report("precomputation time and map memory where a method precomputes, none for 
        all(float(r["shadow_build_ms"] or 0) == 0 and float(r["shadow_mb"] or 0) == 0 for r in rows
            if r["shadows"] == "march"), str([(r["model"], r["shadows"], r["shadow_build_ms"], r["shadow_mb"])
                                              for r in rows]))
+# voxel's image against march's, read here; and the experiment's own max_diff_march.
+import numpy as np  # noqa: E402
+sys.path.insert(0, os.path.join(REPO, "experiments"))
+from voxlab_exp.images import read_exr  # noqa: E402
+
+sweep_rows = []
+if os.path.isfile(os.path.join(out, "rows.json")):
+    with open(os.path.join(out, "rows.json")) as f:
+        sweep_rows = json.load(f)["rows"]
+image = {(r["model"], r["shadows"]): os.path.join(RESULTS, r["image"]) for r in sweep_rows
+         if r.get("kind") == "model" and r.get("status") == "ok"}
+diffs = {m: float(np.max(np.abs(read_exr(image[(m, "voxel")])[..., :3] - read_exr(image[(m, "march")])[..., :3])))
+         for m in takes_voxel if (m, "voxel") in image and (m, "march") in image}
+report("voxel's image is march's for every model that takes it (read from the EXRs)",
+       set(diffs) == takes_voxel and all(d == 0.0 for d in diffs.values()), str(diffs))
+vrows = [r for r in rows if r["shadows"] == "voxel"]
+report("the voxel rows' max_diff_march is 0, and no other row has one",
+       vrows and all(r["max_diff_march"] != "" and float(r["max_diff_march"]) == 0.0 for r in vrows) and
+       all(r["max_diff_march"] == "" for r in rows if r["shadows"] != "voxel"),
+       str([(r["model"], r["shadows"], r["max_diff_march"]) for r in rows]))
+md = open(os.path.join(out, "shadows.md")).read() if os.path.isfile(os.path.join(out, "shadows.md")) else ""
+report("the table sets voxel's frame against march's", "voxel / march" in md, md[-600:])
 report("the table and the crop figure are written",
        all(os.path.isfile(os.path.join(out, f)) for f in ("shadows.md", "shadows_crops.png", "shadows_crops.pdf",
                                                           "shadows_crops.svg")), str(os.listdir(out)) if

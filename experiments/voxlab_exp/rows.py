@@ -136,7 +136,7 @@ def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
         return [res, res] if size == "res" else scene_size(s) if size == "scene" else size
 
     plan = []  # (config, truth, bake, render, compare) or (config, None...) for unknown models
-    for cfg in expand_configs(decl, model_names):
+    for cfg in expand_configs(decl, model_names, sw.models):
         s = scenes[cfg["scene"]]
         size = size_of(cfg["size"], cfg["res"], s)
         cfg["width"], cfg["height"] = size

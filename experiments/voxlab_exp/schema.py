@@ -287,16 +287,30 @@ def declaration_from_dict(d, shown="<declaration dict>", base_dir=None, path=Non
     return decl
 
 
-def expand_configs(decl, model_names):
+def takes_shadow_method(model_info, method):
+    """Whether a model, as `voxlab models` describes it ({"rule": its compositing}), can be rendered with
+    shadow method `method`. A cone model (compositing "coverage": model.h's vx_compositing gives it to
+    cone models only) has no voxels whose shadows the `voxel` method could precompute, and
+    `voxlab render` refuses that pair (render_shadow_method_refused)."""
+    return not (method == "voxel" and model_info.get("rule") == "coverage")
+
+
+def expand_configs(decl, model_names, models_info=None):
     """Every configuration the declaration asks for, deduplicated, in declaration order. A model the
-    binary does not know stays in the list (its rows record that it is not registered)."""
+    binary does not know stays in the list (its rows record that it is not registered). With
+    models_info (`voxlab models`' lines, jobs.models_info), "models": "all" leaves out the shadow
+    methods a model cannot take (takes_shadow_method); a model named explicitly keeps them, and its
+    rows record the binary's refusal."""
     out, seen = [], set()
     scenes = {s["name"]: s for s in decl["scenes"]}
+    info = {m["name"]: m for m in models_info or []}
     for r in decl["runs"]:
         models = model_names if r["models"] == "all" else r["models"]
         for sc, res, m, spp, rays, cache, skip, sh in itertools.product(r["scenes"], r["res"], models, r["spp"],
                                                                          r["rays"], r["cache"], r["shadow_skip"],
                                                                          r["shadows"]):
+            if r["models"] == "all" and m in info and not takes_shadow_method(info[m], sh):
+                continue
             size = r["size"]
             cfg = {"scene": sc, "model": m, "res": res, "size": size, "spp": spp, "rays": rays, "cache": cache,
                    "shadow_skip": skip, "shadows": sh}
