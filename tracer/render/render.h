@@ -82,8 +82,10 @@ int render_shadow_method_refused(const scene *s, const vx_model *m, const render
 /* The `voxel` shadow method's precomputation alone (render_voxel_core.h's voxel_precompute_shadows,
  * on the C tracer's threads), for a backend that reads it back (the OpenCL host uploads it): every
  * level-0 voxel's transmittance toward every light (the scene declaring shadows), at
- * [voxel * lights + light], lights = min(light_count, VX_MAX_LIGHTS); *T is the caller's to free. */
+ * [voxel * lights + light], lights = min(light_count, VX_MAX_LIGHTS); *T is the caller's to free.
+ * *seconds: the precomputation's time, as the C backend reports it (the memo and the shadow rays'
+ * ends that its march needs, made first, are left out), so both backends report the same work. */
 int render_voxel_shadows(const scene *s, const voxel_grid *g, const vx_model *m, const void *records,
-                         const render_options *o, float **T, size_t *bytes, vx_err *e);
+                         const render_options *o, float **T, size_t *bytes, double *seconds, vx_err *e);
 
 #endif

@@ -346,10 +346,11 @@ int render_view_tile_pixels(const vx_model *m, const render_options *o)
 }
 
 int render_voxel_shadows(const scene *s, const voxel_grid *g, const vx_model *m, const void *records,
-                         const render_options *o, float **T, size_t *bytes, vx_err *e)
+                         const render_options *o, float **T, size_t *bytes, double *seconds, vx_err *e)
 {
     *T = NULL;
     *bytes = 0;
+    *seconds = 0.0;
     if (!m->voxel) /* callers refuse a cone model first (render_shadow_method_refused) */
         return vx_fail(e, "render_voxel_shadows: %s has no per-voxel evaluation", m->name);
     render_job j = {s, g, m, records, o, NULL, NULL, camera_pixel_spread(&s->camera, o->height), NULL, NULL,
@@ -362,6 +363,7 @@ int render_voxel_shadows(const scene *s, const voxel_grid *g, const vx_model *m,
     if (!rc) {
         *T = st->shadow_T;
         *bytes = j.shadow_bytes;
+        *seconds = j.shadow_build_seconds;
         st->shadow_T = NULL;
     }
     voxel_release(&j);

@@ -117,10 +117,8 @@ int opencl_render_voxels(const opencl_runtime *rt, const scene *s, const voxel_g
     float *shadow_T = NULL;
     size_t shadow_T_bytes = 0;
     if (sst.method == SHADOW_VOXEL) {
-        double t0 = now_seconds();
-        if (render_voxel_shadows(s, g, m, records, o, &shadow_T, &shadow_T_bytes, e))
+        if (render_voxel_shadows(s, g, m, records, o, &shadow_T, &shadow_T_bytes, &sst.build_seconds, e))
             return -1;
-        sst.build_seconds = now_seconds() - t0;
         sst.bytes = shadow_T_bytes;
     }
     opencl_launch L;
