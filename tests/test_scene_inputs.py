@@ -1,6 +1,7 @@
 """Inputs a researcher brings: an OBJ mesh renders like the same geometry given as PLY (same
 triangles, normals and uvs: the same image to float rounding), and a texture that would be silently ignored is a warning
-naming the object: the scene does not declare "textures", or the mesh has no texture coordinates."""
+naming the object: the scene does not declare "textures", or the mesh has no texture coordinates. A scene's lights:
+more than 8 are refused when read (truth and render), and with 8 every renderer counts all of them."""
 import json
 import os
 import subprocess
@@ -105,4 +106,42 @@ report("a texture on a mesh without texture coordinates is a warning naming the 
 # No texture at all: silence.
 p = truth(scene("plain", {"obj": nouv}, [], texture=False), os.path.join(TMP, "e.exr"))
 report("no texture, no warning", p.returncode == 0 and "warning" not in p.stderr, p.stderr)
+# A scene's lights: at most LIGHT_MAX_COUNT (8). The tracers hold a voxel's lights in fixed arrays, so
+# a scene with more is refused when read (it was lit by its first 8 in every model, beside a truth lit
+# by all); with 8, every renderer lights with all 8: without shadows the light adds linearly, so 8
+# copies of one light give 8 times its image (the background black, so that only lit surfaces count).
+def lights_scene(name, count):
+    with open(os.path.join(REPO, "scenes", "spheres.json")) as f:
+        s = json.load(f)
+    s.update(name=name, background=[0, 0, 0], effects=[], lights=[s["lights"][0]] * count)
+    path = os.path.join(TMP, name + ".json")
+    with open(path, "w") as f:
+        json.dump(s, f)
+    return path
+
+
+nine = lights_scene("nine_lights", 9)
+models = [line.split()[0] for line in subprocess.run([VOXLAB, "models"], capture_output=True,
+                                                    text=True).stdout.splitlines() if line.strip()]
+for cmd in (["truth"], ["render", "--model", "binary", "--res", "16"]):
+    out = os.path.join(TMP, "nine.exr")
+    p = subprocess.run([VOXLAB, cmd[0], nine, *cmd[1:], "--size", "24x24", "-o", out], capture_output=True, text=True)
+    report(f"{cmd[0]}: 9 lights are refused, naming the file and the field, with no output",
+           p.returncode != 0 and "nine_lights.json: lights: 9 lights; expected at most 8" in p.stderr and
+           not os.path.exists(out), p.stderr[-300:])
+
+
+def lit(path, tag, cmd):
+    out = os.path.join(TMP, f"{tag}.exr")
+    p = subprocess.run([VOXLAB, cmd[0], path, *cmd[1:], "--size", "24x24", "-o", out], capture_output=True, text=True)
+    return read_image(out)[..., :3] if p.returncode == 0 else None
+
+
+one, eight = lights_scene("one_light", 1), lights_scene("eight_lights", 8)
+for name, cmd in [("truth", ["truth", "--spp", "4"])] + [(m, ["render", "--model", m, "--res", "16"]) for m in models]:
+    a, b = lit(one, f"one-{name}", cmd), lit(eight, f"eight-{name}", cmd)
+    ok = a is not None and b is not None and a.max() > 0.05
+    err = float(np.max(np.abs(b - 8 * a)) / max(float(np.max(8 * a)), 1e-9)) if ok else None
+    report(f"{name}: 8 copies of a light give 8 times its image (every light counted; relative 1e-5)",
+           ok and err <= 1e-5, f"relative difference {err}")
 finish()

@@ -9,6 +9,11 @@
 
 enum { LIGHT_DIRECTIONAL = 0, LIGHT_POINT = 1 };
 
+/* A scene's lights at most. The voxel and cone tracers hold a voxel's or an element's lights in
+ * fixed arrays (model.h's VX_MAX_LIGHTS, which render.c checks is as large), so the scene reader
+ * refuses more: lit by its first ones only, a model would be judged against a truth lit by all. */
+#define LIGHT_MAX_COUNT 8
+
 typedef struct {
     int type;
     vec3 direction; /* directional: unit vector from the scene toward the light */

@@ -10,6 +10,9 @@
 #include "camera.h"
 #include "render_internal.h"
 
+/* The scene reader refuses more lights than the tracers' fixed per-voxel arrays hold. */
+_Static_assert(VX_MAX_LIGHTS >= LIGHT_MAX_COUNT, "a scene's lights must fit the tracers' light arrays");
+
 static long minor_faults(void)
 {
     struct rusage ru;

@@ -369,8 +369,13 @@ static int parse_lights(scene *s, const cJSON *root, vx_err *e)
     const cJSON *lights = cJSON_GetObjectItemCaseSensitive(root, "lights");
     if (!cJSON_IsArray(lights) || cJSON_GetArraySize(lights) == 0)
         return vx_fail(e, "%s: lights: expected a non-empty array of lights", s->path);
+    if (cJSON_GetArraySize(lights) > LIGHT_MAX_COUNT)
+        return vx_fail(e, "%s: lights: %d lights; expected at most %d (the tracers' per-voxel light arrays)", s->path,
+                       cJSON_GetArraySize(lights), LIGHT_MAX_COUNT);
+    s->lights = calloc((size_t)cJSON_GetArraySize(lights), sizeof(light));
+    if (!s->lights)
+        return vx_fail(e, "%s: lights: out of memory", s->path);
     s->light_count = cJSON_GetArraySize(lights);
-    s->lights = calloc((size_t)s->light_count, sizeof(light));
     int i = 0;
     const cJSON *l;
     cJSON_ArrayForEach(l, lights)
