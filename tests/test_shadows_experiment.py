@@ -19,7 +19,9 @@ import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from testlib import REPO, TMP, VOXLAB, finish, report, voxlab  # noqa: E402
+from testlib import REPO, TMP, VOXLAB, finish, read_image, report, voxlab  # noqa: E402
+
+import numpy as np  # noqa: E402
 
 PY = "/usr/bin/python3"
 RESULTS = os.path.join(TMP, "results")
@@ -73,18 +75,15 @@ report("precomputation time and map memory where a method precomputes, none for 
        all(float(r["shadow_build_ms"] or 0) == 0 and float(r["shadow_mb"] or 0) == 0 for r in rows
            if r["shadows"] == "march"), str([(r["model"], r["shadows"], r["shadow_build_ms"], r["shadow_mb"])
                                              for r in rows]))
-# voxel's image against march's, read here; and the experiment's own max_diff_march.
-import numpy as np  # noqa: E402
-sys.path.insert(0, os.path.join(REPO, "experiments"))
-from voxlab_exp.images import read_exr  # noqa: E402
-
+# voxel's image against march's, read here (testlib's reader, not the experiment's); and the
+# experiment's own max_diff_march.
 sweep_rows = []
 if os.path.isfile(os.path.join(out, "rows.json")):
     with open(os.path.join(out, "rows.json")) as f:
         sweep_rows = json.load(f)["rows"]
 image = {(r["model"], r["shadows"]): os.path.join(RESULTS, r["image"]) for r in sweep_rows
          if r.get("kind") == "model" and r.get("status") == "ok"}
-diffs = {m: float(np.max(np.abs(read_exr(image[(m, "voxel")])[..., :3] - read_exr(image[(m, "march")])[..., :3])))
+diffs = {m: float(np.max(np.abs(read_image(image[(m, "voxel")])[..., :3] - read_image(image[(m, "march")])[..., :3])))
          for m in takes_voxel if (m, "voxel") in image and (m, "march") in image}
 report("voxel's image is march's for every model that takes it (read from the EXRs)",
        set(diffs) == takes_voxel and all(d == 0.0 for d in diffs.values()), str(diffs))
