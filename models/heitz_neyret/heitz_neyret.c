@@ -794,7 +794,7 @@ const vx_model model_heitz_neyret = {
     .name = "heitz-neyret",
     .description = "Heitz & Neyret 2012: mean plane, height and slope variances, colour vs depth per cell of every "
                    "MIP level; cone marching with 128-sample coverage masks",
-    .record = {.bytes = sizeof(hn_record), .layout_version = 1, .levels = 1},
+    .record = {.bytes = sizeof(hn_record), .layout_version = 2, .levels = 1},
     .params = hn_params,
     .bake_voxel = hn_bake,
     .bake_finish = hn_bake_finish,

@@ -47,7 +47,7 @@ int hn_validate_record(const void *record, const vx_record_context *c, char *why
             return bad(why, why_size, "as", "a component is -128 (expected -127..127)", 0);
     if (r->psi == -128)
         return bad(why, why_size, "psi", "-128 (expected -127..127)", 0);
-    if (r->spare[0] | r->spare[1] | r->spare[2])
+    if (r->spare[0] | r->spare[1])
         return bad(why, why_size, "spare", "non-zero (expected 0: reserved)", 0);
     return 0;
 }

@@ -16,7 +16,9 @@
  *   a[3]      unorm8  mean albedo a
  *   as[3]     snorm8  a_s, the projection of the albedo on s(h) = 2 g(h) - 1, stored relative to
  *                     min(a, 1 - a) (the largest |a_s| that keeps a + a_s s(h) in [0, 1])
- *   alpha     unorm8  the material's Beckmann roughness (RMS slope) over [0, 1]
+ *   alpha     unorm16 the material's Beckmann roughness (RMS slope) over [0, 2], the range a scene
+ *                     may declare (scene.c): over [0, 1] in 8 bits, as before layout 2, a rougher
+ *                     material was shaded as roughness 1 while the truth used its own
  *   f0_flags  bits 0-6 specular reflectance (unorm7), bit 7 two-sided
  *   psi       snorm8  where the surface ends within the plane: the in-plane signed distance psi
  *                     from the cell's centre to the boundary of its surface patch, over size / 2
@@ -24,7 +26,7 @@
  *                     cone element interpolates psi densely (empty cells count +size/2 where the
  *                     plane runs through them) so that a plane stops where its surface stops
  *                     instead of reaching past the occupied cells (hn_eval.h, hn_blend_edge).
- *   spare[3]  zero (the struct's padding, named so that every byte is defined)
+ *   spare[2]  zero (the struct's padding, named so that every byte is defined)
  * Variances are stored (not deviations): they are what interpolates and combines linearly. */
 #ifndef VX_HN_RECORD_H
 #define VX_HN_RECORD_H
@@ -33,6 +35,7 @@
 #include "model.h"
 
 #define HN_TWO_SIDED 0x80u
+#define HN_ALPHA_MAX 2.0f /* the record's largest roughness: the scene's (scene.c's material roughness) */
 
 typedef struct {
     float h;
@@ -40,10 +43,10 @@ typedef struct {
     unsigned short var_h, var_n, area;
     unsigned char a[3];
     signed char as[3];
-    unsigned char alpha;
+    unsigned short alpha; /* offset 22: aligned */
     unsigned char f0_flags;
     signed char psi;
-    unsigned char spare[3];
+    unsigned char spare[2];
 } hn_record;
 
 /* A record decoded to floats. */
@@ -84,7 +87,7 @@ VX_INLINE void hn_decode(VX_GLOBAL const hn_record *r, float size, hn_data *d)
     /* a_s relative to its bound min(a, 1 - a): full 8-bit resolution whatever the mean colour. */
     float b0 = vx_fminf(d->a.x, 1.0f - d->a.x), b1 = vx_fminf(d->a.y, 1.0f - d->a.y), b2 = vx_fminf(d->a.z, 1.0f - d->a.z);
     d->as = v3((float)r->as[0] / 127.0f * b0, (float)r->as[1] / 127.0f * b1, (float)r->as[2] / 127.0f * b2);
-    float alpha = (float)r->alpha / 255.0f;
+    float alpha = (float)r->alpha * (HN_ALPHA_MAX / 65535.0f);
     d->var_brdf = 0.5f * alpha * alpha;
     d->f0 = (float)(r->f0_flags & 0x7fu) / 127.0f;
 }
@@ -151,11 +154,12 @@ static inline void hn_encode(const hn_data *d, float size, hn_record *r)
         float aq = (float)r->a[c] / 255.0f, bound = vx_fminf(aq, 1.0f - aq);
         r->as[c] = bound > 0.0f ? hn_snorm8(as[c] / bound) : 0;
     }
-    r->alpha = hn_unorm8(sqrtf(2.0f * vx_fmaxf(d->var_brdf, 0.0f)));
+    float alpha = sqrtf(2.0f * vx_fmaxf(d->var_brdf, 0.0f)) / HN_ALPHA_MAX; /* var_brdf NaN -> 0 */
+    r->alpha = (unsigned short)lrintf(vx_fminf(alpha, 1.0f) * 65535.0f);
     unsigned f0 = (unsigned)lrintf(vx_fminf(vx_fmaxf(d->f0, 0.0f), 1.0f) * 127.0f);
     r->f0_flags = (unsigned char)(f0 | (d->two_sided ? HN_TWO_SIDED : 0u));
     r->psi = hn_snorm8(d->psi / (0.5f * size));
-    r->spare[0] = r->spare[1] = r->spare[2] = 0;
+    r->spare[0] = r->spare[1] = 0;
 }
 #endif
 
