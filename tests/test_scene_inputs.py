@@ -1,7 +1,8 @@
 """Inputs a researcher brings: an OBJ mesh renders like the same geometry given as PLY (same
 triangles, normals and uvs: the same image to float rounding), and a texture that would be silently ignored is a warning
 naming the object: the scene does not declare "textures", or the mesh has no texture coordinates. A scene's lights:
-more than 8 are refused when read (truth and render), and with 8 every renderer counts all of them."""
+more than 8 are refused when read (truth and render), and with 8 every renderer counts all of them. An albedo
+outside [0, 1] is refused, from a material, a checker, a float texture or a PLY's vertex colours."""
 import json
 import os
 import subprocess
@@ -11,6 +12,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from testlib import REPO, TMP, VOXLAB, finish, read_image, report  # noqa: E402
 
 import numpy as np  # noqa: E402
+import OpenImageIO as oiio  # noqa: E402
 
 DATA = os.path.join(REPO, "tests", "data")
 
@@ -106,6 +108,56 @@ report("a texture on a mesh without texture coordinates is a warning naming the 
 # No texture at all: silence.
 p = truth(scene("plain", {"obj": nouv}, [], texture=False), os.path.join(TMP, "e.exr"))
 report("no texture, no warning", p.returncode == 0 and "warning" not in p.stderr, p.stderr)
+# Albedos above 1 (or below 0) are refused wherever a surface's colour comes from: the material's
+# color, a checker's color2, a float texture's texels, a PLY's float vertex colours. The truth used
+# them as given while heitz-neyret, vmesh and vicini store colours in 8 bits and showed 1 (a plate
+# of colour 2 rendered twice as bright in the truth as in those models).
+def refused(name, path, words):
+    out = os.path.join(TMP, name + ".exr")
+    p = subprocess.run([VOXLAB, "truth", path, "--spp", "1", "-o", out], capture_output=True, text=True)
+    report(f"{name}: refused naming {words}", p.returncode != 0 and all(w in p.stderr for w in words) and
+           not os.path.exists(out), p.stderr[-300:])
+
+
+def with_material(path, **fields):
+    """The scene file at path with its material's fields replaced."""
+    with open(path) as f:
+        d = json.load(f)
+    d["materials"]["m"].update(fields)
+    with open(path, "w") as f:
+        json.dump(d, f)
+    return path
+
+
+quad_obj = {"obj": os.path.join(DATA, "quad.obj")}
+refused("material_colour_above_1", with_material(scene("albedo_2", quad_obj, [], texture=False), color=[2, 0.5, 0.5]),
+        ["albedo_2.json: materials.m.color", "expected an albedo", "got 2, 0.5, 0.5"])
+p = truth(with_material(scene("albedo_1", quad_obj, [], texture=False), color=[1, 1, 1]),
+          os.path.join(TMP, "albedo_1.exr"))
+report("a material colour of exactly 1 is accepted", p.returncode == 0, p.stderr[-300:])
+refused("checker_colour_above_1", with_material(scene("checker_2", quad_obj, ["textures"]),
+                                                texture={"checker": {"scale": 4, "color2": [0.1, 1.5, 0.1]}}),
+        ["checker_2.json: materials.m.texture.checker.color2", "expected an albedo"])
+
+texels = np.full((4, 4, 3), 0.5, np.float32)
+texels[1, 2, 0] = 1.5
+tex = os.path.join(TMP, "bright.exr")
+buf = oiio.ImageBuf(oiio.ImageSpec(4, 4, 3, oiio.FLOAT))
+buf.set_pixels(oiio.ROI(), texels)
+buf.write(tex)
+refused("texture_texel_above_1", with_material(scene("texel_2", quad_obj, ["textures"]), texture=tex),
+        ["bright.exr: texel 6 (x 2, y 1) channel 0 is 1.5", "expected an albedo"])
+
+ply = os.path.join(TMP, "bright.ply")
+with open(ply, "w") as f:
+    f.write("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+            "property float red\nproperty float green\nproperty float blue\nelement face 1\n"
+            "property list uchar int vertex_indices\nend_header\n0 0 0 0.5 0.5 0.5\n1 0 0 0.5 1.25 0.5\n"
+            "0 1 0 0.5 0.5 0.5\n3 0 1 2\n")
+refused("ply_vertex_colour_above_1", scene("ply_2", {"ply": ply}, [], texture=False),
+        ["bright.ply: vertex 1 has a colour channel of 1.25", "expected 0 to 1"])
+
+
 # A scene's lights: at most LIGHT_MAX_COUNT (8). The tracers hold a voxel's lights in fixed arrays, so
 # a scene with more is refused when read (it was lit by its first 8 in every model, beside a truth lit
 # by all); with 8, every renderer lights with all 8: without shadows the light adds linearly, so 8

@@ -380,8 +380,14 @@ struct loader {
             uint32_t vi = mesh_add_vertex(out, v3(w[0], w[1], w[2]), n, u, t);
             double c[3] = {base_color[0], base_color[1], base_color[2]};
             if (has_colors)
-                for (int k = 0; k < 3; k++)
-                    c[k] *= read_component(col, i, k); // glTF: COLOR_0 multiplies the base colour
+                for (int k = 0; k < 3; k++) {
+                    // An albedo factor (scene.c's parse_albedo says why): a float accessor may hold anything.
+                    double ck = read_component(col, i, k);
+                    if (!(ck >= 0.0 && ck <= 1.0))
+                        fail(prim_name + ": COLOR_0 of vertex " + std::to_string(i) + " is " + std::to_string(ck) +
+                             " (expected 0..1, an albedo)");
+                    c[k] *= ck; // glTF: COLOR_0 multiplies the base colour
+                }
             mesh_set_vertex_color(out, vi, v3(float(c[0]), float(c[1]), float(c[2])));
         }
 

@@ -410,8 +410,14 @@ static int read_vertices(ply_reader *r, const ply_header *h, const ply_element *
             n = v3_normalize(n); /* scanners write unnormalised normals; zero becomes +z */
         }
         uint32_t vi = mesh_add_vertex(out, pos, n, (float)val[P_U], (float)val[P_V]);
-        if (has_colors)
+        if (has_colors) {
+            /* An albedo factor (scene.c's parse_albedo says why): float channels may hold anything. */
+            for (int k = P_RED; k <= P_BLUE; k++)
+                if (!(val[k] >= 0.0 && val[k] <= 1.0))
+                    return vx_fail(e, "%s: vertex %zu has a colour channel of %g: expected 0 to 1 (an albedo)", h->path,
+                                   i, val[k]);
             mesh_set_vertex_color(out, vi, v3((float)val[P_RED], (float)val[P_GREEN], (float)val[P_BLUE]));
+        }
     }
     return 0;
 }

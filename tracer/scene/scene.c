@@ -65,6 +65,19 @@ static int parse_color(const cJSON *obj, const char *field, const char *where, v
     return 0;
 }
 
+/* A diffuse albedo: every component in [0, 1]. Above 1 a surface would reflect more light than it
+ * receives, and the models that store colours in 8 bits (heitz-neyret, vmesh, vicini) cannot hold
+ * it: they would show 1 where the truth shows the value given. */
+static int parse_albedo(const cJSON *obj, const char *field, const char *where, vec3 *out, vx_err *e)
+{
+    if (json_vec3(obj, field, where, out, e))
+        return -1;
+    if (!(out->x >= 0 && out->x <= 1 && out->y >= 0 && out->y <= 1 && out->z >= 0 && out->z <= 1))
+        return vx_fail(e, "%s.%s: expected an albedo: 3 numbers from 0 to 1 (got %g, %g, %g)", where, field, out->x,
+                       out->y, out->z);
+    return 0;
+}
+
 static int parse_texture(scene *s, const cJSON *tex, const char *where, vx_err *e)
 {
     texture t;
@@ -85,7 +98,7 @@ static int parse_texture(scene *s, const cJSON *tex, const char *where, vx_err *
         if (!cJSON_IsObject(c))
             return vx_fail(e, "%s: expected an object", w2);
         if (json_only_fields(c, w2, known, e) || json_number_in(c, "scale", w2, 1e-6, 1e6, &scale, e) ||
-            parse_color(c, "color2", w2, &t.color2, e))
+            parse_albedo(c, "color2", w2, &t.color2, e))
             return -1;
         t.scale = (float)scale;
     } else {
@@ -120,7 +133,7 @@ static int parse_materials(scene *s, const cJSON *root, vx_err *e)
             return vx_fail(e, "%s: expected an object", where);
         material mat = {v3(0.8f, 0.8f, 0.8f), 0.04f, 0.3f, 0, -1};
         double spec = mat.specular, rough = mat.roughness;
-        if (json_only_fields(m, where, known, e) || parse_color(m, "color", where, &mat.color, e) ||
+        if (json_only_fields(m, where, known, e) || parse_albedo(m, "color", where, &mat.color, e) ||
             json_number_in(m, "specular", where, 0, 1, &spec, e) ||
             json_number_in(m, "roughness", where, 1e-3, 2, &rough, e) ||
             json_bool(m, "double_sided", where, &mat.double_sided, e))

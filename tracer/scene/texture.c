@@ -63,6 +63,13 @@ int texture_load_image(texture *t, const char *path, vx_err *e)
                 texture_free(t);
                 return vx_fail(e, "%s: texel %zu is not finite", path, i);
             }
+            /* An albedo (scene.c's parse_albedo says why): a float format may hold anything. */
+            if (!(x >= 0.0f && x <= 1.0f)) {
+                image_free(&img);
+                texture_free(t);
+                return vx_fail(e, "%s: texel %zu (x %zu, y %zu) channel %d is %g: expected an albedo from 0 to 1", path,
+                               i, i % (size_t)t->width, i / (size_t)t->width, c, x);
+            }
             t->rgb[3 * i + (size_t)c] = srgb ? srgb_to_linear(x) : x;
         }
     image_free(&img);
