@@ -2,7 +2,8 @@
 (vx_model.validate_record), so a crafted file with a valid checksum but NaN, infinite or
 out-of-range fields is refused with the voxel index and the field, exit status 1, no output. Also
 the exit status and exact message of a model mismatch (it once freed the records twice), header
-fields that name the file, and that a bake's file is a pure function of its inputs.
+fields that name the file, that a .vox is refused once its scene's texture (a checker's colour, an
+image's texels) changed, and that a bake's file is a pure function of its inputs.
 
 The files are crafted here from the layout in tracer/bake/voxfile.h (magic, header, records, the
 grid's level-0 cells, FNV-1a checksum over 64-bit words), independently of voxlab's reader; the
@@ -216,6 +217,51 @@ report("an unknown --param is refused, naming the model's parameters",
 p = subprocess.run([VOXLAB, "bake", SPHERES, "--model", "heitz-neyret", "--res", "8", "--param", "edge_clear=0.9",
                     "-o", path("nope.vox")], capture_output=True, text=True)
 report("a --param out of range is refused with the range", p.returncode == 1 and "[0, 0.5]" in p.stderr, p.stderr)
+
+# ---------- a texture's content is part of the scene's identity ----------
+# A material's `texture` is an index: a .vox baked before a checker's colour or an image's texels
+# changed was accepted and rendered the old texture (MSE 0.011 against a fresh bake). Both kinds are
+# checked, each against the same scene with the texture unchanged (which must still load).
+def variant(name, edit):
+    with open(SPHERES) as f:
+        d = json.load(f)
+    edit(d)
+    p = path(name + ".json")
+    with open(p, "w") as f:
+        json.dump(d, f)
+    return p
+
+
+def texture_png(name, value):
+    import numpy as np
+    import OpenImageIO as oiio
+    px = np.full((8, 8, 3), 0.5, np.float32)
+    px[3, 5] = value
+    buf = oiio.ImageBuf(oiio.ImageSpec(8, 8, 3, oiio.UINT8))
+    buf.set_pixels(oiio.ROI(), px)
+    p = path(name)
+    buf.write(p)
+    return p
+
+
+def uses_image(tex):
+    return lambda d: d["materials"]["ground"].update(texture=tex)
+
+
+for kind, same, changed in [
+        ("checker", variant("tex_same", lambda d: None),
+         variant("tex_checker",
+                 lambda d: d["materials"]["ground"]["texture"]["checker"].update(color2=[0.6, 0.1, 0.1]))),
+        ("image", variant("tex_img", uses_image(texture_png("img_a.png", 0.5))),
+         variant("tex_img2", uses_image(texture_png("img_b.png", 0.9))))]:
+    vox = path(f"tex_{kind}.vox")
+    voxlab("bake", same, "--model", "binary", "--res", "16", "--rays", "16", "-o", vox)
+    ok = voxlab("render", same, "--vox", vox, *SMALL, "-o", path(f"tex_{kind}_ok.exr"), check=False)
+    report(f"a .vox loads with its own scene ({kind} texture)", ok.returncode == 0, ok.stderr)
+    p = voxlab("render", changed, "--vox", vox, *SMALL, "-o", path(f"tex_{kind}_bad.exr"), check=False)
+    report(f"a .vox is refused once its scene's {kind} texture changed",
+           p.returncode == 1 and "baked from another scene" in p.stderr and
+           not os.path.exists(path(f"tex_{kind}_bad.exr")), p.stderr)
 
 # ---------- a bake is a pure function of its inputs ----------
 for model in ("alpha", "heitz-neyret"):

@@ -623,6 +623,25 @@ static uint64_t hash_mesh(uint64_t h, const mesh *m)
     return hash_bytes(h, m->materials, m->triangle_count * sizeof(uint32_t));
 }
 
+/* The textures' part of the identity: a material's `texture` is only an index, so without this a
+ * .vox baked before a texture's texels or a checker's colour changed would still be accepted. Field by
+ * field (the struct has padding). Hashed once per load: texels do not move with the frames. */
+static uint64_t hash_textures(uint64_t h, const scene *s)
+{
+    for (int i = 0; i < s->texture_count; i++) {
+        const texture *t = &s->textures[i];
+        h = hash_bytes(h, &t->kind, sizeof t->kind);
+        h = hash_bytes(h, &t->width, sizeof t->width);
+        h = hash_bytes(h, &t->height, sizeof t->height);
+        h = hash_bytes(h, &t->scale, sizeof t->scale);
+        float c2[3] = {t->color2.x, t->color2.y, t->color2.z};
+        h = hash_bytes(h, c2, sizeof c2);
+        if (t->rgb)
+            h = hash_bytes(h, t->rgb, (size_t)t->width * (size_t)t->height * 3 * sizeof(float));
+    }
+    return h;
+}
+
 static void compute_bounds_and_identity(scene *s)
 {
     mesh *m = &s->mesh;
@@ -641,6 +660,15 @@ static void compute_bounds_and_identity(scene *s)
     for (int i = 0; i < s->material_count; i++)
         h = hash_bytes(h, &s->materials[i], sizeof(material));
     h = hash_bytes(h, &s->effects, sizeof s->effects);
+    /* Scenes without textures keep the identity they had before textures were hashed (their .vox
+     * files stay valid). */
+    if (s->texture_count > 0) {
+        if (!s->texture_identity_done) {
+            s->texture_identity = hash_textures(0xcbf29ce484222325ULL, s);
+            s->texture_identity_done = 1;
+        }
+        h = hash_bytes(h, &s->texture_identity, sizeof s->texture_identity);
+    }
     s->identity = h;
 }
 

@@ -50,7 +50,9 @@ typedef struct {
     int shadow_res;    /* "shadows": {"resolution"}: columns per side of the shadow maps (0: the default) */
     size_t degenerate_triangles; /* zero-area triangles dropped at load time */
     vec3 bounds_lo, bounds_hi;
-    uint64_t identity; /* hash of geometry and materials: baked files name the scene they belong to */
+    uint64_t identity; /* hash of geometry, materials and textures: baked files name the scene they belong to */
+    uint64_t texture_identity; /* the textures' part of it (kinds, sizes, texels, checkers), hashed once */
+    int texture_identity_done;
     struct scene_animation *anim; /* "frames" and moving objects (animation.h), NULL when none */
     struct scene_instancing *inst; /* instanced objects' prototypes and placements (instancing.h), or NULL */
 } scene;
