@@ -17,7 +17,7 @@
  *   as[3]     snorm8  a_s, the projection of the albedo on s(h) = 2 g(h) - 1, stored relative to
  *                     min(a, 1 - a) (the largest |a_s| that keeps a + a_s s(h) in [0, 1])
  *   alpha     unorm16 the material's Beckmann roughness (RMS slope) over [0, 2], the range a scene
- *                     may declare (scene.c): over [0, 1] in 8 bits, as before layout 2, a rougher
+ *                     may declare (scene.c); layout 1 kept it over [0, 1] in 8 bits, so a rougher
  *                     material was shaded as roughness 1 while the truth used its own
  *   f0_flags  bits 0-6 specular reflectance (unorm7), bit 7 two-sided
  *   psi       snorm8  where the surface ends within the plane: the in-plane signed distance psi
