@@ -127,12 +127,12 @@ static int shadow_args(const char *shadows, int shadow_res, int truth, int *meth
     *method = -1;
     if (shadows && (*method = shadow_method_from_name(shadows)) < 0)
         return give_error("shadows: expected one of " SHADOW_METHOD_NAMES, err, err_size);
-    if (truth && (*method == SHADOW_SLICEMAP_MODEL || *method == SHADOW_VOXEL))
-        return give_error(*method == SHADOW_VOXEL ? "shadows: the truth takes march or slicemap (voxel precomputes a "
-                                                    "model's shadow rays)"
-                                                  : "shadows: the truth takes march or slicemap (slicemap-model needs "
-                                                    "a model's bake)",
-                          err, err_size);
+    const char *why = truth ? truth_shadow_method_unavailable(*method) : NULL;
+    if (why) {
+        char msg[256];
+        snprintf(msg, sizeof msg, "shadows: the truth takes march or slicemap (%s)", why);
+        return give_error(msg, err, err_size);
+    }
     if (shadow_res < 0 || shadow_res > SHADOW_MAX_RES)
         return give_error("shadow_res: expected 0 (the default) to 2048 columns per side", err, err_size);
     return 0;

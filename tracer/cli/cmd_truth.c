@@ -78,12 +78,9 @@ int cmd_truth(int argc, char **argv)
                 return 1;
             o.shadow_method = shadow_method_from_name(val);
             if (o.shadow_method != SHADOW_MARCH && o.shadow_method != SHADOW_SLICEMAP) {
-                fprintf(stderr, "voxlab truth: --shadows %s: expected march or slicemap%s\n%s", val,
-                        o.shadow_method == SHADOW_SLICEMAP_MODEL ? " (slicemap-model needs a model's bake)"
-                        : o.shadow_method == SHADOW_VOXEL        ? " (voxel precomputes a model's shadow rays: "
-                                                                   "the truth's own are march)"
-                                                                 : "",
-                        usage);
+                const char *why = truth_shadow_method_unavailable(o.shadow_method);
+                fprintf(stderr, "voxlab truth: --shadows %s: expected march or slicemap%s%s%s\n%s", val, why ? " (" : "",
+                        why ? why : "", why ? ")" : "", usage);
                 return 1;
             }
         } else if (strcmp(a, "--shadow-res") == 0) {

@@ -326,6 +326,15 @@ static void render_row(void *p, int64_t row, int thread)
     j->per_thread[thread].shadows.queries += counts.shadows.queries;
 }
 
+const char *truth_shadow_method_unavailable(int method)
+{
+    if (method == SHADOW_SLICEMAP_MODEL)
+        return "slicemap-model needs a model's bake";
+    if (method == SHADOW_VOXEL)
+        return "voxel precomputes a model's shadow rays: the truth's own are march";
+    return NULL;
+}
+
 int truth_render(const rt_scene *rt, const truth_options *o, image *out, truth_counts *counts, vx_err *e)
 {
     if (o->spp < 1)
@@ -349,11 +358,9 @@ int truth_render(const rt_scene *rt, const truth_options *o, image *out, truth_c
     while (gcd(j.lens_a, m) != 1)
         j.lens_a++;
     /* The slicemap (--shadows slicemap), built before the clock starts: its time is reported apart. */
-    /* A scene that asks for slicemap-model or voxel: the truth has no model, its shadow rays are the
-     * reference. */
-    int method = o->shadow_method < 0 && (s->shadow_method == SHADOW_SLICEMAP_MODEL || s->shadow_method == SHADOW_VOXEL)
-                     ? SHADOW_MARCH
-                     : o->shadow_method;
+    /* A scene that asks for a method made from a model's data: its shadow rays are the reference. */
+    int method =
+        o->shadow_method < 0 && truth_shadow_method_unavailable(s->shadow_method) ? SHADOW_MARCH : o->shadow_method;
     shadow_request sr = {method, o->shadow_res, o->threads, NULL};
     shadow_stats sst;
     if (shadow_prepare(s, NULL, NULL, NULL, &sr, &j.maps, &sst, e)) {

@@ -27,4 +27,10 @@ typedef struct {
 
 int truth_render(const rt_scene *rt, const truth_options *o, image *out, truth_counts *counts, vx_err *e);
 
+/* Why the truth cannot compute shadows by `method` (SHADOW_*), or NULL when it can: it has no model,
+ * so a method made from a model's data (slicemap-model, voxel) is not its own. `voxlab truth` and the
+ * Python API refuse such a method with this reason; a scene that declares one gets the truth's shadow
+ * rays (march), the reference. */
+const char *truth_shadow_method_unavailable(int method);
+
 #endif
