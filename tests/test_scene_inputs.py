@@ -9,7 +9,7 @@ import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from testlib import REPO, TMP, VOXLAB, finish, read_image, report  # noqa: E402
+from testlib import REPO, TMP, VOXLAB, finish, read_image, report, write_ply  # noqa: E402
 
 import numpy as np  # noqa: E402
 import OpenImageIO as oiio  # noqa: E402
@@ -43,11 +43,8 @@ report("OBJ with vt and a declared texture: renders, no warning, the checker sho
        p.stderr)
 # The same quad as PLY (same four corners, normals, uvs): the same image.
 ply = os.path.join(TMP, "quad.ply")
-with open(ply, "w") as f:
-    f.write("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
-            "property float nx\nproperty float ny\nproperty float nz\nproperty float u\nproperty float v\n"
-            "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
-            "0 0 0 0 0 1 0 0\n1 0 0 0 0 1 1 0\n1 1 0 0 0 1 1 1\n0 1 0 0 0 1 0 1\n4 0 1 2 3\n")
+write_ply(ply, [(0, 0, 0, 0, 0, 1, 0, 0), (1, 0, 0, 0, 0, 1, 1, 0), (1, 1, 0, 0, 0, 1, 1, 1), (0, 1, 0, 0, 0, 1, 0, 1)],
+          [(0, 1, 2, 3)], extra=("nx", "ny", "nz", "u", "v"))
 p2 = truth(scene("ply_tex", {"ply": ply}, ["textures"]), os.path.join(TMP, "b.exr"))
 diff = float(np.abs(img - read_image(os.path.join(TMP, "b.exr"))).max()) if p2.returncode == 0 and img is not None else 1
 report("the OBJ quad renders as the same quad given as PLY (to float rounding: 1e-6)", diff <= 1e-6,
@@ -149,11 +146,8 @@ refused("texture_texel_above_1", with_material(scene("texel_2", quad_obj, ["text
         ["bright.exr: texel 6 (x 2, y 1) channel 0 is 1.5", "expected an albedo"])
 
 ply = os.path.join(TMP, "bright.ply")
-with open(ply, "w") as f:
-    f.write("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-            "property float red\nproperty float green\nproperty float blue\nelement face 1\n"
-            "property list uchar int vertex_indices\nend_header\n0 0 0 0.5 0.5 0.5\n1 0 0 0.5 1.25 0.5\n"
-            "0 1 0 0.5 0.5 0.5\n3 0 1 2\n")
+write_ply(ply, [(0, 0, 0, 0.5, 0.5, 0.5), (1, 0, 0, 0.5, 1.25, 0.5), (0, 1, 0, 0.5, 0.5, 0.5)], [(0, 1, 2)],
+          extra=("red", "green", "blue"))
 refused("ply_vertex_colour_above_1", scene("ply_2", {"ply": ply}, [], texture=False),
         ["bright.ply: vertex 1 has a colour channel of 1.25", "expected 0 to 1"])
 

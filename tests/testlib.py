@@ -59,11 +59,11 @@ def read_image(path):
     return np.asarray(pixels, dtype=np.float32)
 
 
-def write_ply(path, verts, faces):
-    """An ASCII PLY with positions only."""
+def write_ply(path, verts, faces, extra=()):
+    """An ASCII PLY: each vertex x, y, z, then a float per name in extra (nx, red, u, ...)."""
     with open(path, "w") as f:
         f.write("ply\nformat ascii 1.0\n")
-        f.write(f"element vertex {len(verts)}\nproperty float x\nproperty float y\nproperty float z\n")
+        f.write(f"element vertex {len(verts)}\n" + "".join(f"property float {p}\n" for p in ("x", "y", "z", *extra)))
         f.write(f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n")
         for v in verts:
             f.write(" ".join(repr(float(c)) for c in v) + "\n")
