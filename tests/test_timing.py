@@ -6,6 +6,9 @@
 - The load: a job measured under a 1-minute load above the cores is flagged (os.getloadavg replaced
   in-process to make the machine look busy and idle), the row says loaded = 1 and the tables'
   settings say FLAGGED.
+- `make bench` (tests/bench.sh) prints the machine's load averages before and after every
+  benchmark: run with stub benchmarks in a BUILD of its own, each stub's output lies between a
+  "before" and an "after" line naming it, with three load figures each.
 - The truth's render time is monotone in spp within the spread on a small case (spheres, 64x64,
   4/16/64 spp, 3 repeats), checked from pareto.csv's numbers here and stated in pareto.md; the
   check itself (truth_time_violations) against hand-made points.
@@ -152,7 +155,38 @@ def flagged_in_tables():
            rows[0]["repeats"] == 2, md[-900:])
 
 
+def bench_load_lines():
+    """tests/bench.sh with every tests/bench_* replaced by a stub that prints its name: each stub's line
+    sits between its own before and after load lines."""
+    import re
+    build = os.path.join(TMP, "bench-stubs")
+    os.makedirs(os.path.join(build, "tests"), exist_ok=True)
+    with open(os.path.join(REPO, "tests", "bench.sh")) as f:
+        script = f.read()
+    names = sorted(set(re.findall(r'"\$BUILD"/tests/(bench_[a-z_]+)', script)))
+    for n in names:
+        stub = os.path.join(build, "tests", n)
+        with open(stub, "w") as f:
+            f.write("#!/bin/sh\necho STUB %s \"$@\"\n" % n)
+        os.chmod(stub, 0o755)
+    r = subprocess.run(["bash", os.path.join(REPO, "tests", "bench.sh")], env={**os.environ, "BUILD": build},
+                       capture_output=True, text=True, timeout=120)
+    lines = r.stdout.splitlines()
+    load = r"load average [0-9.]+ [0-9.]+ [0-9.]+"
+    stubs = [i for i, line in enumerate(lines) if line.startswith("STUB ")]
+    framed = all(0 < i < len(lines) - 1 and re.fullmatch(r"== %s .*: %s before" % (lines[i].split()[1], load),
+                                                           lines[i - 1]) is not None and
+                 re.fullmatch(r"== %s: %s after" % (lines[i].split()[1], load), lines[i + 1]) is not None
+                 for i in stubs)
+    unwrapped = [line for line in script.splitlines() if '"$BUILD"/tests/' in line and
+                 not line.lstrip().startswith("bench ")]
+    report("make bench prints the load before and after each of its %d benchmarks" % len(stubs),
+           r.returncode == 0 and len(names) >= 8 and {lines[i].split()[1] for i in stubs} == set(names) and framed and
+           not unwrapped, r.stdout[-1500:] + r.stderr[-500:] + repr(unwrapped))
+
+
 def main():
+    bench_load_lines()
     repeated_runs()
     violations_logic()
     flagged_in_tables()
