@@ -109,8 +109,11 @@ for model in ["vicini", "heitz-neyret", "vmesh"]:
         voxlab("render", anim_scene, "--model", model, *R, "--frame", 4, "--filter", f, "-o", out(f"{model}_f4_{f}.exr"))
         mse[f] = float(np.mean((img(out(f"{model}_f4_{f}.exr")) - img(out("t4.exr"))) ** 2))
     print("# frame 4 MSE against the truth, %s: %s" % (model, mse))
-    report("frame 4: nearest and split8 errors against the truth within 4x the re-bake's (%s) %s" % (model, mse),
-           mse["nearest"] < 4 * mse["rebake"] + 1e-4 and mse["split8"] < 4 * mse["rebake"] + 1e-4, str(mse))
+    # 5x: heitz-neyret's split8 (each record spread over 8 voxels, the coarse levels rebuilt from them)
+    # is the farthest, 4.3x its re-bake's since each pixel's cone has its own pixel's width (issue 15:
+    # that cut the re-bake's error by 21 % and split8's by 3 %; 3.5x before).
+    report("frame 4: nearest and split8 errors against the truth within 5x the re-bake's (%s) %s" % (model, mse),
+           mse["nearest"] < 5 * mse["rebake"] + 1e-4 and mse["split8"] < 5 * mse["rebake"] + 1e-4, str(mse))
 # The OpenCL backend renders a moved frame as the C backend does (the records are the same).
 for model in ["alpha", "heitz-neyret"]:
     for be in ["c", "opencl"]:

@@ -66,4 +66,20 @@ static inline float camera_pixel_spread(const camera *c, int height)
     return c->tan_half_fov_y / (float)height;
 }
 
+/* The radius per unit distance of the cone of a pixel whose centre ray makes cos_axis with the
+ * camera's axis, spread being the half-width of a pixel on the image plane at unit distance along
+ * the axis (camera_pixel_spread): the disk of the pixel's solid angle, which matches the ground
+ * truth's box filter best. On the axis that is the disk of the pixel's area, 2/sqrt(pi) times the
+ * half-width; off it the pixel lies 1/cos farther and is seen at a slant, so its solid angle is
+ * cos^3 times the axis pixel's, and the radius cos^1.5 times (the footprint is an ellipse, cos^2
+ * across the radial direction and cos along it; a cone is round, so it takes the same area). One
+ * width for every pixel made the corner cones of a 150-degree square view 12 times too wide, their
+ * MIP levels too coarse, and heitz-neyret's error there stopped falling with resolution (issue 15's
+ * audit). */
+static inline float camera_cone_spread(float spread, float cos_axis)
+{
+    float c = vx_fminf(vx_fmaxf(cos_axis, 0.0f), 1.0f);
+    return spread * 1.12837917f * c * sqrtf(c);
+}
+
 #endif

@@ -497,20 +497,20 @@ VX_INLINE void cone_march_shaded(cone_ctx *x, const cone *c, float t, float t_en
     }
 }
 
-/* One pixel's cone: (org, dir) is the pixel's centre ray from the lens centre; spread the pixel's
- * half-width per unit distance; aperture, focus and forward the thin lens (aperture 0: none). */
+/* One pixel's cone: (org, dir) is the pixel's centre ray from the lens centre (dir unit); spread the
+ * pixel's half-width per unit distance on the axis (camera_cone_spread); aperture, focus and forward
+ * the thin lens (aperture 0: none). */
 VX_INLINE vec3 cone_trace(cone_ctx *x, vec3 org, vec3 dir, float spread, float aperture, float focus, vec3 forward,
                           vec3 background)
 {
-    /* The cone gets the disk of the pixel's area (radius 2/sqrt(pi) times the half-width), which
-     * matches the ground truth's box filter best. */
+    float fwd_cos = v3_dot(dir, forward);
     cone c = {org,
               dir,
               0.0f,
-              spread * 1.12837917f,
+              camera_cone_spread(spread, fwd_cos),
               aperture,
               vx_fmaxf(focus, 1e-6f),
-              v3_dot(dir, forward),
+              fwd_cos,
               0.125f * x->g->voxel_size};
     cone_composite comp = {{0, 0, 0, 0}, 0, {0.0f, 0.0f, 0.0f}};
     float t0, t1;
