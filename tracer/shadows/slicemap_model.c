@@ -149,7 +149,10 @@ static void cone_column(model_job *j, int i, int jj, element_list *L, float *cum
     cone c = {org, dir, r_far, (r_near - r_far) / b->len, 0.0f, 1.0f, 1.0f, 0.125f * g->voxel_size};
     L->n = 0;
     float t0, t1;
-    if (cone_clip_to_grid(g, org, dir, &t0, &t1)) {
+    /* The column's axis inside the grid's box, not its reach (cone_clip_reach, which camera and light
+     * cones take): the column's depth records start at its first element, and elements past the
+     * bottom face reading a ground there made a lit ground shadow itself (0.12 in test_shadows). */
+    if (cone_clip_to_grid(g, org, dir, 0.0f, &t0, &t1)) {
         cone_walk w;
         cone_walk_start(&w, g, dir, vx_fmaxf(t0, 0.0f), vx_fminf(t1, b->len));
         int steps = 0;
