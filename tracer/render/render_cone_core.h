@@ -104,28 +104,30 @@ VX_INLINE int cone_clip_to_grid(const voxel_grid *g, vec3 org, vec3 dir, float m
     return a < b;
 }
 
-/* The part of cone c (axis org + t dir, unit dir) that can meet the grid: its axis clipped to the
- * grid's box grown by how far an element's lookups reach, 4 radii (an element of radius r reads the
- * 2x2x2 cells around its centre on the levels whose cells are at most 2 r and 4 r wide, so a cell
- * more than 4 r away is never read), r the cone's largest radius over the grown box (taken at both
- * ends of the axis' span, the lens' blur being least at the focus; the box grown by a first guess
- * first). Why not the axis alone: a cone reads cells around its axis, up to a few cells of its
- * level away, and the grid has a cell and a half of level 0 around the scene. A ground plate on
- * the scene's bottom face, seen at a slant, was covered only by the elements whose axis point
- * was still inside the box, so the background showed through where the coarse cones read it, more
- * so as the voxels shrank (issue 15's audit: a flat plate at 16x16 pixels, MSE 1.6e-4 at 64^3 and
- * 5.1e-3 at 256^3); and a pixel whose axis passed beside the box saw nothing of the cells its cone
+/* The part of cone c (axis org + t dir, unit dir, t >= 0) that can meet the grid: its axis clipped
+ * to the grid's box grown by how far an element's lookups reach, 4 radii (an element of radius r
+ * reads the 2x2x2 cells around its centre on the levels whose cells are at most 2 r and 4 r wide,
+ * so a cell more than 4 r away is never read). r is the cone's largest radius over the axis up to
+ * the grown box's farthest corner (the radius is convex in t, so that is one of the two ends).
+ * Why not the axis alone: the grid has a cell and a half of level 0 around the scene, and a cone
+ * reads cells up to a few cells of its level from its axis. A ground plate on the box's bottom
+ * face, seen at a slant, was covered only by the elements whose axis point was still inside the
+ * box, so the background showed through where the coarse cones read it, more so as the voxels
+ * shrank (issue 15's audit: a flat plate at 16x16 pixels, MSE 1.6e-4 at 64^3 and 5.1e-3 at
+ * 256^3); and a pixel whose axis passed just beside the box saw nothing of the cells its cone
  * covered. */
 VX_INLINE int cone_clip_reach(const voxel_grid *g, const cone *c, float *t0, float *t1)
 {
-    float lo_end = 0.0f, hi_end = 0.0f, margin = 0.0f;
-    for (int pass = 0; pass < 2; pass++) {
-        if (!cone_clip_to_grid(g, c->org, c->dir, margin, &lo_end, &hi_end))
-            return 0;
-        /* the far end of the box grown by this margin, whatever the next one adds: 2 sqrt(3) x */
-        float far = hi_end + 3.5f * 4.0f * vx_fmaxf(cone_radius(c, lo_end), cone_radius(c, hi_end));
-        margin = 4.0f * vx_fmaxf(cone_radius(c, lo_end), cone_radius(c, far));
+    float span = (float)(g->n * g->voxel_size_d), far2 = 0.0f;
+    for (int k = 0; k < 3; k++) {
+        float lo = (float)g->origin_d[k] - v3_get(c->org, k);
+        float d = vx_fmaxf(fabsf(lo), fabsf(lo + span));
+        far2 += d * d;
     }
+    float far = sqrtf(far2), r0 = cone_radius(c, 0.0f);
+    float margin = 4.0f * vx_fmaxf(r0, cone_radius(c, far));
+    /* the grown box's farthest corner lies at most sqrt(3) margins farther */
+    margin = 4.0f * vx_fmaxf(r0, cone_radius(c, far + 1.75f * margin));
     return cone_clip_to_grid(g, c->org, c->dir, margin, t0, t1);
 }
 
