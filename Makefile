@@ -101,12 +101,16 @@ $(EMBEDDED): tracer/backends/opencl/embed_sources.sh $(KERNEL_SOURCES) Makefile
 	sh $< $@ $(SOURCE_DIRS)
 
 # The version `voxlab --version` prints: the commit (git describe), rewritten only when it changes so
-# that an unchanged tree rebuilds nothing.
+# that an unchanged tree rebuilds nothing; and how this build compiles (the compiler and its flags,
+# without the include paths and dependency files), which experiments put into every cached job's key
+# (experiments/code_keys.py): the Makefile's own lines do not show `make OPT=-O0` or SANITIZE=1,
+# whose timings must not be filed with an -O3 build's.
 VERSION_H = $(BUILD)/gen/version.h
 VERSION_TEXT := $(shell git describe --always --dirty --tags 2>/dev/null || echo unknown)
+BUILD_TEXT = $(CC) $(filter-out -I% -MMD -MP,$(CFLAGS))
 $(VERSION_H): FORCE
 	@mkdir -p $(dir $@)
-	@printf '#define VOXLAB_VERSION "%s"\n' "$(VERSION_TEXT)" >$@.tmp
+	@printf '#define VOXLAB_VERSION "%s"\n#define VOXLAB_BUILD "%s"\n' "$(VERSION_TEXT)" "$(BUILD_TEXT)" >$@.tmp
 	@cmp -s $@.tmp $@ && rm -f $@.tmp || mv $@.tmp $@
 FORCE:
 $(BUILD)/tracer/cli/version.c.o: $(VERSION_H)

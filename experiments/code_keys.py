@@ -5,7 +5,9 @@ model must not re-render the ten 1024-spp ground truths, and editing the truth r
 re-bake every model. So a job's key holds the sha256 of the sources on its code path, not of the
 whole binary (experiments/README.md, "What a cache key holds"):
 
-- every job: the compiler (`gcc --version`) and the Makefile's compile-flag lines (OPT, CFLAGS, ...).
+- every job: the compiler (`gcc --version`), the Makefile's compile-flag lines (OPT, CFLAGS, ...) and the
+  binary's own build line (`voxlab --version`: the compiler and the flags it was built with, which
+  show `make OPT=-O0` or SANITIZE=1 where the Makefile's lines do not).
 - truth: tracer/ and scenes/generators/ (scene loading, meshes, textures, images, Embree ray
   casting, the truth renderer, the CLI) without the voxel-only translation units in VOXEL_ONLY; of
   the headers only those the remaining files include (directly or not); plus Embree's version.
@@ -164,22 +166,38 @@ def _tool_versions():
     return {"gcc": gcc, "makefile_flags": flags, "embree": embree}
 
 
-def code_key(kind, model=None):
+def code_key(kind, model=None, build=None):
     """(sha256 of the code path, {path: sha256} of its files, tool versions) for a job kind, memoised
-    for the life of the process (a sweep hashes each file once)."""
+    for the life of the process (a sweep hashes each file once). build: the binary's build line
+    (binary_build), so that jobs run by binaries compiled differently are filed apart."""
     with _lock:
-        if (kind, model) in _memo:
-            return _memo[(kind, model)]
+        if (kind, model, build) in _memo:
+            return _memo[(kind, model, build)]
         if "tools" not in _memo:
             _memo["tools"] = _tool_versions()
     files = {p: file_sha256(os.path.join(REPO, p)) for p in code_files(kind, model)}
     tools = dict(_memo["tools"])
     if kind != "truth":
         tools.pop("embree")  # the voxel path casts no Embree ray
+    if build is not None:
+        tools["build"] = build
     h = hashlib.sha256(repr((sorted(files.items()), sorted(tools.items()))).encode()).hexdigest()
     with _lock:
-        _memo[(kind, model)] = (h, files, tools)
-    return _memo[(kind, model)]
+        _memo[(kind, model, build)] = (h, files, tools)
+    return _memo[(kind, model, build)]
+
+
+def binary_build(binary):
+    """The compiler and flags `binary` was built with (the `build:` line of `voxlab --version`), or
+    "unknown" for a binary that does not say."""
+    try:
+        out = subprocess.run([binary, "--version"], capture_output=True, text=True, timeout=60).stdout
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+    for line in out.splitlines():
+        if line.startswith("build: "):
+            return line[len("build: "):].strip()
+    return "unknown"
 
 
 def newer_sources(binary):

@@ -8,8 +8,9 @@
    adding a model reruns nothing of the others; editing a model's source reruns exactly that model's
    bake, render and compare, and says which file invalidated them; editing the truth renderer reruns
    the truth and the compares, not the bakes and renders; editing the tracer's voxel code reruns
-   every model job but not the truth; --force reruns everything; and sources newer than the binary
-   are refused."""
+   every model job but not the truth; --force reruns everything; a binary built with other flags
+   (its `voxlab --version` build line) reruns everything, and the first build's entries stay valid
+   for it; and sources newer than the binary are refused."""
 import json
 import os
 import re
@@ -154,6 +155,29 @@ def sweep_checks():
            [k for k, _ in ran] == ["bake"] * 2 + ["compare"] * 2 + ["render"] * 2, f"ran {ran}")
     p, ran = sweep(root, "--force")
     report("--force reruns every job", p.returncode == 0 and len(ran) == 7, f"ran {ran}")
+    # The same sources built otherwise (make OPT=-O0, SANITIZE=1): a binary whose `--version` names
+    # another build line runs every job again, and the rows name its build; the first build's entries
+    # are still there for it.
+    exe = os.path.join(root, "build", "voxlab")
+    os.rename(exe, exe + ".real")
+    with open(exe, "w") as f:
+        f.write('#!/bin/sh\nif [ "$1" = "--version" ]; then echo "voxlab wrapped"; '
+                'echo "build: gcc -O0 (another build)"; exit 0; fi\nexec "%s.real" "$@"\n' % exe)
+    os.chmod(exe, 0o755)
+    p, ran = sweep(root)
+    with open(os.path.join(root, "results", "tiny", "rows.json")) as f:
+        meta = json.load(f)["meta"]
+    report("a binary built with other flags reruns every job and the rows name its build",
+           p.returncode == 0 and len(ran) == 7 and meta.get("voxlab_build") == "gcc -O0 (another build)",
+           f"ran {ran}, build {meta.get('voxlab_build')}\n{p.stderr[-800:]}")
+    os.replace(exe + ".real", exe)
+    rebuilt(root)
+    p, ran = sweep(root)
+    with open(os.path.join(root, "results", "tiny", "rows.json")) as f:
+        meta = json.load(f)["meta"]
+    report("back to the first build: every job cached, its build line in the rows",
+           p.returncode == 0 and ran == [] and "-O" in meta.get("voxlab_build", "") and
+           meta["voxlab_build"] != "gcc -O0 (another build)", f"ran {ran}, build {meta.get('voxlab_build')}")
     edit(root, "models/binary/binary.c")  # and no rebuild
     os.utime(os.path.join(root, "models", "binary", "binary.c"), (time.time() + 60, time.time() + 60))
     p, ran = sweep(root)

@@ -252,7 +252,7 @@ def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
         "experiment": decl["name"], "declaration": decl["shown"], "description": decl["description"],
         "settings": decl["raw"], "date": date, "finished": now_iso(),
         "elapsed_s": time.monotonic() - started, "machine": machine_info(), "git": git_info(),
-        "voxlab_sha256": sw.voxlab_sha256, "voxlab_source": sw.source, "models": sw.models, "jobs": sw.jobs, "threads": sw.threads,
+        "voxlab_sha256": sw.voxlab_sha256, "voxlab_build": sw.build, "voxlab_source": sw.source, "models": sw.models, "jobs": sw.jobs, "threads": sw.threads,
         "metrics": list(sw.metrics), "counts": counts, "oldest_cached": cached_dates[0] if cached_dates else None,
         "failed_rows": sum(r["status"] != "ok" for r in rows), "results_root": results,
         # Other processes on the machine slow the timed jobs down: say how busy it was when the

@@ -150,6 +150,8 @@ class Sweep:
             raise VoxlabError(f"--voxlab {voxlab} is older than {len(stale)} source file(s) ({', '.join(stale[:3])}"
                               f"{', ...' if len(stale) > 3 else ''}): run `make` first")
         self.voxlab, self.voxlab_sha256 = self._snapshot(os.path.abspath(voxlab))
+        # In every key: an -O0 or sanitizer build's timings are filed apart from an -O3 build's.
+        self.build = code_keys.binary_build(self.voxlab)
         self.models = models_info(self.voxlab)
         self.metrics = metric_names(self.voxlab)  # the columns `compare --json` fills
         self.all = {}  # key -> Job
@@ -205,7 +207,7 @@ class Sweep:
     # -- job constructors --------------------------------------------------------------------------
 
     def _job(self, kind, label, inputs, deps, cost, calib, model=None):
-        j = Job(kind, label, inputs, deps, cost, calib, code_keys.code_key(kind, model))
+        j = Job(kind, label, inputs, deps, cost, calib, code_keys.code_key(kind, model, self.build))
         if j.key in self.all:
             return self.all[j.key]
         j.dir = os.path.join(self.cache_dir, kind, f"{slug(label)[:80]}-{j.key[:16]}")

@@ -15,6 +15,8 @@ int cmd_models(int argc, char **argv);
 
 /* The build's version: git describe of the tree it was built from (version.c). */
 const char *voxlab_version(void);
+/* The compiler and flags this binary was built with (`voxlab --version`'s second line). */
+const char *voxlab_build(void);
 
 /* The .vox header of a bake of s (cmd_bake.c): what `voxlab bake` and the Python API write. */
 void bake_header_fill(voxfile_header *h, const scene *s, const vx_model *m, const bake_options *o,

@@ -34,7 +34,7 @@ int main(int argc, char **argv)
         return argc < 2 ? 1 : 0;
     }
     if (strcmp(argv[1], "--version") == 0 || strcmp(argv[1], "version") == 0) {
-        printf("voxlab %s\n", voxlab_version());
+        printf("voxlab %s\nbuild: %s\n", voxlab_version(), voxlab_build());
         return 0;
     }
     fileio_install_signal_cleanup(); /* no temporary file outlives Ctrl-C, SIGTERM or the file-size limit */
