@@ -10,6 +10,8 @@ every model x the four shadow methods, a 16-spp truth, one timed run each.
 2. The runs' "shadows" dimension leaves march's cache keys as they were: the same declaration
    without it (sweep.py) runs no render job again.
 3. A bad method in a declaration is refused (exit 2) naming the field.
+4. A scene that declares its own method ("shadows": {"method": "slicemap-model"}) renders its
+   march rows with march: no maps built.
 """
 import csv
 import json
@@ -109,4 +111,23 @@ report("march's cache keys are those of a declaration without shadows (nothing r
 p = run("experiments/sweep.py", declaration("shadows-bad", methods=("march", "deep")), "--check")
 report("a bad shadow method in a declaration is refused naming the field",
        p.returncode == 2 and "runs[0].shadows[1]" in p.stderr, p.stderr[-300:])
+
+# 4. A scene that declares its own method: a row that says march is rendered with march (the
+# experiment passes --shadows always; it used to pass none for march, leaving the scene's method in
+# force: alpha's and heitz-neyret's stats then showed slicemap-model's maps under a "march" row).
+own = os.path.join(TMP, "own_method.json")
+with open(own, "w") as f:
+    json.dump({"name": "own-method", "description": "a scene declaring slicemap-model", "seed": 1, "truth_spp": 16,
+               "repeats": 1, "scenes": [{"base": "spheres", "name": "sph_sm",
+                                          "set": {"shadows": {"method": "slicemap-model", "resolution": 64}}}],
+               "runs": [{"models": ["alpha", "heitz-neyret"], "res": [16], "size": 32}]}, f)
+p = run("experiments/sweep.py", own, "--results", RESULTS, "--voxlab", VOXLAB)
+own_rows = []
+if os.path.isfile(os.path.join(RESULTS, "own-method", "rows.csv")):
+    with open(os.path.join(RESULTS, "own-method", "rows.csv"), newline="") as f:
+        own_rows = [r for r in csv.DictReader(f) if r["kind"] == "model"]
+report("a scene's own shadow method does not override the row's march (no maps built)",
+       p.returncode == 0 and len(own_rows) == 2 and
+       all(r["shadows"] == "march" and float(r["shadow_bytes"] or 0) == 0 for r in own_rows),
+       p.stderr[-600:] + str([(r["model"], r["shadows"], r["shadow_bytes"]) for r in own_rows]))
 finish()

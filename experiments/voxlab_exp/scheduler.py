@@ -216,10 +216,11 @@ class Sweep:
 
     def truth(self, scene_path, scene_name, size, spp, seed, shadows="march"):
         w, h = size
-        # The shadow method is an input only when it is not the default: every key made before
-        # there were methods stays valid.
-        sh = {} if shadows == "march" else {"shadows": shadows}
-        return self._job("truth", f"{scene_name}-{w}x{h}-spp{spp}-seed{seed}{'' if not sh else '-' + shadows}",
+        # The method is always an input and always passed (_command): a scene may declare its own
+        # ("shadows": {"method"}), which an unstated march would have left in force under a row that
+        # says march.
+        sh = {"shadows": shadows}
+        return self._job("truth", f"{scene_name}-{w}x{h}-spp{spp}-seed{seed}{'' if shadows == 'march' else '-' + shadows}",
                          {"scene": scene_fingerprint(scene_path), "size": [w, h], "spp": spp, "seed": seed, **sh,
                           "_scene_path": scene_path, "_scene_name": scene_name},
                          [], w * h * spp, ("truth", scene_name))
@@ -233,10 +234,10 @@ class Sweep:
     def render(self, bake, scene_path, scene_name, size, spp, seed, cache, shadow_skip, shadows="march"):
         w, h = size
         b = bake.inputs
-        sh = {} if shadows == "march" else {"shadows": shadows}  # as in truth(): old keys stay valid
+        sh = {"shadows": shadows}  # as in truth()
         return self._job("render", f"{scene_name}-{b['model']}-r{b['res']}-{w}x{h}-spp{spp}"
                                    f"{'' if cache else '-nocache'}{'' if shadow_skip else '-noskip'}"
-                                   f"{'' if not sh else '-' + shadows}",
+                                   f"{'' if shadows == 'march' else '-' + shadows}",
                          {"bake": bake.key, "scene": scene_fingerprint(scene_path), "size": [w, h], "spp": spp,
                           "seed": seed, "cache": cache, "shadow_skip": shadow_skip, **sh, "_scene_path": scene_path,
                           "_scene_name": scene_name, "_model": b["model"], "_res": b["res"]},
@@ -258,7 +259,7 @@ class Sweep:
         if job.kind == "truth":
             w, h = i["size"]
             return ["truth", i["_scene_path"], "--spp", i["spp"], "--size", f"{w}x{h}", "--seed", i["seed"], *t,
-                    *(["--shadows", i["shadows"]] if "shadows" in i else []), "-o", out, "--stats", stats]
+                    "--shadows", i["shadows"], "-o", out, "--stats", stats]
         if job.kind == "bake":
             return self._bake_command(i, [i["model"]], "{tmp}/model.vox", stats)
         if job.kind == "render":
@@ -266,7 +267,7 @@ class Sweep:
             return ["render", i["_scene_path"], "--model", i["_model"], "--vox", job.deps[0].path("model.vox"),
                     "--spp", i["spp"], "--size", f"{w}x{h}", "--seed", i["seed"], *t,
                     *([] if i["cache"] else ["--no-cache"]), *([] if i["shadow_skip"] else ["--no-shadow-skip"]),
-                    *(["--shadows", i["shadows"]] if "shadows" in i else []), "-o", out, "--stats", stats]
+                    "--shadows", i["shadows"], "-o", out, "--stats", stats]
         if job.kind == "compare":
             # No --heatmap: it costs `voxlab compare` as much again as the metrics, and the figures
             # draw their own heat maps on one scale per scene (voxlab scales each to its own maximum).
