@@ -53,6 +53,9 @@ def point_label(r):
     parts = [f"{r['res']}³"]
     if r["spp"] != 4:
         parts.append(f"{r['spp']} spp")
+    rpp = r.get("rays_per_pixel")
+    if rpp is not None and rpp != "" and abs(float(rpp) - r["spp"]) > 1e-9:
+        parts.append(f"{float(rpp):g} per pixel traced")  # one cone a pixel, whatever the spp
     if r["rays"] != 150:
         parts.append(f"{r['rays']} rays")
     if not r["cache"]:

@@ -41,6 +41,18 @@ T2_FIELDS = ["scene", "res", "triangles", "voxels", "truth_s", "truth_s_spread",
              "peak_rss_mb", "status", "error"]
 
 
+def traced_per_pixel_note(rows):
+    """"; M traced N cone(s) per pixel whatever the spp" for each model that traced something else than
+    spp rays a pixel (heitz-neyret marches one cone a pixel: its protocol), from its renders' stats."""
+    odd = {}
+    for r in rows:
+        rpp = r.get("rays_per_pixel")
+        if r.get("kind") == "model" and r.get("status") == "ok" and rpp is not None and abs(rpp - r["spp"]) > 1e-9:
+            odd.setdefault(r["model"], set()).add(round(rpp, 6))
+    return "".join(f"; {m} traced {', '.join(f'{v:g}' for v in sorted(vs))} ray(s) or cone(s) a pixel, whatever the spp"
+                   for m, vs in sorted(odd.items()))
+
+
 def fmt_mse(v):
     return f"{v:.3e}" if v is not None else "–"
 
@@ -102,7 +114,8 @@ def build(meta, rows, decl, out):
     setting_line = (f"settings: truth {decl['truth_spp']} spp (seed {decl['seed']}); models rendered at "
                     f"{', '.join(map(str, run['spp']))} spp with {', '.join(map(str, run['rays']))} bake rays per "
                     f"voxel, shading cache {'on' if run['cache'] == [True] else run['cache']}; image size "
-                    + "; ".join(f"{size_text([r for r in rows if r['res'] == n])} at {n}³" for n in resolutions))
+                    + "; ".join(f"{size_text([r for r in rows if r['res'] == n])} at {n}³" for n in resolutions)
+                    + traced_per_pixel_note(rows))
 
     # --- Table 1, Markdown and LaTeX: one block per resolution, a column pair per scene.
     md = [f"# Table 1: accuracy against the ground truth ({meta['experiment']})", ""]
@@ -169,7 +182,8 @@ def build(meta, rows, decl, out):
     md2 += [f"- {x}" for x in head + [setting_line]]
     md2 += ["", "Triangles of the scene; voxels = non-empty voxels at that resolution; truth s = the "
                 f"ground truth's render time ({decl['truth_spp']} spp, same image size, same threads); per model: "
-                "MB = per-voxel records + sparse grid (10^6 bytes), with the render process's peak resident "
+                "MB = per-voxel records + sparse grid + the model's constant tables (heitz-neyret's coverage masks) "
+                "(10^6 bytes), with the render process's peak resident "
                 "memory in parentheses (shading cache, grid build and image included), bake s = sampling rays + building the "
                 "records, render ms = one frame (the voxel render alone, bake excluded). Times are the median of the "
                 "timed repeats ± their spread (max − min); * = measured under a load above the machine's cores.", ""]

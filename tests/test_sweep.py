@@ -191,6 +191,35 @@ def main():
            got == [(m, v) for m, _, _, v in cases], str(got))
 
 
+
+def cone_model_rows():
+    """heitz-neyret beside binary (issue 15's fairness audit): its rows say what it traced (one cone a
+    pixel whatever the spp) and Table 1's settings line says so; its MB holds its 1 MiB mask table
+    (256 x 256 masks of 128 bits, the paper's table) beside its records and grid."""
+    results = os.path.join(TMP, "cone_results")
+    decl = declare("cone", runs=[{"models": ["binary", "heitz-neyret"], "res": [16], "size": "res", "spp": [4],
+                                  "rays": [150]}])
+    p = run("table1.py", decl, results)
+    report("binary + heitz-neyret sweep exits 0", p.returncode == 0, p.stderr[-1500:])
+    if p.returncode != 0:
+        return
+    rows = {r["model"]: r for r in read_csv(os.path.join(results, "cone", "rows.csv"))}
+    hn, bi = rows.get("heitz-neyret", {}), rows.get("binary", {})
+    report("rays_per_pixel: heitz-neyret 1 (a cone a pixel), binary 4 (its spp)",
+           hn and bi and float(hn["rays_per_pixel"]) == 1.0 and float(bi["rays_per_pixel"]) == 4.0,
+           f"{hn.get('rays_per_pixel')} {bi.get('rays_per_pixel')}")
+    report("heitz-neyret's MB = records + grid + its 1 MiB mask table; binary has no table",
+           hn and float(hn["table_bytes"]) == 256 * 256 * 16 and
+           abs(float(hn["mb"]) - (float(hn["model_bytes"]) + float(hn["grid_bytes"]) + 256 * 256 * 16) / 1e6) < 1e-9
+           and float(bi["table_bytes"]) == 0, f"{hn.get('table_bytes')} {hn.get('mb')} {bi.get('table_bytes')}")
+    with open(os.path.join(results, "cone", "table1.md")) as f:
+        md = f.read()
+    report("Table 1's settings say heitz-neyret traced one cone a pixel whatever the spp",
+           "heitz-neyret traced 1 ray(s) or cone(s) a pixel, whatever the spp" in md and
+           "binary traced" not in md, md[:1200])
+
+
 if __name__ == "__main__":
     main()
+    cone_model_rows()
     finish()

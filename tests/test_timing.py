@@ -9,6 +9,8 @@
 - `make bench` (tests/bench.sh) prints the machine's load averages before and after every
   benchmark: run with stub benchmarks in a BUILD of its own, each stub's output lies between a
   "before" and an "after" line naming it, with three load figures each.
+- The truth's memory in the rows: voxlab's mesh_bytes (within the bounds the triangle count sets)
+  plus its bvh_bytes, not its peak RSS.
 - The truth's render time is monotone in spp within the spread on a small case (spheres, 64x64,
   4/16/64 spp, 3 repeats), checked from pareto.csv's numbers here and stated in pareto.md; the
   check itself (truth_time_violations) against hand-made points.
@@ -128,6 +130,17 @@ def pareto_small():
     report("pareto.md states the monotone check", ("monotone within the spread" in md) == mono and
            "truth render time against spp" in md, md[-600:])
     report("pareto plot written", os.path.isfile(os.path.join(out, "pareto_spheres.png")), "")
+    # The truth's memory: its meshes' arrays and its BVH, as a model's is its records and grid. The
+    # arrays lie between 16 bytes a triangle + one 44-byte vertex and 16 + 3 x 44 a triangle (each
+    # triangle its own three vertices).
+    tj = [r for r in jrows if r["kind"] == "truth"]
+    with open(os.path.join(results, os.path.dirname(tj[0]["image"]), "stats.json")) as f:
+        ts = json.load(f)
+    tri = ts["triangles"]
+    report("the truth's MB = voxlab's mesh_bytes + bvh_bytes, mesh_bytes within the arrays' bounds",
+           all(abs(r["mb"] - (ts["mesh_bytes"] + ts["bvh_bytes"]) / 1e6) < 1e-9 for r in tj) and
+           16 * tri + 44 <= ts["mesh_bytes"] <= (16 + 3 * 44) * tri and ts["bvh_bytes"] > 0,
+           f"mb {[r['mb'] for r in tj]}, mesh {ts.get('mesh_bytes')}, bvh {ts.get('bvh_bytes')}, {tri} triangles")
 
 
 def flagged_in_tables():

@@ -25,8 +25,8 @@ ROW_FIELDS_HEAD = ["experiment", "scene", "base_scene", "variant", "kind", "mode
                    "rays", "cache", "shadow_skip", "shadows", "seed", "truth_spp", "status", "error"]
 ROW_FIELDS_TAIL = ["render_s", "render_ms", "render_ms_min", "render_ms_spread", "repeats", "bake_s", "bake_s_min",
                    "bake_s_spread", "truth_s_min", "truth_s_spread", "load", "loaded", "bytes_per_voxel", "voxels",
-                   "model_bytes", "grid_bytes", "mb", "shadow_build_s", "shadow_bytes", "shadow_queries",
-                   "peak_rss_bytes", "cache_hits", "model_evals", "triangles", "bvh_s", "bvh_bytes",
+                   "model_bytes", "grid_bytes", "table_bytes", "mb", "shadow_build_s", "shadow_bytes", "shadow_queries",
+                   "peak_rss_bytes", "cache_hits", "model_evals", "rays_per_pixel", "triangles", "bvh_s", "bvh_bytes",
                    "truth_s", "image", "preview", "truth_image", "truth_preview", "computed", "jobs_cached"]
 
 
@@ -212,12 +212,16 @@ def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
             status="ok", error="", **metric_columns(ms),
             **timing_columns(r, "render_ms", 1000.0), **timing_columns(b, "bake_s", 1.0),
             **load_columns(t, b, r), bytes_per_voxel=rs.get("bytes_per_voxel"), voxels=rs.get("voxels"),
-            model_bytes=rs.get("model_bytes"), grid_bytes=rs.get("grid_bytes"),
-            mb=(rs["model_bytes"] + rs["grid_bytes"]) / 1e6 if "model_bytes" in rs and "grid_bytes" in rs else None,
+            model_bytes=rs.get("model_bytes"), grid_bytes=rs.get("grid_bytes"), table_bytes=rs.get("table_bytes"),
+            # records + grid + the model's constant table (heitz-neyret's masks), all it reads
+            mb=((rs["model_bytes"] + rs["grid_bytes"] + rs.get("table_bytes", 0)) / 1e6
+                if "model_bytes" in rs and "grid_bytes" in rs else None),
             shadow_build_s=rs.get("shadow_build_seconds"), shadow_bytes=rs.get("shadow_bytes"),
             shadow_queries=rs.get("shadow_queries"),
             peak_rss_bytes=rs.get("peak_rss_bytes"), cache_hits=rs.get("cache_hits"),
             model_evals=rs.get("model_evals"), triangles=rs.get("triangles", row["triangles"]),
+            # What the render traced per pixel: spp rays, or one cone whatever the spp (heitz-neyret).
+            rays_per_pixel=(rs["rays"] / (cfg["width"] * cfg["height"]) if rs.get("rays") is not None else None),
             image=rel(r.path("image.exr"), results), preview=rel(r.path("image.png"), results),
             computed=(r.record or {}).get("date"),
             jobs_cached=sum(j.status == "cached" for j in (b, r, c)))
@@ -237,9 +241,11 @@ def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
                    **timing_columns(t, "render_ms", 1000.0), **load_columns(t), bake_s=0.0,
                    triangles=ts.get("triangles"), peak_rss_bytes=rss,
                    bvh_s=ts.get("bvh_seconds"), bvh_bytes=ts.get("bvh_bytes"),  # the truth's BVH: build, memory
-                   # Triangles' memory: voxlab reports mesh_bytes when it can, else peak RSS minus a
-                   # process that loads no scene (mesh + BVH + framebuffer: an overestimate).
-                   mb=(ts["mesh_bytes"] / 1e6 if "mesh_bytes" in ts else
+                   # Triangles' memory: the meshes and textures it traces and shades from and its BVH
+                   # (voxlab's mesh_bytes and bvh_bytes), as a model is charged its records and grid;
+                   # from an older voxlab without mesh_bytes, peak RSS minus a process that loads no
+                   # scene (framebuffer and thread stacks included: an overestimate).
+                   mb=((ts["mesh_bytes"] + ts.get("bvh_bytes", 0)) / 1e6 if "mesh_bytes" in ts else
                        max(0, rss - base_rss) / 1e6 if rss else None),
                    image=rel(t.path("image.exr"), results), preview=rel(t.path("image.png"), results),
                    truth_image=rel(ref.path("image.exr"), results),

@@ -57,10 +57,36 @@ cJSON *stats_scene_fields(const scene *s)
     return j;
 }
 
+/* The bytes of one mesh's arrays: per vertex a position, a normal, a uv and a colour; per triangle
+ * three indices and a material. */
+static double mesh_array_bytes(const mesh *m)
+{
+    return (double)m->vertex_count * (3 + 3 + 2 + 3) * sizeof(float) +
+           (double)m->triangle_count * (3 + 1) * sizeof(uint32_t);
+}
+
+/* What the truth traces and shades from besides its BVH: the scene's meshes (the instanced
+ * prototypes and one placement per copy too) and its image textures' texels. Experiments charge the
+ * truth this plus bvh_bytes, as they charge a model its records and grid (issue 15's audit: the
+ * truth was charged its peak resident memory, image buffers and thread stacks included). */
+static double scene_mesh_bytes(const scene *s)
+{
+    double b = mesh_array_bytes(&s->mesh);
+    for (int i = 0; s->inst && i < s->inst->proto_count; i++)
+        b += mesh_array_bytes(&s->inst->protos[i]);
+    if (s->inst)
+        b += (double)s->inst->count * sizeof(inst_instance);
+    for (int i = 0; i < s->texture_count; i++)
+        if (s->textures[i].kind == TEXTURE_IMAGE && s->textures[i].rgb)
+            b += (double)s->textures[i].width * s->textures[i].height * 3 * sizeof(float);
+    return b;
+}
+
 cJSON *stats_truth(const scene *s, const truth_options *o, const truth_counts *c)
 {
     cJSON *j = stats_scene_fields(s);
     cJSON_AddStringToObject(j, "command", "truth");
+    cJSON_AddNumberToObject(j, "mesh_bytes", scene_mesh_bytes(s));
     cJSON_AddNumberToObject(j, "seconds", c->seconds);
     cJSON_AddNumberToObject(j, "rays", (double)(c->primary_rays + c->shadow_rays));
     cJSON_AddNumberToObject(j, "primary_rays", (double)c->primary_rays);

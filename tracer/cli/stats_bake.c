@@ -62,6 +62,13 @@ cJSON *stats_render(const scene *s, const vx_model *m, const bake_options *bo, c
     cJSON_AddStringToObject(j, "command", "render");
     stats_add_bake(j, m, &bo->params, g, bc, bo->rays, grid_seconds);
     cJSON_AddStringToObject(j, "backend", b->name);
+    /* The model's constant table (heitz-neyret's coverage masks, 1 MiB), read at every evaluation
+     * on either backend: memory the model needs beside its records, whatever the grid (issue 15's
+     * audit: it was in no memory figure). Already built by the render, so asking costs nothing. */
+    size_t table_bytes = 0;
+    if (m->cone && m->cone->table)
+        m->cone->table(&table_bytes);
+    cJSON_AddNumberToObject(j, "table_bytes", (double)table_bytes);
     cJSON_AddNumberToObject(j, "seconds", rc->seconds);
     if (b->splits_model_time) {
         cJSON_AddNumberToObject(j, "traversal_seconds", rc->traversal_seconds);
