@@ -6,6 +6,8 @@
 - The load: a job measured under a 1-minute load above the cores is flagged (os.getloadavg replaced
   in-process to make the machine look busy and idle), the row says loaded = 1 and the tables'
   settings say FLAGGED.
+- Where timed jobs ran: each row's host and threads; the tables name the machine, or warn when a
+  cluster timed jobs on several.
 - `make bench` (tests/bench.sh) prints the machine's load averages before and after every
   benchmark: run with stub benchmarks in a BUILD of its own, each stub's output lies between a
   "before" and an "after" line naming it, with three load figures each.
@@ -198,8 +200,32 @@ def bench_load_lines():
            not unwrapped, r.stdout[-1500:] + r.stderr[-500:] + repr(unwrapped))
 
 
+def machines_in_tables():
+    """Where the timed jobs ran: every row names its host and threads (from its job's record), and the
+    tables' settings name the one machine, or warn when timed jobs ran on several (a cluster)."""
+    import platform
+    from voxlab_exp.report import machines_text
+    decl = os.path.join(TMP, "machines.json")
+    with open(decl, "w") as f:
+        json.dump({"name": "machines", "truth_spp": 8, "scenes": ["spheres"], "repeats": 1,
+                   "runs": [{"models": ["binary"], "res": [8], "size": 16, "spp": [1]}]}, f)
+    a = type("A", (), {"results": os.path.join(TMP, "machines-results"), "cache": None, "voxlab": VOXLAB, "jobs": 2,
+                       "fresh": False, "executor": "local", "scheduler": None, "slurm_args": "", "repeats": None})
+    meta, rows = run_experiment(load_declaration(decl), **sweep_args(a))
+    here = f"{platform.node()} ({os.cpu_count()} threads)"
+    report("rows name the host and threads of their timed jobs; the meta the one machine",
+           rows and all(r["host"] == platform.node() and r["threads"] == os.cpu_count() for r in rows) and
+           meta["timed_machines"] == [here] and machines_text(meta) == f"on {here}",
+           str([(r["host"], r["threads"]) for r in rows]) + str(meta.get("timed_machines")))
+    two = dict(meta, timed_machines=["a (2 threads)", "b (16 threads)"])
+    text = machines_text(two)
+    report("timed jobs on two machines: the tables' settings warn and name both",
+           "CAUTION" in text and "a (2 threads)" in text and "b (16 threads)" in text, text)
+
+
 def main():
     bench_load_lines()
+    machines_in_tables()
     repeated_runs()
     violations_logic()
     flagged_in_tables()

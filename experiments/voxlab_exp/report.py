@@ -38,6 +38,16 @@ def load_text(meta):
              "; no timed job ran under a load above its cores"))
 
 
+def machines_text(meta):
+    """Where the timed jobs ran: one machine and thread count, or the warning that several did (the
+    rows' host and threads columns say which; their times do not compare)."""
+    ms = meta.get("timed_machines") or []
+    if len(ms) <= 1:
+        return f"{meta['threads']} here" if not ms else f"on {ms[0]}"
+    return (f"CAUTION: on {len(ms)} machines or thread counts, {', '.join(ms)}: times from different ones do not "
+            f"compare; the rows' host and threads columns say which")
+
+
 def settings_text(meta):
     """The lines every table and page states: date, machine, commit, binary, job layout, cache use."""
     g, c = meta["git"], meta["counts"]
@@ -50,7 +60,7 @@ def settings_text(meta):
         f"{', '.join(m['name'] for m in meta['models'])}",
         f"declaration: {meta['declaration']}; executor {meta.get('executor', 'local')}, {meta['jobs']} untimed "
         f"job(s) at a time; " + (f"each timed job (truth, bake, render) alone on its machine with all its cores "
-                                 f"({meta['threads']} here), its voxlab run repeated {rep} times (bakes "
+                                 f"({machines_text(meta)}), its voxlab run repeated {rep} times (bakes "
                                  f"{meta.get('bake_repeats')}): times are the median, ± the spread (max − min)"
                                  if rep else f"{meta['threads']} voxlab thread(s) each"),
         load_text(meta),

@@ -24,7 +24,7 @@ from .scenes import write_variant
 ROW_FIELDS_HEAD = ["experiment", "scene", "base_scene", "variant", "kind", "model", "res", "width", "height", "spp",
                    "rays", "cache", "shadow_skip", "shadows", "seed", "truth_spp", "status", "error"]
 ROW_FIELDS_TAIL = ["render_s", "render_ms", "render_ms_min", "render_ms_spread", "repeats", "bake_s", "bake_s_min",
-                   "bake_s_spread", "truth_s_min", "truth_s_spread", "load", "loaded", "bytes_per_voxel", "voxels",
+                   "bake_s_spread", "truth_s_min", "truth_s_spread", "load", "loaded", "host", "threads", "bytes_per_voxel", "voxels",
                    "model_bytes", "grid_bytes", "table_bytes", "mb", "shadow_build_s", "shadow_bytes", "shadow_queries",
                    "peak_rss_bytes", "cache_hits", "model_evals", "rays_per_pixel", "triangles", "bvh_s", "bvh_bytes",
                    "truth_s", "image", "preview", "truth_image", "truth_preview", "computed", "jobs_cached"]
@@ -91,6 +91,19 @@ def load_columns(*jobs):
     loads = [max(r.get("load_average") or 0, r.get("load_after") or 0) for r in recs if "load_average" in r]
     return {"load": max(loads) if loads else None,
             "loaded": int(any(r.get("loaded") for r in recs)) if recs else None}
+
+
+def machine_columns(job):
+    """Where a timed job ran and with how many threads (its record): a cluster may time two models on
+    different machines, whose times do not compare; the tables say so (report.settings_text)."""
+    rec = (job.record or {}) if job is not None else {}
+    return {"host": rec.get("host"), "threads": rec.get("threads")}
+
+
+def _timed_machines(jobs):
+    """The distinct (host, threads) of the timed jobs behind the rows, as "host (N threads)"."""
+    seen = {(j.record.get("host"), j.record.get("threads")) for j in jobs if j.timed and j.record}
+    return [f"{h} ({t} threads)" for h, t in sorted(seen, key=str)]
 
 
 def run_experiment(decl, results=DEFAULT_RESULTS, cache_dir=None, voxlab=None, jobs=2, fresh=False, out_dir=None,
@@ -211,7 +224,8 @@ def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
         row.update(
             status="ok", error="", **metric_columns(ms),
             **timing_columns(r, "render_ms", 1000.0), **timing_columns(b, "bake_s", 1.0),
-            **load_columns(t, b, r), bytes_per_voxel=rs.get("bytes_per_voxel"), voxels=rs.get("voxels"),
+            **load_columns(t, b, r), **machine_columns(r), bytes_per_voxel=rs.get("bytes_per_voxel"),
+            voxels=rs.get("voxels"),
             model_bytes=rs.get("model_bytes"), grid_bytes=rs.get("grid_bytes"), table_bytes=rs.get("table_bytes"),
             # records + grid + the model's constant table (heitz-neyret's masks), all it reads
             mb=((rs["model_bytes"] + rs["grid_bytes"] + rs.get("table_bytes", 0)) / 1e6
@@ -238,7 +252,7 @@ def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
         ts, ms = stats(t), stats(c, "metrics.json")
         rss = (t.record or {}).get("peak_rss_bytes")
         row.update(status="ok", error="", seed=decl["truth_curve"]["seed"], **metric_columns(ms),
-                   **timing_columns(t, "render_ms", 1000.0), **load_columns(t), bake_s=0.0,
+                   **timing_columns(t, "render_ms", 1000.0), **load_columns(t), **machine_columns(t), bake_s=0.0,
                    triangles=ts.get("triangles"), peak_rss_bytes=rss,
                    bvh_s=ts.get("bvh_seconds"), bvh_bytes=ts.get("bvh_bytes"),  # the truth's BVH: build, memory
                    # Triangles' memory: the meshes and textures it traces and shades from and its BVH
@@ -264,6 +278,7 @@ def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
         # Other processes on the machine slow the timed jobs down: say how busy it was when the
         # jobs behind these rows ran (recorded per job, so cached jobs keep their own).
         "load_average": _load_summary([j for j in sw.all.values() if j.kind in ("bake", "render", "truth")]),
+        "timed_machines": _timed_machines([j for j in sw.all.values() if j.kind in ("bake", "render", "truth")]),
         "executor": sw.executor_name, "repeats": sw.repeats_override or decl["repeats"],
         "bake_repeats": sw.repeats_override or decl["bake_repeats"],
         "invalidated": [x for x in sw.invalidated if x["kind"]],
