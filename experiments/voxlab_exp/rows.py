@@ -24,10 +24,11 @@ from .scenes import write_variant
 ROW_FIELDS_HEAD = ["experiment", "scene", "base_scene", "variant", "kind", "model", "res", "width", "height", "spp",
                    "rays", "cache", "shadow_skip", "shadows", "seed", "truth_spp", "status", "error"]
 ROW_FIELDS_TAIL = ["render_s", "render_ms", "render_ms_min", "render_ms_spread", "repeats", "bake_s", "bake_s_min",
-                   "bake_s_spread", "truth_s_min", "truth_s_spread", "load", "loaded", "host", "threads", "bytes_per_voxel", "voxels",
-                   "model_bytes", "grid_bytes", "table_bytes", "mb", "shadow_build_s", "shadow_bytes", "shadow_queries",
-                   "peak_rss_bytes", "cache_hits", "model_evals", "rays_per_pixel", "triangles", "bvh_s", "bvh_bytes",
-                   "truth_s", "image", "preview", "truth_image", "truth_preview", "computed", "jobs_cached"]
+                   "bake_s_spread", "truth_s_min", "truth_s_spread", "load", "loaded", "host", "threads",
+                   "bytes_per_voxel", "voxels", "model_bytes", "grid_bytes", "table_bytes", "mb", "shadow_build_s",
+                   "shadow_bytes", "shadow_queries", "peak_rss_bytes", "cache_hits", "model_evals", "rays_per_pixel",
+                   "triangles", "bvh_s", "bvh_bytes", "truth_s", "image", "preview", "truth_image", "truth_preview",
+                   "computed", "jobs_cached"]
 
 
 def row_fields(metrics):
@@ -272,7 +273,8 @@ def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
         "experiment": decl["name"], "declaration": decl["shown"], "description": decl["description"],
         "settings": decl["raw"], "date": date, "finished": now_iso(),
         "elapsed_s": time.monotonic() - started, "machine": machine_info(), "git": git_info(),
-        "voxlab_sha256": sw.voxlab_sha256, "voxlab_build": sw.build, "voxlab_source": sw.source, "models": sw.models, "jobs": sw.jobs, "threads": sw.threads,
+        "voxlab_sha256": sw.voxlab_sha256, "voxlab_build": sw.build, "voxlab_source": sw.source,
+        "models": sw.models, "jobs": sw.jobs, "threads": sw.threads,
         "metrics": list(sw.metrics), "counts": counts, "oldest_cached": cached_dates[0] if cached_dates else None,
         "failed_rows": sum(r["status"] != "ok" for r in rows), "results_root": results,
         # Other processes on the machine slow the timed jobs down: say how busy it was when the
