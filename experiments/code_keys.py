@@ -10,11 +10,14 @@ whole binary (experiments/README.md, "What a cache key holds"):
   show `make OPT=-O0` or SANITIZE=1 where the Makefile's lines do not).
 - truth: tracer/ and scenes/generators/ (scene loading, meshes, textures, images, Embree ray
   casting, the truth renderer, the CLI) without the voxel-only translation units in VOXEL_ONLY; of
-  the headers only those the remaining files include (directly or not); plus Embree's version.
+  the headers only those the remaining files include (directly or not), models/model.h among them;
+  plus Embree's version.
 - bake and render of model M: tracer/ and scenes/generators/ without the truth-only units in
   TRUTH_ONLY, models/model.h, and M's own folder models/<m>/ (its .c files) with every models/ header
   those include (models/common/ among them) and the models/common/ units behind those headers. models/registry.c and registry.def (one line per model) and the other
-  models' folders are not part of it: adding a model leaves every other model's entries valid.
+  models' folders are not part of it: adding a model leaves every other model's entries valid. Plus
+  Embree's version: the bake samples with Embree's rays and point queries, and a render with
+  --shadows slicemap casts Embree rays.
 - compare: tracer/ and scenes/generators/ (metrics, image readers).
 - none: tracer/api/ (the Python library's entry points; the voxlab binary that jobs run lacks them).
 
@@ -128,7 +131,10 @@ def code_files(kind, model=None):
     tracer = tracer_sources()
     if kind == "truth":
         units = {f for f in tracer - _expand(VOXEL_ONLY) if not f.endswith(".h")}
-        return sorted(_headers_of(units, tracer) - _expand(VOXEL_ONLY))
+        # Of models/, the headers the truth's files include (models/model.h, whose VX_MAX_LIGHTS the
+        # truth's shadow code reads), not the models' own files.
+        models_headers = {f for f in include_closure(units) if f.startswith("models/") and f.endswith(".h")}
+        return sorted(_headers_of(units, tracer | models_headers) - _expand(VOXEL_ONLY))
     if kind in ("bake", "render"):
         return sorted((tracer - _expand(TRUTH_ONLY)) | model_sources(model))
     if kind == "compare":
@@ -177,8 +183,9 @@ def code_key(kind, model=None, build=None):
             _memo["tools"] = _tool_versions()
     files = {p: file_sha256(os.path.join(REPO, p)) for p in code_files(kind, model)}
     tools = dict(_memo["tools"])
-    if kind != "truth":
-        tools.pop("embree")  # the voxel path casts no Embree ray
+    if kind == "compare":
+        tools.pop("embree")  # reads images only; a bake samples with Embree's rays and point queries,
+        # and a render with --shadows slicemap casts Embree rays into the triangles
     if build is not None:
         tools["build"] = build
     h = hashlib.sha256(repr((sorted(files.items()), sorted(tools.items()))).encode()).hexdigest()

@@ -71,9 +71,17 @@ def linker_checks():
            "models/vmesh/vmesh.c" not in code_keys.code_files("render", "alpha") and
            "models/registry.c" not in code_keys.code_files("render", "alpha") and
            "models/alpha/alpha.c" in code_keys.code_files("bake", "alpha"), "")
-    report("the truth's key holds no models/ file and no voxel unit",
-           not any(f.startswith("models/") for f in truth) and "tracer/render/render.c" not in truth and
-           "tracer/truth/truth.c" in truth, "")
+    truth = code_keys.code_files("truth")
+    report("the truth's key holds models/model.h (its VX_MAX_LIGHTS) and no model's own file",
+           "models/model.h" in truth and not [f for f in truth if f.startswith("models/") and f != "models/model.h"],
+           str([f for f in truth if f.startswith("models/")]))
+    report("Embree's version is in the truth's, the bakes' and the renders' keys, not the compares'",
+           all("embree" in code_keys.code_key(k, m)[2] for k, m in (("truth", None), ("bake", "alpha"),
+                                                                   ("render", "alpha"))) and
+           "embree" not in code_keys.code_key("compare")[2], "")
+    report("the truth's key holds no models/ file but model.h, and no voxel unit",
+           not any(f.startswith("models/") and f != "models/model.h" for f in truth) and
+           "tracer/render/render.c" not in truth and "tracer/truth/truth.c" in truth, "")
 
 
 def scratch():
