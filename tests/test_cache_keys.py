@@ -148,7 +148,22 @@ def sweep_checks():
            re.search(r"invalidated 1 cached bake job\(s\) \(spheres-alpha[^)]*\): models/alpha/alpha.c changed", p.stderr)
            is not None, p.stderr[-1200:])
     with open(os.path.join(root, "results", "tiny", "rows.json")) as f:
-        inv = json.load(f)["meta"]["invalidated"]
+        doc = json.load(f)
+    inv = doc["meta"]["invalidated"]
+    shared = {r["model"]: r.get("bake_shared") for r in doc["rows"] if r["kind"] == "model"}
+    report("alpha's bake, rerun alone, is marked as its own; binary's is still the shared pass's",
+           shared == {"alpha": 0, "binary": 1}, str(shared))
+    sys.path.insert(0, os.path.join(root, "experiments"))
+    import table1  # noqa: E402
+    from voxlab_exp.schema import load_declaration  # noqa: E402
+    t1_out = os.path.join(root, "results", "tiny-table")
+    os.makedirs(t1_out, exist_ok=True)
+    table1.build(doc["meta"], doc["rows"], load_declaration(os.path.join(root, "tiny.json")), t1_out)
+    with open(os.path.join(t1_out, "table2.md")) as f:
+        md = f.read()
+    alpha_cells = [line for line in md.splitlines() if line.startswith("| spheres |")]
+    report("Table 2 marks the bake of its own with a dagger and says what it means",
+           "† bake s of a bake of its own" in md and alpha_cells and alpha_cells[0].count("†") == 1, md[-900:])
     report("rows.json lists the invalidated entries", len(inv) == 3 and
            {x["kind"] for x in inv} == {"bake", "render", "compare"}, str(inv)[:500])
     edit(root, "tracer/truth/truth.c")

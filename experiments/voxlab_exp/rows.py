@@ -24,7 +24,7 @@ from .scenes import write_variant
 ROW_FIELDS_HEAD = ["experiment", "scene", "base_scene", "variant", "kind", "model", "res", "width", "height", "spp",
                    "rays", "cache", "shadow_skip", "shadows", "seed", "truth_spp", "status", "error"]
 ROW_FIELDS_TAIL = ["render_s", "render_ms", "render_ms_min", "render_ms_spread", "repeats", "bake_s", "bake_s_min",
-                   "bake_s_spread", "truth_s_min", "truth_s_spread", "load", "loaded", "host", "threads",
+                   "bake_s_spread", "bake_shared", "truth_s_min", "truth_s_spread", "load", "loaded", "host", "threads",
                    "bytes_per_voxel", "voxels", "model_bytes", "grid_bytes", "table_bytes", "mb", "shadow_build_s",
                    "shadow_bytes", "shadow_queries", "peak_rss_bytes", "cache_hits", "model_evals", "rays_per_pixel",
                    "triangles", "bvh_s", "bvh_bytes", "truth_s", "image", "preview", "truth_image", "truth_preview",
@@ -225,7 +225,11 @@ def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
         row.update(
             status="ok", error="", **metric_columns(ms),
             **timing_columns(r, "render_ms", 1000.0), **timing_columns(b, "bake_s", 1.0),
-            **load_columns(t, b, r), **machine_columns(r), bytes_per_voxel=rs.get("bytes_per_voxel"),
+            **load_columns(t, b, r), **machine_columns(r),
+            # The bake time's kind: the model's share of one sampling pass shared with other models
+            # (estimated from its part of the pass), or a bake of its own (a rerun after its code changed).
+            bake_shared=int(bool((b.record or {}).get("baked_with"))) if b.record else None,
+            bytes_per_voxel=rs.get("bytes_per_voxel"),
             voxels=rs.get("voxels"),
             model_bytes=rs.get("model_bytes"), grid_bytes=rs.get("grid_bytes"), table_bytes=rs.get("table_bytes"),
             # records + grid + the model's constant table (heitz-neyret's masks), all it reads
