@@ -35,7 +35,7 @@ from voxlab_exp.config import REPO  # noqa: E402
 from voxlab_exp.files import rel, write_csv, write_text  # noqa: E402
 from voxlab_exp.plots import TRUTH_COLOUR, model_colour, place_labels, save_plot  # noqa: E402
 from voxlab_exp.report import settings_text  # noqa: E402
-from voxlab_exp.rows import run_experiment  # noqa: E402
+from voxlab_exp.rows import run_experiment, traced_per_pixel  # noqa: E402
 from voxlab_exp.schema import load_declaration  # noqa: E402
 
 AXES = [("render_ms", "mse"), ("render_ms", "one_minus_ssim"), ("mb", "mse"), ("mb", "one_minus_ssim")]
@@ -53,9 +53,9 @@ def point_label(r):
     parts = [f"{r['res']}³"]
     if r["spp"] != 4:
         parts.append(f"{r['spp']} spp")
-    rpp = r.get("rays_per_pixel")
-    if rpp is not None and rpp != "" and abs(float(rpp) - r["spp"]) > 1e-9:
-        parts.append(f"{float(rpp):g} per pixel traced")  # one cone a pixel, whatever the spp
+    rpp = traced_per_pixel(r)
+    if rpp is not None:
+        parts.append(f"{rpp:g} per pixel traced")  # one cone a pixel, whatever the spp
     if r["rays"] != 150:
         parts.append(f"{r['rays']} rays")
     if not r["cache"]:

@@ -32,7 +32,7 @@ from voxlab_exp.config import REPO  # noqa: E402
 from voxlab_exp.files import rel, write_csv, write_text  # noqa: E402
 from voxlab_exp.paper import compare as paper_compare, display_name, load_paper, markdown as paper_markdown  # noqa: E402
 from voxlab_exp.report import settings_text, size_text  # noqa: E402
-from voxlab_exp.rows import run_experiment  # noqa: E402
+from voxlab_exp.rows import run_experiment, traced_per_pixel  # noqa: E402
 from voxlab_exp.schema import load_declaration  # noqa: E402
 
 T1_FIELDS = ["scene", "res", "model", "mse", "ssim", "psnr", "best_mse", "best_ssim", "status", "error"]
@@ -46,8 +46,8 @@ def traced_per_pixel_note(rows):
     spp rays a pixel (heitz-neyret marches one cone a pixel: its protocol), from its renders' stats."""
     odd = {}
     for r in rows:
-        rpp = r.get("rays_per_pixel")
-        if r.get("kind") == "model" and r.get("status") == "ok" and rpp is not None and abs(rpp - r["spp"]) > 1e-9:
+        rpp = traced_per_pixel(r) if r.get("status") == "ok" else None
+        if rpp is not None:
             odd.setdefault(r["model"], set()).add(round(rpp, 6))
     return "".join(f"; {m} traced {', '.join(f'{v:g}' for v in sorted(vs))} ray(s) or cone(s) a pixel, whatever the spp"
                    for m, vs in sorted(odd.items()))

@@ -37,6 +37,12 @@ from voxlab_exp.schema import load_declaration  # noqa: E402
 PY = "/usr/bin/python3"
 
 
+def sweep_options(results):
+    """The command line's options (voxlab_exp.cli.sweep_args) for an in-process sweep into TMP/results."""
+    return type("A", (), {"results": os.path.join(TMP, results), "cache": None, "voxlab": VOXLAB, "jobs": 2,
+                          "fresh": False, "executor": "local", "scheduler": None, "slurm_args": "", "repeats": None})
+
+
 def repeated_runs():
     """jobexec.execute on a truth spec with 3 repeats keeps each run's stats (patched to keep them)."""
     d = os.path.join(TMP, "exec")
@@ -157,8 +163,7 @@ def flagged_in_tables():
     try:
         import table1
 
-        a = type("A", (), {"results": os.path.join(TMP, "busy-results"), "cache": None, "voxlab": VOXLAB, "jobs": 2,
-                           "fresh": False, "executor": "local", "scheduler": None, "slurm_args": "", "repeats": None})
+        a = sweep_options("busy-results")
         meta, rows = run_experiment(load_declaration(decl), **sweep_args(a))
         table1.build(meta, rows, load_declaration(decl), os.path.join(a.results, "busy"))
     finally:
@@ -209,8 +214,7 @@ def machines_in_tables():
     with open(decl, "w") as f:
         json.dump({"name": "machines", "truth_spp": 8, "scenes": ["spheres"], "repeats": 1,
                    "runs": [{"models": ["binary"], "res": [8], "size": 16, "spp": [1]}]}, f)
-    a = type("A", (), {"results": os.path.join(TMP, "machines-results"), "cache": None, "voxlab": VOXLAB, "jobs": 2,
-                       "fresh": False, "executor": "local", "scheduler": None, "slurm_args": "", "repeats": None})
+    a = sweep_options("machines-results")
     meta, rows = run_experiment(load_declaration(decl), **sweep_args(a))
     here = f"{platform.node()} ({os.cpu_count()} threads)"
     report("rows name the host and threads of their timed jobs; the meta the one machine",

@@ -94,6 +94,13 @@ def load_columns(*jobs):
             "loaded": int(any(r.get("loaded") for r in recs)) if recs else None}
 
 
+def traced_per_pixel(row):
+    """The rays or cones a model row's render traced a pixel when that is not its spp (heitz-neyret
+    marches one cone a pixel whatever the spp), else None."""
+    rpp = row.get("rays_per_pixel")
+    return rpp if row.get("kind") == "model" and rpp is not None and abs(rpp - row["spp"]) > 1e-9 else None
+
+
 def machine_columns(job):
     """Where a timed job ran and with how many threads (its record): a cluster may time two models on
     different machines, whose times do not compare; the tables say so (report.settings_text)."""
@@ -228,7 +235,7 @@ def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
             **load_columns(t, b, r), **machine_columns(r),
             # The bake time's kind: the model's share of one sampling pass shared with other models
             # (estimated from its part of the pass), or a bake of its own (a rerun after its code changed).
-            bake_shared=int(bool((b.record or {}).get("baked_with"))) if b.record else None,
+            bake_shared=int(bool(b.record.get("baked_with"))) if b.record else None,
             bytes_per_voxel=rs.get("bytes_per_voxel"),
             voxels=rs.get("voxels"),
             model_bytes=rs.get("model_bytes"), grid_bytes=rs.get("grid_bytes"), table_bytes=rs.get("table_bytes"),

@@ -219,10 +219,9 @@ class Sweep:
         # The method is always an input and always passed (_command): a scene may declare its own
         # ("shadows": {"method"}), which an unstated march would have left in force under a row that
         # says march.
-        sh = {"shadows": shadows}
         return self._job("truth", f"{scene_name}-{w}x{h}-spp{spp}-seed{seed}{'' if shadows == 'march' else '-' + shadows}",
-                         {"scene": scene_fingerprint(scene_path), "size": [w, h], "spp": spp, "seed": seed, **sh,
-                          "_scene_path": scene_path, "_scene_name": scene_name},
+                         {"scene": scene_fingerprint(scene_path), "size": [w, h], "spp": spp, "seed": seed,
+                          "shadows": shadows, "_scene_path": scene_path, "_scene_name": scene_name},
                          [], w * h * spp, ("truth", scene_name))
 
     def bake(self, scene_path, scene_name, model, res, rays, seed):
@@ -234,12 +233,12 @@ class Sweep:
     def render(self, bake, scene_path, scene_name, size, spp, seed, cache, shadow_skip, shadows="march"):
         w, h = size
         b = bake.inputs
-        sh = {"shadows": shadows}  # as in truth()
         return self._job("render", f"{scene_name}-{b['model']}-r{b['res']}-{w}x{h}-spp{spp}"
                                    f"{'' if cache else '-nocache'}{'' if shadow_skip else '-noskip'}"
                                    f"{'' if shadows == 'march' else '-' + shadows}",
                          {"bake": bake.key, "scene": scene_fingerprint(scene_path), "size": [w, h], "spp": spp,
-                          "seed": seed, "cache": cache, "shadow_skip": shadow_skip, **sh, "_scene_path": scene_path,
+                          "seed": seed, "cache": cache, "shadow_skip": shadow_skip, "shadows": shadows,  # as in truth()
+                          "_scene_path": scene_path,
                           "_scene_name": scene_name, "_model": b["model"], "_res": b["res"]},
                          [bake], w * h * spp, ("render", b["model"]), b["model"])
 
