@@ -38,7 +38,7 @@ from voxlab_exp.schema import load_declaration  # noqa: E402
 T1_FIELDS = ["scene", "res", "model", "mse", "ssim", "psnr", "best_mse", "best_ssim", "status", "error"]
 T2_FIELDS = ["scene", "res", "triangles", "voxels", "truth_s", "truth_s_spread", "model", "bytes_per_voxel", "mb",
              "bake_s", "bake_s_spread", "render_ms", "render_ms_min", "render_ms_spread", "repeats", "load", "loaded",
-             "peak_rss_mb", "status", "error"]
+             "peak_rss_mb", "status", "error", "truth_s_cached", "bake_s_cached", "render_ms_cached"]
 
 
 def traced_per_pixel_note(rows):
@@ -173,7 +173,8 @@ def build(meta, rows, decl, out):
                    "render_ms_min": r.get("render_ms_min"), "render_ms_spread": r.get("render_ms_spread"),
                    "repeats": r.get("repeats"), "load": r.get("load"), "loaded": r.get("loaded"),
                    "peak_rss_mb": r["peak_rss_bytes"] / 1e6 if r.get("peak_rss_bytes") else None,
-                   "status": r["status"], "error": r.get("error", "")})
+                   "status": r["status"], "error": r.get("error", ""), "truth_s_cached": r.get("truth_s_cached"),
+                   "bake_s_cached": r.get("bake_s_cached"), "render_ms_cached": r.get("render_ms_cached")})
     write_csv(os.path.join(out, "table2.csv"), t2, T2_FIELDS)
     bpv = {}
     for m in meta["models"]:
@@ -206,6 +207,13 @@ def build(meta, rows, decl, out):
             r"\midrule"]
     kinds = {r.get("bake_shared") for r in rows if r.get("kind") == "model" and r.get("status") == "ok"}
     mixed_bakes = {0, 1} <= kinds
+    # ‡ a time measured in an earlier run (its job reused from the cache) where the table mixes such
+    # times with times measured in this run: the two were taken under different loads.
+    ok_models = [r for r in rows if r.get("kind") == "model" and r.get("status") == "ok"]
+    mixed_runs = {0, 1} <= {r.get(f"{c}_cached") for r in ok_models for c in ("truth_s", "bake_s", "render_ms")}
+
+    def earlier(r, col):
+        return "‡" if mixed_runs and r is not None and r.get(f"{col}_cached") == 1 else ""
     for sc in scenes:
         for n in resolutions:
             any_r = next((cell[(sc, n, m)] for m in models if (sc, n, m) in cell and
@@ -230,23 +238,33 @@ def build(meta, rows, decl, out):
                     rss = f" ({r['peak_rss_bytes'] / 1e6:.0f})" if r.get("peak_rss_bytes") else ""
                     # † a bake of its own where the table mixes them with shared passes
                     own = "†" if mixed_bakes and r.get("bake_shared") == 0 else ""
-                    mc += [fmt_num(r["mb"], 2) + rss, fmt_spread(r["bake_s"], r.get("bake_s_spread"), 2) + own + star,
-                           fmt_spread(r["render_ms"], r.get("render_ms_spread"), 1) + star]
+                    bake_e, render_e = earlier(r, "bake_s"), earlier(r, "render_ms")
+                    mc += [fmt_num(r["mb"], 2) + rss,
+                           fmt_spread(r["bake_s"], r.get("bake_s_spread"), 2) + own + bake_e + star,
+                           fmt_spread(r["render_ms"], r.get("render_ms_spread"), 1) + render_e + star]
                     tc += [fmt_num(r["mb"], 2), fmt_spread(r["bake_s"], r.get("bake_s_spread"), 2, r"$\pm$") +
-                           (r"$^\dagger$" if own else "") + star,
-                           fmt_spread(r["render_ms"], r.get("render_ms_spread"), 1, r"$\pm$") + star]
+                           (r"$^\dagger$" if own else "") + (r"$^\ddagger$" if bake_e else "") + star,
+                           fmt_spread(r["render_ms"], r.get("render_ms_spread"), 1, r"$\pm$") +
+                           (r"$^\ddagger$" if render_e else "") + star]
             cells = [f"{tri:,}" if tri is not None else "–", f"{vox:,}" if vox is not None else "–",
-                     fmt_spread(truth_s, truth_spread, 3)]
+                     fmt_spread(truth_s, truth_spread, 3) + earlier(any_r, "truth_s")]
             md2.append(f"| {sc} | {n}³ | " + " | ".join(cells + mc) + " |")
-            tex2.append(f"{tex_escape(sc)} & {n}$^3$ & " + " & ".join(c.replace(",", "{,}").replace("±", r"$\pm$") for c in cells) + " & "
-                        + " & ".join(tc) + r" \\")
+            tex_cells = [c.replace(",", "{,}").replace("±", r"$\pm$").replace("‡", r"$^\ddagger$") for c in cells]
+            tex2.append(f"{tex_escape(sc)} & {n}$^3$ & " + " & ".join(tex_cells + tc) + r" \\")
     md2.append("")
     md2.append("Bytes per voxel: " + ", ".join(f"{m} {bpv.get(m, '?')}" for m in models) + ".")
     if mixed_bakes:
         md2.append("† bake s of a bake of its own (rerun after its model's code changed); the others are each "
                    "model's share of one sampling pass shared with the other models, estimated from its part of "
                    "the pass (the two measure within about 15 % of each other).")
+    if mixed_runs:
+        md2.append(f"‡ measured in an earlier run, its job reused from the cache (the oldest from "
+                   f"{meta['oldest_cached']}; rows.csv's computed column dates each row), beside times measured "
+                   f"in this run: the two were taken under different loads.")
     tex2 += [r"\bottomrule", r"\end{tabular}}"]
+    if mixed_runs:
+        tex2.append(r"\par\footnotesize $^\ddagger$ measured in an earlier run (reused from the cache), beside "
+                    r"times measured in this run.")
     if mixed_bakes:
         tex2.append(r"\par\footnotesize $^\dagger$ a bake of its own; the other bake times are each model's share "
                     r"of one sampling pass shared with the other models.")

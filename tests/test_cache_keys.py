@@ -164,6 +164,13 @@ def sweep_checks():
     alpha_cells = [line for line in md.splitlines() if line.startswith("| spheres |")]
     report("Table 2 marks the bake of its own with a dagger and says what it means",
            "† bake s of a bake of its own" in md and alpha_cells and alpha_cells[0].count("†") == 1, md[-900:])
+    cached = {r["model"]: (r.get("truth_s_cached"), r.get("bake_s_cached"), r.get("render_ms_cached"))
+              for r in doc["rows"] if r["kind"] == "model"}
+    report("the rows say which times come from an earlier run: the truth's and binary's, not alpha's rerun ones",
+           cached == {"alpha": (1, 0, 0), "binary": (1, 1, 1)}, str(cached))
+    report("Table 2 marks those three times with a double dagger (and only them) and says what it means",
+           "‡ measured in an earlier run" in md and alpha_cells and alpha_cells[0].count("‡") == 3 and
+           "‡" in alpha_cells[0].split("|")[5], md[-900:])  # the truth s column
     report("rows.json lists the invalidated entries", len(inv) == 3 and
            {x["kind"] for x in inv} == {"bake", "render", "compare"}, str(inv)[:500])
     edit(root, "tracer/truth/truth.c")

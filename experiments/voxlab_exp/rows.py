@@ -28,7 +28,7 @@ ROW_FIELDS_TAIL = ["render_s", "render_ms", "render_ms_min", "render_ms_spread",
                    "bytes_per_voxel", "voxels", "model_bytes", "grid_bytes", "table_bytes", "mb", "shadow_build_s",
                    "shadow_bytes", "shadow_queries", "peak_rss_bytes", "cache_hits", "model_evals", "rays_per_pixel",
                    "triangles", "bvh_s", "bvh_bytes", "truth_s", "image", "preview", "truth_image", "truth_preview",
-                   "computed", "jobs_cached"]
+                   "computed", "jobs_cached", "truth_s_cached", "bake_s_cached", "render_ms_cached"]
 
 
 def row_fields(metrics):
@@ -83,6 +83,15 @@ def timing_columns(job, name, scale):
         out["render_s"] = t["median"] if t else None
         out["repeats"] = len(t["runs"]) if t else None
     return out
+
+
+def cached_columns(**jobs):
+    """name_cached per timing column: 1 when the job behind it was reused from the cache, so its time
+    was measured in an earlier run (another day's load, maybe another build of the machine's software),
+    0 when it was measured in this run; None without a job. Table 2 marks the former where a table
+    mixes the two."""
+    return {f"{name}_cached": (None if j is None or j.status not in ("ok", "cached") else int(j.status == "cached"))
+            for name, j in jobs.items()}
 
 
 def load_columns(*jobs):
@@ -223,6 +232,7 @@ def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
         err = first_failure(t, b, r, c)
         ts = stats(t) if t.status in ("ok", "cached") else {}
         row.update(triangles=ts.get("triangles"), **timing_columns(t, "truth_s", 1.0),
+                   **cached_columns(truth_s=t),
                    truth_image=rel(t.path("image.exr"), results), truth_preview=rel(t.path("image.png"), results))
         if err:
             row.update(status="failed", error=err)
@@ -232,7 +242,7 @@ def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
         row.update(
             status="ok", error="", **metric_columns(ms),
             **timing_columns(r, "render_ms", 1000.0), **timing_columns(b, "bake_s", 1.0),
-            **load_columns(t, b, r), **machine_columns(r),
+            **cached_columns(bake_s=b, render_ms=r), **load_columns(t, b, r), **machine_columns(r),
             # The bake time's kind: the model's share of one sampling pass shared with other models
             # (estimated from its part of the pass), or a bake of its own (a rerun after its code changed).
             bake_shared=int(bool(b.record.get("baked_with"))) if b.record else None,
@@ -264,7 +274,8 @@ def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
         ts, ms = stats(t), stats(c, "metrics.json")
         rss = (t.record or {}).get("peak_rss_bytes")
         row.update(status="ok", error="", seed=decl["truth_curve"]["seed"], **metric_columns(ms),
-                   **timing_columns(t, "render_ms", 1000.0), **load_columns(t), **machine_columns(t), bake_s=0.0,
+                   **timing_columns(t, "render_ms", 1000.0), **cached_columns(render_ms=t),
+                   **load_columns(t), **machine_columns(t), bake_s=0.0,
                    triangles=ts.get("triangles"), peak_rss_bytes=rss,
                    bvh_s=ts.get("bvh_seconds"), bvh_bytes=ts.get("bvh_bytes"),  # the truth's BVH: build, memory
                    # Triangles' memory: the meshes and textures it traces and shades from and its BVH
