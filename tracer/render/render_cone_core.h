@@ -253,6 +253,35 @@ VX_INLINE void cone_to_lattice(const voxel_grid *g, double inv_voxel_size, vec3 
     out[2] = ((double)p.z - g->origin_d[2]) * inv_voxel_size;
 }
 
+/* An element's lattice coordinates (level-0 cells) within CONE_NEAR_CELLS of the origin on every axis
+ * (NaN is not). The marcher takes their floors as ints; a cone wider than the scene (a camera 1e11
+ * away, an aperture of 1 focused at 1e-6) reaches that far outside the grid, where the floor
+ * overflowed (UBSan: vx_floor_int). Every cell of the grid lies far inside (GRID_MAX_N cells a
+ * side). */
+#define CONE_NEAR_CELLS 1073741824.0 /* 2^30 */
+
+VX_INLINE int cone_lattice_near(const double lat[3])
+{
+    return fabs(lat[0]) < CONE_NEAR_CELLS && fabs(lat[1]) < CONE_NEAR_CELLS && fabs(lat[2]) < CONE_NEAR_CELLS;
+}
+
+/* The distance along the ray from lattice point lat to where every axis is back within half of
+ * CONE_NEAR_CELLS (nothing lies between: no cell is that far out); INFINITY when an axis outside moves
+ * away or not at all (per_cell as in cone_cell_exit). */
+VX_INLINE double cone_lattice_return(const double lat[3], const double per_cell[3])
+{
+    double half = 0.5 * CONE_NEAR_CELLS, back = 0.0;
+    for (int a = 0; a < 3; a++) {
+        if (fabs(lat[a]) < half)
+            continue;
+        double target = lat[a] > 0.0 ? half : -half, d = (target - lat[a]) * per_cell[a];
+        if (!(d > 0.0)) /* per_cell 0, or pointing away (NaN too) */
+            return INFINITY;
+        back = d > back ? d : back;
+    }
+    return back;
+}
+
 VX_INLINE void cone_walk_start(cone_walk *w, const voxel_grid *g, vec3 dir, float t, float t_end)
 {
     for (int a = 0; a < 3; a++) {
@@ -292,6 +321,14 @@ VX_HOT_INLINE int cone_next_element(const cone_ctx *x, const cone *c, cone_walk 
         int K = w->K_skip > K_min ? w->K_skip : K_min;
         double lat[3], u[3];
         cone_to_lattice(g, w->inv_voxel_size, p, lat);
+        if (!cone_lattice_near(lat)) {
+            /* Far from every cell, where the cells' ints would overflow: on to where it comes back. */
+            double back = cone_lattice_return(lat, w->per_cell);
+            if (!(back < INFINITY))
+                return 0;
+            w->t = tc_ + (float)back;
+            continue;
+        }
         int cell[3], empty = 0;
         for (;;) {
             double scale = vx_inv_pow2(K);
