@@ -377,6 +377,27 @@ static void test_obj(void)
     expect_fail("obj no faces", mesh_load_obj, write_tmp("nofaces.obj", "v 0 0 0\nv 1 0 0\n"), "no faces");
     expect_fail("obj non-finite vertex", mesh_load_obj,
                 write_tmp("inf.obj", "v 0 0 0\nv 1e999 0 0\nv 0 1 0\nf 1 2 3\n"), "non-finite");
+    /* tinyobjloader reads these as 0: the mesh would be another, plausible one (the audit's finds). */
+    expect_fail("obj NaN coordinate", mesh_load_obj, write_tmp("nan.obj", "v nan 0 -1\nv -1 0 1\nv 1 0 1\nf 1 2 3\n"),
+                "line 1 (\"v nan 0 -1\"): a malformed or non-finite number \"nan\"");
+    expect_fail("obj non-numeric coordinate", mesh_load_obj,
+                write_tmp("abc.obj", "v 0 0 -1\nv abc 0 1\nv 1 0 1\nf 1 2 3\n"), "line 2 (\"v abc 0 1\")");
+    expect_fail("obj coordinates missing", mesh_load_obj, write_tmp("short.obj", "v 0 0 -1\nv 1\nv 1 0 1\nf 1 2 3\n"),
+                "line 2 (\"v 1\"): expected 3 to 7 numbers, found 1");
+    expect_fail("obj NaN texture coordinate", mesh_load_obj,
+                write_tmp("vtnan.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt nan 0\nf 1/1 2/1 3/1\n"), "line 4");
+    expect_fail("obj NaN normal", mesh_load_obj,
+                write_tmp("vnnan.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn nan 1 0\nf 1//1 2//1 3//1\n"), "line 4");
+    expect_fail("obj texture coordinate beyond a float", mesh_load_obj,
+                write_tmp("vtbig.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 1e300 0\nf 1/1 2/1 3/1\n"),
+                "texture coordinate 1 is not finite");
+    expect_fail("ply NaN texture coordinate", mesh_load_ply,
+                write_tmp("uvnan.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                       "property float z\nproperty float u\nproperty float v\nelement face 1\n"
+                                       "property list uchar int vertex_indices\nend_header\n0 0 0 nan 0\n1 0 0 1 0\n"
+                                       "0 1 0 0 1\n3 0 1 2\n"),
+                "vertex 0 has a non-finite texture coordinate");
+    expect_fail("gltf NaN TEXCOORD_0", mesh_load_gltf, "tests/data/nan_uv.gltf", "TEXCOORD_0 of vertex 1 is not finite");
     expect_fail("obj missing file", mesh_load_obj, "tests/data/no_such_file.obj", "cannot open");
     expect_fail("obj directory", mesh_load_obj, "tests/data", "not a regular file");
 }

@@ -172,7 +172,7 @@ glb += struct.pack("<I4s", len(bin_chunk), b"BIN\0") + bin_chunk
 write("quad.glb", struct.pack("<4sII", b"glTF", 2, 12 + len(glb)) + glb)
 
 
-def one_primitive(points, mode=None, count=None, scene=True, node=None, normals=None):
+def one_primitive(points, mode=None, count=None, scene=True, node=None, normals=None, uvs=None):
     """A document with a single node and a single primitive over `points` (float VEC3)."""
     b = f32(points)
     prim = {"attributes": {"POSITION": 0}}
@@ -185,6 +185,11 @@ def one_primitive(points, mode=None, count=None, scene=True, node=None, normals=
         accessors.append({"bufferView": 1, "componentType": 5126, "count": len(normals), "type": "VEC3"})
         prim["attributes"]["NORMAL"] = 1
         b += f32(normals)
+    if uvs:
+        views.append({"buffer": 0, "byteOffset": len(b), "byteLength": 8 * len(uvs)})
+        accessors.append({"bufferView": len(views) - 1, "componentType": 5126, "count": len(uvs), "type": "VEC2"})
+        prim["attributes"]["TEXCOORD_0"] = len(accessors) - 1
+        b += f32(uvs)
     doc = {
         "asset": ASSET, "nodes": [dict(node or {}, mesh=0)], "meshes": [{"primitives": [prim]}],
         "buffers": [{"byteLength": len(b), "uri": data_uri(b)}],
@@ -198,6 +203,8 @@ def one_primitive(points, mode=None, count=None, scene=True, node=None, normals=
 write("points.gltf", one_primitive([(0, 0, 0), (1, 0, 0), (0, 1, 0)], mode=0))
 # No "scenes": the loader must find the triangle through the root nodes to report the NaN.
 write("nan_position.gltf", one_primitive([(0, 0, 0), (float("nan"), 0, 0), (0, 1, 0)], scene=False))
+# A NaN texture coordinate: refused like a NaN position (a NaN texel lookup makes NaN pixels).
+write("nan_uv.gltf", one_primitive([(0, 0, 0), (1, 0, 0), (0, 1, 0)], uvs=[(0, 0), (float("nan"), 0), (0, 1)]))
 # The accessor claims 6 vertices; its bufferView holds 3.
 write("out_of_bounds.gltf", one_primitive([(0, 0, 0), (1, 0, 0), (0, 1, 0)], count=6))
 # Mirrored by scale (1, 1, -1): the winding must flip so that counter-clockwise stays the front

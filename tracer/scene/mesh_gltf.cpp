@@ -377,6 +377,8 @@ struct loader {
             }
             float u = has_uvs ? float(read_component(uv, i, 0)) : 0.0f;
             float t = has_uvs ? float(read_component(uv, i, 1)) : 0.0f;
+            if (!std::isfinite(u) || !std::isfinite(t)) // a NaN texel lookup would make NaN pixels
+                fail(prim_name + ": TEXCOORD_0 of vertex " + std::to_string(i) + " is not finite");
             uint32_t vi = mesh_add_vertex(out, v3(w[0], w[1], w[2]), n, u, t);
             double c[3] = {base_color[0], base_color[1], base_color[2]};
             if (has_colors)

@@ -4,6 +4,7 @@
 // scene's material applies, as for PLY.
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <map>
 #include <string>
 #include <tuple>
@@ -19,6 +20,61 @@ namespace {
 using vx_mesh_load::fail;
 using vx_mesh_load::trimmed;
 
+// "line N (\"the line\")", the line cut to 60 characters: a message, not a dump of a huge line.
+std::string shown(size_t line, const std::string &text)
+{
+    std::string t = trimmed(text);
+    return "line " + std::to_string(line) + " (\"" + (t.size() > 60 ? t.substr(0, 60) + "..." : t) + "\")";
+}
+
+// Every `v`, `vt` and `vn` line holds as many numbers as it must, each one a finite number.
+// tinyobjloader reads a malformed or missing number as 0 and parses "nan" and "inf" as 0 too, so a
+// corrupt file would render as a different, plausible mesh; its line is named here instead.
+void check_numbers(const std::string &obj)
+{
+    size_t line = 0, at = 0;
+    while (at < obj.size()) {
+        size_t end = obj.find('\n', at);
+        if (end == std::string::npos)
+            end = obj.size();
+        line++;
+        std::string text = obj.substr(at, end - at);
+        at = end + 1;
+        const char *s = text.c_str();
+        while (*s == ' ' || *s == '\t')
+            s++;
+        int least, most;
+        if (std::strncmp(s, "v ", 2) == 0 || std::strncmp(s, "v\t", 2) == 0)
+            least = 3, most = 7, s += 1; // x y z, then w or r g b
+        else if (std::strncmp(s, "vt ", 3) == 0 || std::strncmp(s, "vt\t", 3) == 0)
+            least = 1, most = 3, s += 2; // u [v [w]]
+        else if (std::strncmp(s, "vn ", 3) == 0 || std::strncmp(s, "vn\t", 3) == 0)
+            least = 3, most = 3, s += 2;
+        else
+            continue;
+        int count = 0;
+        for (;;) {
+            while (*s == ' ' || *s == '\t' || *s == '\r')
+                s++;
+            if (!*s || *s == '#')
+                break;
+            char *stop = nullptr;
+            double x = std::strtod(s, &stop);
+            bool separated = stop != s && (!*stop || *stop == ' ' || *stop == '\t' || *stop == '\r' || *stop == '#');
+            if (!separated || !std::isfinite(x)) {
+                size_t len = std::strcspn(s, " \t\r#");
+                fail(shown(line, text) + ": a malformed or non-finite number \"" +
+                     std::string(s, len < 40 ? len : 40) + "\" (expected finite numbers)");
+            }
+            count++;
+            s = stop;
+        }
+        if (count < least || count > most)
+            fail(shown(line, text) + ": expected " + std::to_string(least) +
+                 (least == most ? "" : " to " + std::to_string(most)) + " numbers, found " + std::to_string(count));
+    }
+}
+
 void load(const char *path, mesh *out, uint32_t material)
 {
     vx_err re;
@@ -28,6 +84,7 @@ void load(const char *path, mesh *out, uint32_t material)
         fail(std::string(re.msg).substr(std::string(path).size() + 2)); // the caller prefixes the path
     std::string obj(text, size);
     std::free(text);
+    check_numbers(obj);
     tinyobj::ObjReaderConfig config;
     config.triangulate = true; // fans, as the PLY reader does
     config.vertex_color = false;
@@ -80,6 +137,8 @@ void load(const char *path, mesh *out, uint32_t material)
                 if (ix.texcoord_index >= 0) {
                     u = a.texcoords[2 * size_t(ix.texcoord_index)];
                     v = a.texcoords[2 * size_t(ix.texcoord_index) + 1];
+                    if (!std::isfinite(u) || !std::isfinite(v))
+                        fail("texture coordinate " + std::to_string(ix.texcoord_index + 1) + " is not finite");
                 }
                 idx[k] = shared[key] = mesh_add_vertex(out, v3(p[0], p[1], p[2]), normal, u, v);
             }

@@ -409,7 +409,11 @@ static int read_vertices(ply_reader *r, const ply_header *h, const ply_element *
                 return vx_fail(e, "%s: vertex %zu has a non-finite normal", h->path, i);
             n = v3_normalize(n); /* scanners write unnormalised normals; zero becomes +z */
         }
-        uint32_t vi = mesh_add_vertex(out, pos, n, (float)val[P_U], (float)val[P_V]);
+        float u = (float)val[P_U], v = (float)val[P_V];
+        if (!isfinite(u) || !isfinite(v)) /* a NaN texel lookup would make NaN pixels */
+            return vx_fail(e, "%s: vertex %zu has a non-finite texture coordinate (%g, %g)", h->path, i, val[P_U],
+                           val[P_V]);
+        uint32_t vi = mesh_add_vertex(out, pos, n, u, v);
         if (has_colors) {
             /* An albedo factor (scene.c's parse_albedo says why): float channels may hold anything. */
             for (int k = P_RED; k <= P_BLUE; k++)
