@@ -270,11 +270,11 @@ VX_INLINE int cone_lattice_near(const double lat[3])
  * away or not at all (per_cell as in cone_cell_exit). */
 VX_INLINE double cone_lattice_return(const double lat[3], const double per_cell[3])
 {
-    double half = 0.5 * CONE_NEAR_CELLS, back = 0.0;
+    double within = 0.5 * CONE_NEAR_CELLS, back = 0.0; /* not "half": an OpenCL type */
     for (int a = 0; a < 3; a++) {
-        if (fabs(lat[a]) < half)
+        if (fabs(lat[a]) < within)
             continue;
-        double target = lat[a] > 0.0 ? half : -half, d = (target - lat[a]) * per_cell[a];
+        double target = lat[a] > 0.0 ? within : -within, d = (target - lat[a]) * per_cell[a];
         if (!(d > 0.0)) /* per_cell 0, or pointing away (NaN too) */
             return INFINITY;
         back = d > back ? d : back;
