@@ -216,6 +216,7 @@ static void voxel_ctx_init(const render_job *j, voxel_ctx *x, int timed)
     x->stop_opacity = o->stop_opacity;
     x->shadow_skip = o->shadow_skip;
     x->cache = o->cache;
+    voxel_set_camera_cell(x);
     const voxel_state *st = j->state;
     x->eval = j->m->voxel;
     x->compositing = j->m->voxel->compositing;

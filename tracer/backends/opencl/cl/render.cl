@@ -126,6 +126,7 @@ __kernel void vx_render(__global const vx_cl_params *P, __global ulong *cols, __
     x.stop_opacity = P->stop_opacity;
     x.shadow_skip = P->shadow_skip;
     x.cache = P->cache;
+    voxel_set_camera_cell(&x);
     x.cache_entries = cache;
     x.cache_state = state;
     x.memo = memo;
