@@ -95,8 +95,16 @@ other_scene = os.path.join(bad_dir, "other_scene.vox")
 voxlab("bake", quad_scene, "--model", "alpha", "--res", "8", "--rays", "8", "-o", other_scene)
 other_model = os.path.join(bad_dir, "other_model.vox")
 voxlab("bake", SPHERES, "--model", "binary", "--res", "24", "--rays", "32", "--seed", "5", "-o", other_model)
+# A record count of 2^31 - 1 in the header (voxfile.c's disk_header: 8 bytes of magic, then
+# voxfile_header, whose record_count sits at byte 72): the file does not hold that many, and must be
+# called damaged before `render --vox` estimates its memory from the count (the bad-input audit: it
+# was refused as needing 80 GiB, "lower --res, --size or --rays").
+huge_count = bytearray(raw)
+huge_count[80:88] = (2 ** 31 - 1).to_bytes(8, "little")
 cases = [
     ("corrupted byte", bad_vox("corrupt.vox", bytes(flipped)), ["checksum"]),
+    ("a record count the file does not hold", bad_vox("huge_count.vox", bytes(huge_count)),
+     ["truncated or damaged", "the header promises"]),
     ("truncated", bad_vox("truncated.vox", raw[: len(raw) // 2]), ["truncated"]),
     ("empty file", bad_vox("empty.vox", b""), ["not a voxlab"]),
     ("baked from another scene", other_scene, ["another scene"]),

@@ -116,6 +116,25 @@ static long long read_full(int fd, void *buf, size_t n)
     return (long long)got;
 }
 
+/* Whether the header's counts are sane and the file's size is what they promise. Checked before the
+ * products are formed, so that a crafted header cannot overflow them (1024^3 cells at most); and by
+ * voxfile_read_header too, so that a damaged count is called damaged, naming the file, before
+ * `render --vox` estimates its memory from it (a record count of 2^31 was refused as "needs about
+ * 80 GiB ... lower --res, --size or --rays", the bad-input audit). */
+static int header_fits_file(const char *path, const voxfile_header *h, off_t size, vx_err *e)
+{
+    if (h->voxel_bytes == 0 || h->voxel_bytes > 1 << 20 || h->record_count > (1ULL << 34) || h->voxels > (1ULL << 30))
+        return vx_fail(e, "%s: damaged header: %llu records of %llu bytes for %llu voxels", path,
+                       (unsigned long long)h->record_count, (unsigned long long)h->voxel_bytes,
+                       (unsigned long long)h->voxels);
+    uint64_t expected = sizeof(disk_header) + h->voxel_bytes * h->record_count + h->voxels * sizeof(uint32_t) +
+                        sizeof(uint64_t);
+    if ((uint64_t)size != expected)
+        return vx_fail(e, "%s: truncated or damaged: %lld bytes, the header promises %llu", path, (long long)size,
+                       (unsigned long long)expected);
+    return 0;
+}
+
 int voxfile_read_header(const char *path, voxfile_header *h, vx_err *e)
 {
     off_t size;
@@ -133,7 +152,7 @@ int voxfile_read_header(const char *path, voxfile_header *h, vx_err *e)
     if (h->version != VOXFILE_VERSION)
         return vx_fail(e, "%s: .vox version %u, but this voxlab reads version %d: bake it again", path, h->version,
                        VOXFILE_VERSION);
-    return 0;
+    return header_fits_file(path, h, size, e);
 }
 
 int voxfile_read(const char *path, uint64_t scene_identity, voxfile_header *h, void **records, uint32_t **cells,
@@ -163,21 +182,11 @@ int voxfile_read(const char *path, uint64_t scene_identity, voxfile_header *h, v
         return vx_fail(e, "%s: baked from another scene (identity %016llx, this scene is %016llx): bake it again",
                        path, (unsigned long long)h->scene_identity, (unsigned long long)scene_identity);
     }
-    /* Checked before the products are formed, so that a crafted header cannot overflow them
-     * (1024^3 cells at most). */
-    if (h->voxel_bytes == 0 || h->voxel_bytes > 1 << 20 || h->record_count > (1ULL << 34) || h->voxels > (1ULL << 30)) {
+    if (header_fits_file(path, h, size, e)) {
         close(fd);
-        return vx_fail(e, "%s: damaged header: %llu records of %llu bytes for %llu voxels", path,
-                       (unsigned long long)h->record_count, (unsigned long long)h->voxel_bytes,
-                       (unsigned long long)h->voxels);
+        return -1;
     }
     uint64_t bytes = h->voxel_bytes * h->record_count, cell_bytes = h->voxels * sizeof **cells;
-    uint64_t expected = sizeof d + bytes + cell_bytes + sizeof(uint64_t);
-    if ((uint64_t)size != expected) {
-        close(fd);
-        return vx_fail(e, "%s: truncated or damaged: %lld bytes, the header promises %llu", path, (long long)size,
-                       (unsigned long long)expected);
-    }
     void *rec = malloc(bytes ? (size_t)bytes : 1);
     uint32_t *cel = malloc(cell_bytes ? (size_t)cell_bytes : 1);
     vx_populate(rec, (size_t)bytes); /* mapped in one call, not faulted in by read() page by page */
