@@ -324,9 +324,10 @@ VX_HOT_INLINE int cone_next_element(const cone_ctx *x, const cone *c, cone_walk 
         if (!cone_lattice_near(lat)) {
             /* Far from every cell, where the cells' ints would overflow: on to where it comes back. */
             double back = cone_lattice_return(lat, w->per_cell);
-            if (!(back < INFINITY))
+            float t_back = tc_ + (float)back;
+            if (!(back < INFINITY) || !(t_back > w->t)) /* or a step lost to t's rounding */
                 return 0;
-            w->t = tc_ + (float)back;
+            w->t = t_back;
             continue;
         }
         int cell[3], empty = 0;
