@@ -244,7 +244,8 @@ def main(argv=None):
     a = ap.parse_args(argv)
 
     def go():
-        decl = load_declaration(a.experiment)
+        # A replot runs nothing: its declaration was checked against voxlab when it ran.
+        decl = load_declaration(a.experiment, None if a.replot else a.voxlab)
         sweeps_of(decl)  # a bad figure block fails before anything runs
         if not decl["truth_curve"]:
             raise DeclarationError(f"{decl['shown']}: truth_curve: required (the truth's time at equal error)")

@@ -478,7 +478,7 @@ def binary_notice(fig_png, tables):
 def build(a):
     results_root = os.path.abspath(a.results)
     out = os.path.abspath(a.out or os.path.join(results_root, "dashboard"))
-    tol = load_declaration(a.tolerances)["tolerances"]
+    tol = load_declaration(a.tolerances, a.voxlab)["tolerances"]
     baseline = load_json(a.baseline) if a.baseline and os.path.exists(a.baseline) else None
     history_path = a.history or os.path.join(results_root, "history.csv")
     exps = [e.strip() for e in a.experiments.split(",") if e.strip()]

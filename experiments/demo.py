@@ -123,7 +123,7 @@ def main(argv=None):
     a = ap.parse_args(argv)
 
     def go():
-        decl = load_declaration(a.experiment)
+        decl = load_declaration(a.experiment, a.voxlab)
         meta, rows = run_experiment(decl, **sweep_args(a))
         results = os.path.abspath(a.results)
         out = os.path.join(results, decl["name"])

@@ -428,7 +428,7 @@ def main(argv=None):
         os.makedirs(out, exist_ok=True)
         decls = {"grids": a.experiment, "view_angle": a.view_angle, "coverage": a.coverage, "dof": a.dof,
                  "figure7": a.experiment, "figure10": a.figure10, "island2x2": a.experiment}
-        loaded = {k: load_declaration(decls[k]) for k in only}  # every declaration checked before any work
+        loaded = {k: load_declaration(decls[k], a.voxlab) for k in only}  # every declaration checked before any work
         cache = a.cache or os.path.join(results, "cache")
         sw = Sweep(a.voxlab, cache, jobs=a.jobs, fresh=a.fresh, name="figures", executor=a.executor,
                       scheduler=a.scheduler, slurm_args=a.slurm_args, repeats=a.repeats,

@@ -41,11 +41,11 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 DEFAULT_TOLERANCES = os.path.join(HERE, "regress.json")
 
 
-def tolerances_for(decl):
+def tolerances_for(decl, voxlab):
     """The declaration's tolerances, else those of experiments/regress.json."""
     if decl["tolerances"]:
         return decl["tolerances"]
-    return load_declaration(DEFAULT_TOLERANCES)["tolerances"]
+    return load_declaration(DEFAULT_TOLERANCES, voxlab)["tolerances"]
 
 
 def fmt(v):
@@ -103,8 +103,8 @@ def main(argv=None):
                 raise VoxlabError("--write-baseline: the checkout has uncommitted changes outside results/ "
                                      f"({g['text']}); commit them first, so that the baseline belongs to a commit "
                                      "a fresh clone can rebuild (or pass --allow-dirty)")
-        decl = load_declaration(a.experiment)
-        tol = tolerances_for(decl)
+        decl = load_declaration(a.experiment, a.voxlab)
+        tol = tolerances_for(decl, a.voxlab)
         baseline = None
         if os.path.exists(a.baseline):
             try:

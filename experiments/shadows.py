@@ -239,7 +239,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     add_common_args(ap, experiment=os.path.join(REPO, "experiments", "shadows.json"))
     a = ap.parse_args()
-    decl = load_declaration(a.experiment)
+    decl = load_declaration(a.experiment, a.voxlab)
     kw = sweep_args(a)
     results = os.path.abspath(kw["results"])
     cache_dir = os.path.abspath(kw["cache_dir"] or os.path.join(results, "cache"))

@@ -31,7 +31,7 @@ def main(argv=None):
     a = ap.parse_args(argv)
 
     def go():
-        decl = load_declaration(a.declaration)
+        decl = load_declaration(a.declaration, a.voxlab)
         if a.check:
             print(f"{decl['shown']}: ok ({len(decl['scenes'])} scene(s), {len(decl['runs'])} run(s))")
             return 0

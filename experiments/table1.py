@@ -295,7 +295,7 @@ def main(argv=None):
     a = ap.parse_args(argv)
 
     def go():
-        decl = load_declaration(a.experiment)
+        decl = load_declaration(a.experiment, a.voxlab)
         meta, rows = run_experiment(decl, **sweep_args(a))
         out = os.path.join(os.path.abspath(a.results), decl["name"])
         build(meta, rows, decl, out)

@@ -298,16 +298,16 @@ def experiment(declaration, results=None, voxlab=None, jobs=2, fresh=False, out_
     if here not in sys.path:
         sys.path.insert(0, here)
     import executors
-    from voxlab_exp.config import DEFAULT_RESULTS
+    from voxlab_exp.config import DEFAULT_RESULTS, DEFAULT_VOXLAB
     from voxlab_exp.errors import VoxlabError as EngineError
     from voxlab_exp.rows import row_fields, run_experiment
     from voxlab_exp.schema import declaration_from_dict, load_declaration
 
     try:
         if isinstance(declaration, dict):
-            decl = declaration_from_dict(declaration, base_dir=base_dir)
+            decl = declaration_from_dict(declaration, base_dir=base_dir, voxlab=voxlab or DEFAULT_VOXLAB)
         else:
-            decl = load_declaration(declaration)
+            decl = load_declaration(declaration, voxlab or DEFAULT_VOXLAB)
         meta, rows = run_experiment(decl, results=results or DEFAULT_RESULTS, voxlab=voxlab, jobs=jobs, fresh=fresh,
                                     out_dir=out_dir)
     except (EngineError, executors.ExecutorError) as e:

@@ -43,7 +43,7 @@ def sweep_args(a):
 
 
 def experiment_from_args(a, **kw):
-    decl = load_declaration(a.experiment)
+    decl = load_declaration(a.experiment, a.voxlab)
     return run_experiment(decl, **sweep_args(a), **kw)
 
 

@@ -16,7 +16,10 @@ from .errors import VoxlabError
 def run_voxlab(voxlab, args):
     """Runs voxlab; returns stdout, or raises VoxlabError with the command and its stderr."""
     cmd = [voxlab, *map(str, args)]
-    p = subprocess.run(cmd, capture_output=True, text=True)
+    try:
+        p = subprocess.run(cmd, capture_output=True, text=True)
+    except OSError as e:  # no binary (not built yet) or not executable: one line, not a traceback
+        raise VoxlabError(f"cannot run {voxlab}: {e.strerror} (build it with make)")
     if p.returncode != 0:
         raise VoxlabError(f"`{' '.join(cmd)}` exited with status {p.returncode}:\n{p.stderr.rstrip()}")
     return p.stdout

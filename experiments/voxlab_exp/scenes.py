@@ -6,6 +6,8 @@ path, and declarations make scene variants (fields replaced) that are written in
 import hashlib
 import json
 import os
+import subprocess
+import tempfile
 
 from .config import REPO
 from .errors import VoxlabError
@@ -88,6 +90,14 @@ def scene_fingerprint(path, for_bake=False):
     return sha256_of(scene)
 
 
+class SettingError(VoxlabError):
+    """A variant's dotted path that does not fit its scene; `key` is the path as declared."""
+
+    def __init__(self, variant, key, why):
+        super().__init__(f"scene variant {variant}: {key}: {why}")
+        self.key, self.why = key, why
+
+
 def _set_dotted(obj, dotted, value, where):
     """Sets obj's field at a dotted path; a number indexes a list ("objects.0.params.count")."""
     keys = dotted.split(".")
@@ -95,7 +105,7 @@ def _set_dotted(obj, dotted, value, where):
         last = i == len(keys) - 1
         if isinstance(obj, list):
             if not k.isdigit() or int(k) >= len(obj):
-                raise VoxlabError(f"scene variant {where}: {dotted}: {k} is not an index of a list of {len(obj)}")
+                raise SettingError(where, dotted, f"{k} is not an index of a list of {len(obj)}")
             k = int(k)
             if last:
                 obj[k] = value
@@ -115,21 +125,58 @@ def _set_dotted(obj, dotted, value, where):
         obj = obj[k]
 
 
-def write_variant(base_path, name, settings, out_dir):
-    """Writes base_path with settings ({"camera.orbit.elevation_deg": 30, ...}; None deletes) applied
-    into out_dir (named by its content, so concurrent runs write the same file) and returns its path.
-    Relative file references are made absolute: paths in a scene are relative to the scene file."""
+def variant_text(base_path, name, settings):
+    """base_path's scene with settings ({"camera.orbit.elevation_deg": 30, ...}; None deletes) applied,
+    as the JSON text a variant file holds. Relative file references are made absolute (paths in a
+    scene are relative to the scene file, and a variant lives elsewhere). Raises SettingError for a
+    path the scene has no place for."""
     with open(base_path) as f:
-        scene = json.load(f)
+        try:
+            scene = json.load(f)
+        except ValueError as e:
+            raise VoxlabError(f"{base_path}: not valid JSON: {e}")
+    if not isinstance(scene, dict):  # settings need fields to go into
+        raise VoxlabError(f"{base_path}: not a scene (a JSON object)")
     base = os.path.dirname(os.path.abspath(base_path))
     for container, key in _scene_file_refs(scene):
         container[key] = os.path.normpath(os.path.join(base, container[key]))
     for dotted, value in settings.items():
         _set_dotted(scene, dotted, value, name)
     scene["name"] = name
-    text = json.dumps(scene, indent=1) + "\n"
+    return json.dumps(scene, indent=1) + "\n"
+
+
+def write_variant(base_path, name, settings, out_dir):
+    """Writes the variant (variant_text) into out_dir (named by its content, so concurrent runs write
+    the same file) and returns its path."""
+    text = variant_text(base_path, name, settings)
     os.makedirs(out_dir, exist_ok=True)
     path = os.path.join(out_dir, f"{name}-{hashlib.sha256(text.encode()).hexdigest()[:12]}.json")
     if not os.path.exists(path):
         write_text(path, text)
     return path
+
+
+def scene_refusal(voxlab, text):
+    """What voxlab's scene parser says against a scene (its JSON text), or None when it takes it.
+
+    Asks `voxlab truth --dry-run` at 1x1 pixel and 1 spp, so that only the scene itself can be
+    refused (not the estimate of a large image), and nothing is rendered or written. Every job kind
+    reads its scene with the same parser, so a scene this takes is a scene no job refuses as such.
+    Returns the message without voxlab's prefix and the temporary file's name: "camera.fov_deg:
+    expected a finite number". Raises VoxlabError when voxlab cannot be run at all."""
+    with tempfile.TemporaryDirectory(prefix="voxlab-variant-") as tmp:
+        path = os.path.join(tmp, "scene.json")
+        with open(path, "w") as f:
+            f.write(text)
+        cmd = [voxlab, "truth", path, "--dry-run", "--size", "1x1", "--spp", "1", "--threads", "1",
+               "-o", os.path.join(tmp, "x.exr")]
+        try:
+            p = subprocess.run(cmd, capture_output=True, text=True)
+        except OSError as e:
+            raise VoxlabError(f"cannot run {voxlab} to check the scene variants ({e.strerror}): run make first")
+    if p.returncode == 0:
+        return None
+    lines = p.stderr.strip().splitlines() or p.stdout.strip().splitlines() or [f"exit status {p.returncode}"]
+    msg = lines[-1].removeprefix("voxlab truth: ").replace(path + ": ", "").replace(path + ".", "")
+    return msg.replace(path, "the variant")

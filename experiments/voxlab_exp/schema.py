@@ -3,21 +3,25 @@
 Exists so that a declaration is checked completely before any job runs, and a bad field stops with
 one message naming the file, the field (runs[0].res[1]), what was expected and what was found
 (DeclarationError: exit status 2). The structure and every type and range are in the JSON Schema
-(experiments/declaration.schema.json, checked with Debian's python3-jsonschema); what a schema cannot
-say (scene files exist, scene names are unique, a run's scene subset names declared scenes, the number
-of variants and configurations, the truth curve's seed differs from the reference's) is checked here
-after it.
+(experiments/declaration.schema.json, checked with Debian's python3-jsonschema; its ranges are
+voxlab's own); what a schema cannot say (no key given twice, scene files exist, scene names are
+unique, a run's scene subset names declared scenes, the number of variants and configurations, image
+sizes within voxlab's pixel cap, the truth curve's seed differs from the reference's) is checked here
+after it. Two checks ask the voxlab binary, because only it knows the answer: every scene variant is
+applied to its scene and read by voxlab's scene parser (`truth --dry-run`), and every tolerance names
+one of its metrics (`compare --list-metrics`) or a baseline column.
 """
+import concurrent.futures
 import itertools
 import json
 import math
 import os
 import re
 
-from .config import REPO, SEED
+from .config import DEFAULT_VOXLAB, REPO, SEED
 from .errors import DeclarationError, VoxlabError
 from .hashing import canonical
-from .scenes import resolve_scene
+from .scenes import SettingError, resolve_scene, scene_refusal, variant_text
 
 SCHEMA_PATH = os.path.join(REPO, "experiments", "declaration.schema.json")
 RUN_DEFAULTS = {"models": "all", "size": "res", "spp": [4], "rays": [150], "cache": [True], "shadow_skip": [True],
@@ -131,6 +135,104 @@ def check_schema(d, shown):
         raise DeclarationError(f"{shown}: {where}: {msg}")
 
 
+def limit(name):
+    """One of voxlab's limits as the schema states it: "seed" (its maximum) or "x-max-pixels"."""
+    schema = validator().schema
+    return schema["x-max-pixels"] if name == "x-max-pixels" else schema["definitions"][name]["maximum"]
+
+
+def _strict_json(f, shown):
+    """json.load that refuses a key given twice in one object: json keeps the last one silently, so a
+    second "seed" further down would override the first without a word."""
+    twice = {}  # id(object) -> (object, its first repeated key); the object is held so its id stays its own
+
+    def pairs_hook(pairs):
+        obj = dict(pairs)
+        if len(obj) < len(pairs):
+            seen = set()
+            twice[id(obj)] = (obj, next(k for k, _ in pairs if k in seen or seen.add(k)))
+        return obj
+
+    d = json.load(f, object_pairs_hook=pairs_hook)
+    where = _repeated_key_path(d, twice, [])
+    if where:
+        raise DeclarationError(f"{shown}: {field_path(where)}: given twice (JSON would keep only the last)")
+    return d
+
+
+def _repeated_key_path(v, twice, path):
+    """The path (keys and indices) to the first repeated key that _strict_json recorded, in file order."""
+    if isinstance(v, dict) and id(v) in twice:
+        return path + [twice[id(v)][1]]
+    for k, x in v.items() if isinstance(v, dict) else enumerate(v) if isinstance(v, list) else ():
+        found = _repeated_key_path(x, twice, path + [k])
+        if found:
+            return found
+    return None
+
+
+def check_image_sizes(d, fail):
+    """voxlab refuses an image of more than x-max-pixels (its MAX_IMAGE_PIXELS); the schema bounds each
+    side only. N is an N x N image; "res" is at most 1024 x 1024 and "scene" is the scene's own size,
+    which voxlab's scene parser checks."""
+    cap = limit("x-max-pixels")
+    sizes = [(f"runs[{i}].size", r.get("size")) for i, r in enumerate(d["runs"])]
+    if "truth_curve" in d:
+        sizes.append(("truth_curve.size", d["truth_curve"].get("size")))
+    for where, v in sizes:
+        w, h = (v, v) if isinstance(v, int) else v if isinstance(v, list) else (0, 0)
+        if w * h > cap:
+            fail(where, f"expected at most {cap} pixels (voxlab's limit), got {show(v)} ({w * h} pixels)")
+
+
+def check_tolerance_names(tolerances, voxlab, fail):
+    """A tolerance compares one column of the baseline: a metric of voxlab's (`compare --list-metrics`)
+    or one of history.BASELINE_COLUMNS. Any other name would compare nothing ("n/a" in every row), so
+    a misspelt gate would pass every run."""
+    if not tolerances or voxlab is None:
+        return
+    from .history import BASELINE_COLUMNS  # not above: history imports rows, which imports this module
+    from .jobs import metric_names
+    known = list(dict.fromkeys(metric_names(voxlab) + BASELINE_COLUMNS))
+    for name in tolerances:
+        if name not in known:
+            fail(f"tolerances.{name}", f"unknown metric (known: {', '.join(known)})")
+
+
+def _declared_setting(field, variant):
+    """The declared setting ("set.camera.fov_deg" or "vary.camera.fov_deg") behind a scene field as
+    voxlab names it ("camera.fov_deg", "objects[0].params.count", or a field above or below a
+    setting: "camera" for "camera.nope.x"); None when no setting touches it."""
+    f = re.sub(r"\[(\d+)\]", r".\1", field)
+    for k in sorted(variant["set"], key=lambda k: k != f):  # the exact one first
+        if k == f or k.startswith(f + ".") or f.startswith(k + "."):
+            return ("vary." if k in variant["vary"] else "set.") + k
+    return None
+
+
+def check_variants(variants, voxlab, fail):
+    """Applies each variant ((where, variant) in declaration order) to its scene and, with a voxlab
+    binary, has voxlab's scene parser read the result: a setting the scene has no place for or a value
+    it refuses stops the declaration here, before any job, instead of failing every job of the variant.
+    The dry runs go a few at a time: heightfield's generator takes 0.3 s per variant."""
+    texts = []
+    for where, v in variants:
+        try:
+            texts.append(variant_text(v["base"], v["name"], v["set"]))
+        except SettingError as e:
+            fail(f"{where}.{_declared_setting(e.key, v)}", f"scene variant \"{v['name']}\": {e.key}: {e.why}")
+        except VoxlabError as e:
+            fail(f"{where}.base", e.args[0])
+    if voxlab is None or not texts:
+        return
+    with concurrent.futures.ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:
+        refusals = list(pool.map(lambda t: scene_refusal(voxlab, t), texts))
+    for (where, v), why in zip(variants, refusals):
+        if why is not None:
+            setting = _declared_setting(why.split(":")[0], v)
+            fail(f"{where}.{setting}" if setting else where, f"scene variant \"{v['name']}\": {why}")
+
+
 def slug(v):
     s = json.dumps(v) if not isinstance(v, str) else v
     return re.sub(r"[^A-Za-z0-9.+=-]+", "-", s).strip("-") or "x"
@@ -145,9 +247,11 @@ def _unique(v):
     return list(dict.fromkeys(v))  # in the order given
 
 
-def load_declaration(path):
+def load_declaration(path, voxlab=DEFAULT_VOXLAB):
     """Reads and checks an experiment declaration; returns it with defaults filled in and its scenes
-    expanded (variants written into the cache later, by the scheduler). See experiments/README.md."""
+    expanded (variants written into the cache later, by the scheduler). See experiments/README.md.
+    voxlab: the binary whose scene parser and metrics the declaration is checked against; None skips
+    those two checks (for a caller that runs nothing, such as a replot)."""
     path = os.path.abspath(path)
     shown = os.path.relpath(path, REPO) if path.startswith(REPO + os.sep) else path
 
@@ -156,24 +260,25 @@ def load_declaration(path):
 
     try:
         with open(path) as f:
-            d = json.load(f)
+            d = _strict_json(f, shown)
     except OSError as e:
         raise DeclarationError(f"{shown}: cannot read: {e.strerror}")
     except (ValueError, RecursionError) as e:
         raise DeclarationError(f"{shown}: not valid JSON: {e}")
-    return declaration_from_dict(d, shown, os.path.dirname(path), path)
+    return declaration_from_dict(d, shown, os.path.dirname(path), path, voxlab)
 
 
-def declaration_from_dict(d, shown="<declaration dict>", base_dir=None, path=None):
+def declaration_from_dict(d, shown="<declaration dict>", base_dir=None, path=None, voxlab=DEFAULT_VOXLAB):
     """The same checks and defaults for a declaration already parsed (the Python API's
     voxlab.experiment({...})): `shown` names it in messages, scene files resolve against base_dir
-    (default: the current directory) and then scenes/."""
+    (default: the current directory) and then scenes/; voxlab as for load_declaration."""
     base_dir = os.path.abspath(base_dir or os.getcwd())
 
     def fail(where, msg):
         raise DeclarationError(f"{shown}: {where}: {msg}")
 
     check_schema(d, shown)
+    check_image_sizes(d, fail)
     decl = {
         "path": path,
         "shown": shown,
@@ -224,7 +329,8 @@ def declaration_from_dict(d, shown="<declaration dict>", base_dir=None, path=Non
                         "set": settings, "vary": dict(zip(keys, combo))})
         return out
 
-    scenes = [s for i, v in enumerate(d["scenes"]) for s in scene_entry(v, f"scenes[{i}]")]
+    entries = [(f"scenes[{i}]", scene_entry(v, f"scenes[{i}]")) for i, v in enumerate(d["scenes"])]
+    scenes = [s for _, made in entries for s in made]
     seen = {}
     for s in scenes:
         if s["name"] in seen:
@@ -281,9 +387,15 @@ def declaration_from_dict(d, shown="<declaration dict>", base_dir=None, path=Non
         if decl["truth_curve"]["seed"] == decl["seed"]:
             # Same seed, same sample pattern: the low-spp images would be correlated with the reference.
             fail("truth_curve.seed", "must differ from the experiment's seed (the reference's samples)")
+        if decl["truth_curve"]["seed"] > limit("seed"):  # only the default, seed + 1, can be
+            fail("truth_curve", f"its seed defaults to seed + 1 = {decl['truth_curve']['seed']}, above voxlab's "
+                                f"limit 2^53: give truth_curve.seed")
     else:
         decl["truth_curve"] = None
     decl["tolerances"] = d.get("tolerances", {})
+    # Last, as they run voxlab: a mistake the checks above can name is named without waiting for it.
+    check_tolerance_names(decl["tolerances"], voxlab, fail)
+    check_variants([(where, s) for where, made in entries for s in made if s["base"]], voxlab, fail)
     return decl
 
 
