@@ -101,6 +101,46 @@ fi
 check_fails unknown_extension "out\.bmp.*(\.exr|extension)" "$VOXLAB" truth "$T/ok.json" --spp 1 -o "$T/out.bmp"
 [ -e "$T/out.bmp" ] && { echo "not ok unknown_extension-no-output"; failures=$((failures + 1)); } || echo "ok unknown_extension-no-output"
 
+# An output that names an input (the scene file, its mesh, --vox, compare's images) or another
+# output is refused before any work, and the file is left as it was: these runs once replaced the
+# scene with the statistics, the mesh with .vox data, image A with the heat map, and exited 0.
+same_bytes() { # name file copy (put back after a failure, so that each case stands alone)
+  if cmp -s "$2" "$3"; then echo "ok $1"; else echo "not ok $1: $2 was overwritten"; failures=$((failures + 1)); cp "$3" "$2"; fi
+}
+C=$T/clash && mkdir -p "$C" && cp "$T/quad.ply" "$C/quad.ply" && cp "$T/quad.ply" "$C/quad.orig"
+good_scene "$C/s.json" "$quad" && cp "$C/s.json" "$C/s.orig"
+check_fails clash_stats_is_scene "^voxlab truth: --stats $C/s\.json is the scene file: refusing to overwrite an input" \
+  "$VOXLAB" truth "$C/s.json" --spp 1 -o "$C/x.exr" --stats "$C/s.json"
+same_bytes clash_stats_is_scene-kept "$C/s.json" "$C/s.orig"
+check_fails clash_stats_is_scene_render "--stats $C/\./s\.json is the scene file \($C/s\.json\)" \
+  "$VOXLAB" render "$C/s.json" --model binary --res 8 -o "$C/x.exr" --stats "$C/./s.json"
+same_bytes clash_stats_is_scene_render-kept "$C/s.json" "$C/s.orig"
+ln -sf quad.ply "$C/mesh_link.vox" # a link to the mesh is the mesh
+check_fails clash_o_is_mesh "^voxlab bake: -o $C/mesh_link\.vox is the scene's objects\[0\]\.ply \($C/quad\.ply\): refusing" \
+  "$VOXLAB" bake "$C/s.json" --model binary --res 8 -o "$C/mesh_link.vox"
+same_bytes clash_o_is_mesh-kept "$C/quad.ply" "$C/quad.orig"
+"$VOXLAB" bake "$C/s.json" --model binary --res 8 --rays 4 -o "$C/a.vox" && cp "$C/a.vox" "$C/a.orig"
+ln -sf a.vox "$C/a_link.json"
+check_fails clash_stats_is_vox "^voxlab render: --stats $C/a_link\.json is the --vox file \($C/a\.vox\)" \
+  "$VOXLAB" render "$C/s.json" --model binary --vox "$C/a.vox" -o "$C/x.exr" --stats "$C/a_link.json"
+same_bytes clash_stats_is_vox-kept "$C/a.vox" "$C/a.orig"
+"$VOXLAB" truth "$C/s.json" --spp 1 --size 16x16 -o "$C/A.exr" && cp "$C/A.exr" "$C/A.orig" && cp "$C/A.exr" "$C/B.exr"
+check_fails clash_heatmap_is_a "^voxlab compare: --heatmap $C/A\.exr is image A: refusing to overwrite an input" \
+  "$VOXLAB" compare "$C/A.exr" "$C/B.exr" --heatmap "$C/A.exr"
+same_bytes clash_heatmap_is_a-kept "$C/A.exr" "$C/A.orig"
+# Two outputs, one file (here through a link): one of them would be lost.
+ln -sf A.exr "$C/A_link.json"
+check_fails clash_stats_is_o "^voxlab truth: --stats $C/A_link\.json is the same file as -o $C/A\.exr: refusing to write two" \
+  "$VOXLAB" truth "$C/s.json" --spp 1 -o "$C/A.exr" --stats "$C/A_link.json"
+same_bytes clash_stats_is_o-kept "$C/A.exr" "$C/A.orig"
+# --frames: every numbered output is checked (here frame 1's image would replace the mesh).
+cp "$C/quad.ply" "$C/seq_0001.exr" && cp "$C/quad.ply" "$C/seq.orig"
+good_scene "$C/seq.json" '[{"ply": "seq_0001.exr", "material": "grey"}]' '"frames": [0, 2],'
+check_fails clash_frame_is_mesh "^voxlab truth: -o $C/seq_0001\.exr is the scene's objects\[0\]\.ply: refusing" \
+  "$VOXLAB" truth "$C/seq.json" --spp 1 --frames 0:2 -o "$C/seq.exr"
+same_bytes clash_frame_is_mesh-kept "$C/seq_0001.exr" "$C/seq.orig"
+[ -e "$C/seq_0000.exr" ] && { echo "not ok clash_frame_is_mesh-before_work: frame 0 was written"; failures=$((failures + 1)); } || echo "ok clash_frame_is_mesh-before_work"
+
 # Zero-area triangles are dropped and counted, not an error.
 cat >"$T/degenerate.ply" <<'PLY'
 ply

@@ -12,6 +12,7 @@
 #include "commands.h"
 #include "estimate.h"
 #include "fileio.h"
+#include "outputs.h"
 #include "parallel.h"
 #include "stats.h"
 #include "voxfile.h"
@@ -113,6 +114,21 @@ static int model_path(const char *pattern, const vx_model *m, char out[4096])
     return 0;
 }
 
+/* Every model's -o and --stats against the scene's files and each other, before the bake. */
+static int check_outputs(const scene *s, int count, char outs[][4096], char stats[][4096], int have_stats, vx_err *e)
+{
+    outputs_list l = {0};
+    outputs_add_scene(&l, s);
+    for (int k = 0; k < count; k++) {
+        outputs_add(&l, "-o", outs[k], 1);
+        if (have_stats)
+            outputs_add(&l, "--stats", stats[k], 1);
+    }
+    int rc = outputs_check(&l, e);
+    outputs_free(&l);
+    return rc;
+}
+
 int cmd_bake(int argc, char **argv)
 {
     static const char usage[] = "usage: " BAKE_SYNOPSIS "\n";
@@ -209,6 +225,11 @@ int cmd_bake(int argc, char **argv)
     scene s;
     if (scene_load(scene_path, &s, &e)) {
         fprintf(stderr, "voxlab bake: %s\n", e.msg);
+        return 1;
+    }
+    if (check_outputs(&s, count, outs, stats, stats_path != NULL, &e)) {
+        fprintf(stderr, "voxlab bake: %s\n", e.msg);
+        scene_free(&s);
         return 1;
     }
     int rc = 1;

@@ -13,6 +13,7 @@
 #include "cli.h"
 #include "image.h"
 #include "metrics.h"
+#include "outputs.h"
 
 #define COMPARE_SYNOPSIS "voxlab compare A B [--json] [--heatmap OUT.png] | voxlab compare --list-metrics"
 static const char usage[] = "usage: " COMPARE_SYNOPSIS;
@@ -91,6 +92,18 @@ char *compare_json(const image_metrics *m, int width, int height, const char *pr
     return out;
 }
 
+/* --heatmap naming A or B would overwrite the image it compares. */
+static int check_heatmap(const char *const paths[2], const char *heatmap, vx_err *e)
+{
+    outputs_list l = {0};
+    outputs_add(&l, "image A", paths[0], 0);
+    outputs_add(&l, "image B", paths[1], 0);
+    outputs_add(&l, "--heatmap", heatmap, 1);
+    int rc = outputs_check(&l, e);
+    outputs_free(&l);
+    return rc;
+}
+
 int cmd_compare(int argc, char **argv)
 {
     const char *paths[2] = {NULL, NULL}, *heatmap = NULL;
@@ -125,6 +138,10 @@ int cmd_compare(int argc, char **argv)
     vx_err e;
     int rc = 1;
     if (heatmap && image_check_output(heatmap, &e) != 0) { /* before the reads: fail before any work */
+        fail("%s", e.msg);
+        goto done;
+    }
+    if (heatmap && check_heatmap(paths, heatmap, &e)) {
         fail("%s", e.msg);
         goto done;
     }

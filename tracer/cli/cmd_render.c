@@ -12,6 +12,7 @@
 #include "stats.h"
 #include "estimate.h"
 #include "fileio.h"
+#include "outputs.h"
 #include "backend.h"
 #include "bake_params.h"
 #include "parallel.h"
@@ -208,7 +209,8 @@ int cmd_render(int argc, char **argv)
     image img = {0};
     render_counts rcnt;
     backend_counts bcnt = {0};
-    if (size && scene_parse_size_string(size, &o.width, &o.height, &e))
+    if (frames_resolve(&s, &fr, &e) || outputs_check_scene(&s, vox, out_path, stats_path, &fr, &e) ||
+        (size && scene_parse_size_string(size, &o.width, &o.height, &e)))
         goto fail;
     /* With --vox the resolution, the model, the voxels and the records are the file's header's (read
      * alone: the estimate comes before the records are read); nothing is baked or voxelised. */

@@ -12,6 +12,7 @@
 #include "animation.h"
 #include "fileio.h"
 #include "frames.h"
+#include "outputs.h"
 #include "parallel.h"
 #include "truth.h"
 
@@ -116,7 +117,8 @@ int cmd_truth(int argc, char **argv)
     int rc = 1;
     rt_scene rt = {0};
     image img = {0};
-    if (size && scene_parse_size_string(size, &o.width, &o.height, &e))
+    if (frames_resolve(&s, &fr, &e) || outputs_check_scene(&s, NULL, out_path, stats_path, &fr, &e) ||
+        (size && scene_parse_size_string(size, &o.width, &o.height, &e)))
         goto fail;
     vx_estimate est;
     estimate_truth(&s, o.width, o.height, o.spp, o.threads, &est);
@@ -126,10 +128,6 @@ int cmd_truth(int argc, char **argv)
         goto done;
     }
     if (estimate_check(&est, &e))
-        goto fail;
-    if (!fr.given)
-        fr.first = fr.last = s.anim ? s.anim->first : 0;
-    if (scene_set_frame(&s, fr.first, &e) || scene_set_frame(&s, fr.last, &e))
         goto fail;
     for (int f = fr.first; f <= fr.last; f++) {
         char out_f[4096], stats_f[4096];

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "animation.h"
 #include "cli.h"
 
 int frames_parse(const char *cmd, const char *option, const char *text, frame_range *r)
@@ -44,4 +45,11 @@ void frames_path(const char *path, int frame, char *out, size_t size)
     if (!dot || (slash && dot < slash))
         dot = path + strlen(path);
     snprintf(out, size, "%.*s_%04d%s", (int)(dot - path), path, frame, dot);
+}
+
+int frames_resolve(scene *s, frame_range *r, vx_err *e)
+{
+    if (!r->given)
+        r->first = r->last = s->anim ? s->anim->first : 0;
+    return scene_set_frame(s, r->last, e) || scene_set_frame(s, r->first, e) ? -1 : 0;
 }

@@ -56,6 +56,31 @@ static void resolve_path(const char *scene_path, const char *rel, char *out, siz
         snprintf(out, out_size, "%.*s/%s", (int)(slash - scene_path), scene_path, rel);
 }
 
+/* Records a file the load read (scene.inputs). where is "SCENE: objects[0]" or "SCENE: materials.x";
+ * the field keeps the part after the scene's path. */
+static int note_input(scene *s, const char *where, const char *kind, const char *path, vx_err *e)
+{
+    size_t n = strlen(s->path);
+    if (strncmp(where, s->path, n) == 0 && strncmp(where + n, ": ", 2) == 0)
+        where += n + 2;
+    char field[600];
+    snprintf(field, sizeof field, "%s.%s", where, kind);
+    char **p = realloc(s->inputs, sizeof *p * (size_t)(s->input_count + 1));
+    if (p)
+        s->inputs = p;
+    char **f = p ? realloc(s->input_fields, sizeof *f * (size_t)(s->input_count + 1)) : NULL;
+    if (f)
+        s->input_fields = f;
+    char *path_copy = f ? strdup(path) : NULL, *field_copy = path_copy ? strdup(field) : NULL;
+    if (!field_copy) {
+        free(path_copy);
+        return vx_fail(e, "%s: out of memory", where);
+    }
+    s->inputs[s->input_count] = path_copy;
+    s->input_fields[s->input_count++] = field_copy;
+    return 0;
+}
+
 static int parse_color(const cJSON *obj, const char *field, const char *where, vec3 *out, vx_err *e)
 {
     if (json_vec3(obj, field, where, out, e))
@@ -87,6 +112,10 @@ static int parse_texture(scene *s, const cJSON *tex, const char *where, vx_err *
         resolve_path(s->path, tex->valuestring, path, sizeof path);
         if (texture_load_image(&t, path, e))
             return vx_wrap(e, "%s.texture", where);
+        if (note_input(s, where, "texture", path, e)) {
+            texture_free(&t);
+            return -1;
+        }
     } else if (cJSON_IsObject(tex) && cJSON_GetObjectItemCaseSensitive(tex, "checker")) {
         const cJSON *c = cJSON_GetObjectItemCaseSensitive(tex, "checker");
         char w2[512];
@@ -569,6 +598,8 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
                                                          &own, e);
             if (rc)
                 return vx_wrap(e, "%s.%s", where, kind);
+            if (note_input(s, where, kind, path, e))
+                return -1;
             warn_unused_texture(s, v0, t0, where);
         }
         /* "subdivide": k Loop levels, on the object as loaded, before its placement. */
@@ -768,5 +799,11 @@ void scene_free(scene *s)
     free(s->name);
     anim_free(s->anim);
     inst_free(s->inst);
+    for (int i = 0; i < s->input_count; i++) {
+        free(s->inputs[i]);
+        free(s->input_fields[i]);
+    }
+    free(s->inputs);
+    free(s->input_fields);
     memset(s, 0, sizeof *s);
 }

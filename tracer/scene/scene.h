@@ -55,6 +55,12 @@ typedef struct {
     int texture_identity_done;
     struct scene_animation *anim; /* "frames" and moving objects (animation.h), NULL when none */
     struct scene_instancing *inst; /* instanced objects' prototypes and placements (instancing.h), or NULL */
+    /* The files the load read besides the scene file (meshes, texture images), as opened, with the
+     * field naming each ("objects[0].ply", "materials.wood.texture"): a command refuses an output
+     * that would overwrite one of them (tracer/cli/outputs.h). A glTF's own buffers and images are
+     * not listed. */
+    char **inputs, **input_fields;
+    int input_count;
 } scene;
 
 #ifdef __cplusplus
