@@ -81,7 +81,20 @@ check_status bake_directory_output_first 1 "^voxlab bake: $W: cannot write: it i
   "$VOXLAB" bake "$T/missing.json" --model alpha --res 8 -o "$W"
 check_status heatmap_extension_first 1 "^voxlab compare: $W/h\.bmp: unsupported image extension" \
   "$VOXLAB" compare "$T/missing1.exr" "$T/missing2.exr" --heatmap "$W/h.bmp"
+# bake's -o must be a .vox and every --stats a .json (any case, as images take .EXR): once they
+# wrote .vox data as x.exr and JSON as st.png, exit 0.
+for o in a.exr a; do
+  check_status "bake_extension_first_$o" 1 "^voxlab bake: -o $W/$o: unsupported extension '(\.exr)?' \(expected \.vox\)$" \
+    "$VOXLAB" bake "$T/missing.json" --model alpha --res 8 -o "$W/$o"
+done
+check_status truth_stats_extension_first 1 "^voxlab truth: --stats $W/s\.png: unsupported extension '\.png' \(expected \.json\)$" \
+  "$VOXLAB" truth "$T/missing.json" -o "$W/o.exr" --stats "$W/s.png"
+check_status render_stats_extension_first 1 "^voxlab render: --stats $W/s\.exr: unsupported extension '\.exr' \(expected \.json\)$" \
+  "$VOXLAB" render "$T/missing.json" --model alpha --res 8 -o "$W/o.exr" --stats "$W/s.exr"
+check_status bake_stats_extension_first 1 "^voxlab bake: --stats $W/s_alpha\.txt: unsupported extension '\.txt' \(expected \.json\)$" \
+  "$VOXLAB" bake "$T/missing.json" --model alpha,binary --res 8 -o "$W/{model}.vox" --stats "$W/s_{model}.txt"
 check_only bad_outputs-nothing_left "$W"
+check upper_case_extensions "$VOXLAB" bake "$S" --model alpha --res 8 --rays 4 -o "$T/up.VOX" --stats "$T/up.JSON"
 
 # Inputs that are not regular files: refused at once (timeout: a FIFO must not block, /dev/zero
 # must not be read forever).

@@ -239,7 +239,7 @@ static void check_fallback(void)
     snprintf(scene_path, sizeof scene_path, "%s/fallback.json", dir);
     snprintf(out_a, sizeof out_a, "%s/fallback_split8.exr", dir);
     snprintf(out_b, sizeof out_b, "%s/fallback_rebake.exr", dir);
-    snprintf(stats, sizeof stats, "%s/fallback.json.stats", dir);
+    snprintf(stats, sizeof stats, "%s/fallback_stats.json", dir);
     snprintf(err_path, sizeof err_path, "%s/fallback.stderr", dir);
     char plate[4096];
     if (!realpath("scenes/meshes/plate.ply", plate)) {

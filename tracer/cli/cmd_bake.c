@@ -217,7 +217,8 @@ int cmd_bake(int argc, char **argv)
     for (int k = 0; k < count; k++) {
         if (model_path(out_path, m[k], outs[k]) || (stats_path && model_path(stats_path, m[k], stats[k])))
             return 1;
-        if (fileio_check_writable(outs[k], &e) || (stats_path && fileio_check_writable(stats[k], &e))) {
+        if (fileio_check_output("-o", outs[k], ".vox", &e) ||
+            (stats_path && fileio_check_output("--stats", stats[k], ".json", &e))) {
             fprintf(stderr, "voxlab bake: %s\n", e.msg);
             return 1;
         }

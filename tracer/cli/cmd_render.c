@@ -193,7 +193,7 @@ int cmd_render(int argc, char **argv)
         return 1;
     }
     scene s;
-    if (image_check_output(out_path, &e) || (stats_path && fileio_check_writable(stats_path, &e)) ||
+    if (image_check_output(out_path, &e) || (stats_path && fileio_check_output("--stats", stats_path, ".json", &e)) ||
         scene_load(scene_path, &s, &e)) {
         fprintf(stderr, "voxlab render: %s\n", e.msg);
         return 1;

@@ -5,6 +5,7 @@
 #include <signal.h>
 #include <stdatomic.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -169,5 +170,21 @@ int fileio_check_writable(const char *path, vx_err *e)
     if (fileio_temp_create(path, tmp, sizeof tmp, e))
         return -1;
     fileio_temp_discard(tmp);
+    return 0;
+}
+
+const char *fileio_extension(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    const char *dot = strrchr(slash ? slash + 1 : path, '.');
+    return dot ? dot : "";
+}
+
+int fileio_check_output(const char *option, const char *path, const char *ext, vx_err *e)
+{
+    if (fileio_check_writable(path, e)) /* first: a directory is named as one, not as an extension */
+        return -1;
+    if (strcasecmp(fileio_extension(path), ext) != 0)
+        return vx_fail(e, "%s %s: unsupported extension '%s' (expected %s)", option, path, fileio_extension(path), ext);
     return 0;
 }

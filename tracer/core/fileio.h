@@ -28,6 +28,12 @@ int fileio_write_text(const char *path, const char *text, vx_err *e);
 /* Fails early, before long work, when `path` cannot be created (creates and removes a temp file)
  * or is a directory. */
 int fileio_check_writable(const char *path, vx_err *e);
+/* path's extension: from the last '.' of its last component ("" when it has none). */
+const char *fileio_extension(const char *path);
+/* fileio_check_writable, then the extension: ext, in any case (as images take .EXR), so that a
+ * file that a later run or a script would read as the wrong kind is not written under that name.
+ * The message names the option: "--stats s.exr: unsupported extension '.exr' (expected .json)". */
+int fileio_check_output(const char *option, const char *path, const char *ext, vx_err *e);
 
 /* Installs handlers for SIGINT, SIGTERM, SIGHUP and SIGXFSZ (those not ignored) that remove every
  * temporary file being written and then end the process by the same signal. Called once by main. */

@@ -42,16 +42,9 @@ void image_free(image *img)
 }
 
 /* The extension after the last '.' of the file name (not of a directory), or "" when there is none. */
-static const char *extension(const char *path)
-{
-    const char *slash = strrchr(path, '/');
-    const char *dot = strrchr(slash ? slash + 1 : path, '.');
-    return dot ? dot : "";
-}
-
 int image_check_output(const char *path, vx_err *e)
 {
-    const char *ext = extension(path);
+    const char *ext = fileio_extension(path);
     if (fileio_check_writable(path, e)) /* first: a directory is named as one, not as an extension */
         return -1;
     if (strcasecmp(ext, ".exr") != 0 && strcasecmp(ext, ".png") != 0)
@@ -61,7 +54,7 @@ int image_check_output(const char *path, vx_err *e)
 
 int image_write(const image *img, const char *path, vx_err *e)
 {
-    const char *ext = extension(path);
+    const char *ext = fileio_extension(path);
     if (strcasecmp(ext, ".exr") == 0)
         return image_write_exr(img, path, e);
     if (strcasecmp(ext, ".png") == 0)
