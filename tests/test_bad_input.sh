@@ -141,6 +141,38 @@ check_fails clash_frame_is_mesh "^voxlab truth: -o $C/seq_0001\.exr is the scene
 same_bytes clash_frame_is_mesh-kept "$C/seq_0001.exr" "$C/seq.orig"
 [ -e "$C/seq_0000.exr" ] && { echo "not ok clash_frame_is_mesh-before_work: frame 0 was written"; failures=$((failures + 1)); } || echo "ok clash_frame_is_mesh-before_work"
 
+# --frames: what a later frame's render would refuse is found before the first is rendered, and
+# the message names the frame. Here a quad rises past a point light, which from frame 4 on lies
+# inside the scene's bounding sphere, where slicemap shadows have no map: the run once wrote frames
+# 0-3 (images and stats) and then failed without saying which frame.
+anim_scene() { # $1 = file, $2 = shadow method
+  cat >"$1" <<JSON
+{"name": "t", "size": [8, 8], "effects": ["shadows"], "shadows": {"method": "$2"}, "frames": [0, 5],
+ "camera": {"position": [0, 3, 3], "look_at": [0, 0, 0], "fov_deg": 40},
+ "lights": [{"type": "point", "position": [0, 20, 0], "intensity": [300, 300, 300]}],
+ "materials": {"grey": {"color": [0.5, 0.5, 0.5]}},
+ "objects": [{"ply": "$T/quad.ply", "material": "grey"},
+             {"ply": "$T/quad.ply", "material": "grey",
+              "animation": {"keys": [{"frame": 0, "translate": [0, 0.5, 0]}, {"frame": 5, "translate": [0, 25, 0]}]}}]}
+JSON
+}
+A=$T/anim && mkdir -p "$A/out" && anim_scene "$A/anim.json" slicemap
+light_inside="frame 4: $A/anim\.json: lights\[0\]: a point light inside the scene's bounding sphere"
+check_fails frames_checked_first_truth "^voxlab truth: $light_inside" \
+  "$VOXLAB" truth "$A/anim.json" --spp 1 --frames 0:5 -o "$A/out/t.exr" --stats "$A/out/t.json"
+check_fails frames_checked_first_render "^voxlab render: $light_inside" \
+  "$VOXLAB" render "$A/anim.json" --model alpha --res 8 --spp 1 --frames 0:5 -o "$A/out/r.exr" --stats "$A/out/r.json"
+check_fails frames_checked_first_split8 "^voxlab render: $light_inside" \
+  "$VOXLAB" render "$A/anim.json" --model alpha --res 8 --spp 1 --frames 0:5 --filter split8 -o "$A/out/s.exr"
+check_fails frames_checked_first_one_frame "^voxlab truth: frame 5: $A/anim\.json: lights\[0\]" \
+  "$VOXLAB" truth "$A/anim.json" --spp 1 --frame 5 -o "$A/out/f5.exr"
+# Up front, not on reaching the frame: even --dry-run, which renders nothing, is refused.
+check_fails frames_checked_first_dry_run "^voxlab render: $light_inside" \
+  "$VOXLAB" render "$A/anim.json" --model alpha --res 8 --spp 1 --frames 0:5 --dry-run -o "$A/out/d.exr"
+left=$(ls -A "$A/out")
+[ -z "$left" ] && echo "ok frames_checked_first-nothing_written" || { echo "not ok frames_checked_first-nothing_written: $left"; failures=$((failures + 1)); }
+check frames_before_the_light_render "$VOXLAB" truth "$A/anim.json" --spp 1 --frames 0:3 -o "$A/out/ok.exr"
+
 # Zero-area triangles are dropped and counted, not an error.
 cat >"$T/degenerate.ply" <<'PLY'
 ply

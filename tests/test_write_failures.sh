@@ -96,6 +96,23 @@ check_status bake_stats_extension_first 1 "^voxlab bake: --stats $W/s_alpha\.txt
 check_only bad_outputs-nothing_left "$W"
 check upper_case_extensions "$VOXLAB" bake "$S" --model alpha --res 8 --rays 4 -o "$T/up.VOX" --stats "$T/up.JSON"
 
+# A --frames sequence that fails at a later frame leaves none of its files (all or nothing) and
+# names the frame; here frame 2's image cannot be written (a directory holds its name).
+F=$T/frames && mkdir -p "$F/out/t_0002.exr" "$F/out/r_0002.exr"
+cat >"$F/anim.json" <<JSON
+{"name": "t", "size": [8, 8], "frames": [0, 3], "camera": {"position": [0, 3, 3], "look_at": [0, 0, 0], "fov_deg": 40},
+ "lights": [{"type": "directional", "direction": [0, 1, 0], "irradiance": [3, 3, 3]}],
+ "materials": {"grey": {"color": [0.5, 0.5, 0.5]}},
+ "objects": [{"ply": "$REPO/scenes/meshes/plate.ply", "material": "grey",
+              "animation": {"keys": [{"frame": 0, "translate": [0, 0, 0]}, {"frame": 3, "translate": [0, 1, 0]}]}}]}
+JSON
+check_status frames_all_or_nothing_truth 1 "^voxlab truth: frame 2: $F/out/t_0002\.exr: cannot write" \
+  "$VOXLAB" truth "$F/anim.json" --spp 1 --frames 0:3 -o "$F/out/t.exr" --stats "$F/out/t.json"
+check_status frames_all_or_nothing_render 1 "^voxlab render: frame 2: $F/out/r_0002\.exr: cannot write" \
+  "$VOXLAB" render "$F/anim.json" --model alpha --res 8 --spp 1 --frames 0:3 --filter split8 -o "$F/out/r.exr" \
+  --stats "$F/out/r.json"
+check_only frames_all_or_nothing-nothing_left "$F/out" t_0002.exr r_0002.exr
+
 # Inputs that are not regular files: refused at once (timeout: a FIFO must not block, /dev/zero
 # must not be read forever).
 mkfifo "$T/fifo.ply"

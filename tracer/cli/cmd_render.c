@@ -232,7 +232,8 @@ int cmd_render(int argc, char **argv)
     } else
         estimate_voxels(&s, em, res, bo.rays, o.width, o.height, o.spp, o.cache, o.threads, &est);
     /* Before anything is baked or read: a shadow method the model cannot take. */
-    if (em && render_shadow_method_refused(&s, em, &o, &e))
+    shadow_request sr = {o.shadow_method, o.shadow_res, o.threads, NULL};
+    if ((em && render_shadow_method_refused(&s, em, &o, &e)) || frames_check_shadows(&s, &fr, &sr, &e))
         goto fail;
     if (dry_run) {
         estimate_print(stdout, "render", &est);

@@ -41,6 +41,48 @@ const cli_command cmd_truth_help = {
         {"--stats", "S.json", "none", "write statistics (times, rays) as JSON"},
         {0}}};
 
+/* Frame f of the run (the still when r is not a sequence): posed, traced, written with its
+ * statistics. -1: failed, the message in e; 1: the statistics were lost (stats_finish said so and
+ * removed the image). */
+static int truth_frame(scene *s, const truth_options *o, const frame_range *r, int f, const char *out_path,
+                       const char *stats_path, int argc, char **argv, vx_err *e)
+{
+    char out_f[4096], stats_f[4096];
+    frames_path(out_path, f, out_f, sizeof out_f);
+    if (stats_path)
+        frames_path(stats_path, f, stats_f, sizeof stats_f);
+    const char *out = r->sequence ? out_f : out_path, *stats = !stats_path ? NULL : r->sequence ? stats_f : stats_path;
+    rt_scene rt = {0};
+    image img = {0};
+    truth_counts counts;
+    image_meta meta;
+    int rc = -1;
+    if (scene_set_frame(s, f, e) || rt_build(&rt, s, e))
+        goto done;
+    provenance_common(&meta, argc, argv, s, o->width, o->height, o->spp, o->seed);
+    image_meta_add(&meta, "renderer", "truth (Embree)");
+    if (r->given)
+        image_meta_add(&meta, "frame", "%d", f);
+    if (truth_render(&rt, o, &img, &counts, e))
+        goto done;
+    img.meta = &meta;
+    if (image_write(&img, out, e))
+        goto done;
+    rc = 0;
+    if (stats) {
+        cJSON *j = stats_truth(s, o, &counts);
+        cJSON_AddNumberToObject(j, "bvh_bytes", (double)rt.bvh_bytes); /* Embree's peak allocation */
+        cJSON_AddNumberToObject(j, "bvh_seconds", rt.bvh_seconds);     /* building it (rt_build) */
+        if (r->given)
+            cJSON_AddNumberToObject(j, "frame", f);
+        rc = stats_finish(j, stats, "truth", out) ? 1 : 0;
+    }
+done:
+    image_free(&img);
+    rt_free(&rt);
+    return rc;
+}
+
 int cmd_truth(int argc, char **argv)
 {
     if (cli_wants_help(argc, argv)) {
@@ -115,10 +157,9 @@ int cmd_truth(int argc, char **argv)
     o.width = s.width;
     o.height = s.height;
     int rc = 1;
-    rt_scene rt = {0};
-    image img = {0};
+    shadow_request sr = truth_shadow_request(&s, &o);
     if (frames_resolve(&s, &fr, &e) || outputs_check_scene(&s, NULL, out_path, stats_path, &fr, &e) ||
-        (size && scene_parse_size_string(size, &o.width, &o.height, &e)))
+        (size && scene_parse_size_string(size, &o.width, &o.height, &e)) || frames_check_shadows(&s, &fr, &sr, &e))
         goto fail;
     vx_estimate est;
     estimate_truth(&s, o.width, o.height, o.spp, o.threads, &est);
@@ -129,45 +170,19 @@ int cmd_truth(int argc, char **argv)
     }
     if (estimate_check(&est, &e))
         goto fail;
-    for (int f = fr.first; f <= fr.last; f++) {
-        char out_f[4096], stats_f[4096];
-        frames_path(out_path, f, out_f, sizeof out_f);
-        if (stats_path)
-            frames_path(stats_path, f, stats_f, sizeof stats_f);
-        const char *out = fr.sequence ? out_f : out_path, *stats = !stats_path ? NULL : fr.sequence ? stats_f : stats_path;
-        if (scene_set_frame(&s, f, &e) || rt_build(&rt, &s, &e))
-            goto fail;
-        truth_counts counts;
-        image_meta meta;
-        provenance_common(&meta, argc, argv, &s, o.width, o.height, o.spp, o.seed);
-        image_meta_add(&meta, "renderer", "truth (Embree)");
-        if (fr.given)
-            image_meta_add(&meta, "frame", "%d", f);
-        if (truth_render(&rt, &o, &img, &counts, &e))
-            goto fail;
-        img.meta = &meta;
-        if (image_write(&img, out, &e))
-            goto fail;
-        if (stats) {
-            cJSON *j = stats_truth(&s, &o, &counts);
-            cJSON_AddNumberToObject(j, "bvh_bytes", (double)rt.bvh_bytes); /* Embree's peak allocation */
-            cJSON_AddNumberToObject(j, "bvh_seconds", rt.bvh_seconds);     /* building it (rt_build) */
-            if (fr.given)
-                cJSON_AddNumberToObject(j, "frame", f);
-            if (stats_finish(j, stats, "truth", out))
-                goto done;
-        }
-        image_free(&img);
-        rt_free(&rt);
-        memset(&rt, 0, sizeof rt);
-    }
-    rc = 0;
-    goto done;
+    int f = fr.first, failed = 0;
+    while (f <= fr.last && !(failed = truth_frame(&s, &o, &fr, f, out_path, stats_path, argc, argv, &e)))
+        f++;
+    if (failed && fr.sequence) /* all or nothing: the frames written before this one go too */
+        frames_remove(out_path, stats_path, fr.first, f);
+    if (failed < 0 && fr.given)
+        vx_wrap(&e, "frame %d", f);
+    rc = failed != 0;
+    if (failed >= 0)
+        goto done;
 fail:
     fprintf(stderr, "voxlab truth: %s\n", e.msg);
 done:
-    image_free(&img);
-    rt_free(&rt);
     scene_free(&s);
     return rc;
 }

@@ -53,3 +53,26 @@ int frames_resolve(scene *s, frame_range *r, vx_err *e)
         r->first = r->last = s->anim ? s->anim->first : 0;
     return scene_set_frame(s, r->last, e) || scene_set_frame(s, r->first, e) ? -1 : 0;
 }
+
+int frames_check_shadows(scene *s, const frame_range *r, const shadow_request *sr, vx_err *e)
+{
+    if (!shadow_lights_depend_on_pose(s, sr))
+        return 0;
+    for (int f = r->first; f <= r->last; f++)
+        if (scene_set_frame(s, f, e) || shadow_check_lights(s, sr, e))
+            return r->given ? vx_wrap(e, "frame %d", f) : -1;
+    return scene_set_frame(s, r->first, e);
+}
+
+void frames_remove(const char *out_path, const char *stats_path, int first, int end)
+{
+    for (int f = first; f < end; f++) {
+        char path[4096];
+        frames_path(out_path, f, path, sizeof path);
+        remove(path);
+        if (stats_path) {
+            frames_path(stats_path, f, path, sizeof path);
+            remove(path);
+        }
+    }
+}

@@ -31,8 +31,8 @@ int render_frames(scene *s, const vx_model *m, int res, const bake_options *bo, 
     dyn_scene d = {0};
     if (used != DYN_REBAKE && (scene_set_frame(s, ref, e) || dyn_prepare(&d, s, m, res, bo, e)))
         return -1;
-    int rc = -1;
-    for (int f = first; f <= last; f++) {
+    int rc = -1, f = first;
+    for (; f <= last; f++) {
         char out_f[4096], stats_f[4096];
         frames_path(out_path, f, out_f, sizeof out_f);
         if (stats_path)
@@ -97,6 +97,10 @@ int render_frames(scene *s, const vx_model *m, int res, const bake_options *bo, 
     }
     rc = 0;
 fail:
+    if (rc && fr->sequence) /* all or nothing: the frames written before this one go too */
+        frames_remove(out_path, stats_path, first, f);
+    if (rc && fr->given)
+        vx_wrap(e, "frame %d", f);
     if (used != DYN_REBAKE)
         dyn_free(&d);
     return rc;

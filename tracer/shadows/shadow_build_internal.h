@@ -21,6 +21,9 @@ typedef struct map_build {
  * multiple of 64 near res; allocates the bits (and the opaque map when has_opaque). Fails for a
  * point light inside the scene's bounding sphere (a frustum cannot see all of the scene). */
 int shadow_frame(const scene *s, const light *L, int li, int res, int has_opaque, map_build *b, vx_err *e);
+/* The test of shadow_frame that refuses point light li of s: inside the scene's bounding sphere,
+ * from where one frustum cannot see all of the scene (shadow_check_lights asks it before any work). */
+int shadow_point_light_refused(const scene *s, const light *L, int li, vx_err *e);
 void map_build_free(map_build *b);
 
 /* The ray of column (i, j): from the near plane toward the scene (from_far 0: depth = t) or from the

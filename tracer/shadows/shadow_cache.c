@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "shadow_build_internal.h"
 #include "shadow_set.h"
 
 #define CACHE_ENTRIES 8
@@ -33,6 +34,29 @@ int shadow_effective_method(const scene *s, const shadow_request *r)
     if (!(s->effects & EFFECT_SHADOWS) || s->light_count == 0)
         return -1;
     return r && r->method >= 0 ? r->method : s->shadow_method;
+}
+
+/* The methods that build maps around the scene's bounds, which move with an animation's frames. */
+static int builds_maps(const scene *s, const shadow_request *r)
+{
+    int method = shadow_effective_method(s, r);
+    return method == SHADOW_SLICEMAP || method == SHADOW_SLICEMAP_MODEL;
+}
+
+int shadow_lights_depend_on_pose(const scene *s, const shadow_request *r)
+{
+    for (int li = 0; builds_maps(s, r) && li < s->light_count && li < VX_MAX_LIGHTS; li++)
+        if (s->lights[li].type == LIGHT_POINT)
+            return 1;
+    return 0;
+}
+
+int shadow_check_lights(const scene *s, const shadow_request *r, vx_err *e)
+{
+    for (int li = 0; builds_maps(s, r) && li < s->light_count && li < VX_MAX_LIGHTS; li++)
+        if (s->lights[li].type == LIGHT_POINT && shadow_point_light_refused(s, &s->lights[li], li, e))
+            return -1;
+    return 0;
 }
 
 typedef struct {

@@ -18,16 +18,37 @@ static vec3 perpendicular(vec3 w)
     return v3_normalize(v3_cross(w, a));
 }
 
+/* The padded bounds the frame is built around (shadow_frame), and their diagonal. */
+static float padded_bounds(const scene *s, vec3 *lo, vec3 *hi)
+{
+    *lo = s->bounds_lo, *hi = s->bounds_hi;
+    float diag = v3_length(v3_sub(*hi, *lo));
+    float pad = 1e-3f * diag + 1e-6f;
+    *lo = v3_sub(*lo, v3(pad, pad, pad));
+    *hi = v3_add(*hi, v3(pad, pad, pad));
+    return v3_length(v3_sub(*hi, *lo));
+}
+
+int shadow_point_light_refused(const scene *s, const light *L, int li, vx_err *e)
+{
+    vec3 lo, hi;
+    float diag = padded_bounds(s, &lo, &hi);
+    vec3 centre = v3_scale(v3_add(lo, hi), 0.5f);
+    float radius = 0.5f * diag, dist = v3_length(v3_sub(centre, L->position));
+    if (!(dist > 1.001f * radius))
+        return vx_fail(e, "%s: lights[%d]: a point light inside the scene's bounding sphere needs a cube of six "
+                          "shadow maps, which slicemap shadows do not have (a perspective frustum only); use "
+                          "--shadows march",
+                       s->path, li);
+    return 0;
+}
+
 int shadow_frame(const scene *s, const light *L, int li, int res, int has_opaque, map_build *b, vx_err *e)
 {
     memset(b, 0, sizeof *b);
     shadow_map_params *m = &b->m;
-    vec3 lo = s->bounds_lo, hi = s->bounds_hi;
-    float diag = v3_length(v3_sub(hi, lo));
-    float pad = 1e-3f * diag + 1e-6f;
-    lo = v3_sub(lo, v3(pad, pad, pad));
-    hi = v3_add(hi, v3(pad, pad, pad));
-    diag = v3_length(v3_sub(hi, lo));
+    vec3 lo, hi;
+    float diag = padded_bounds(s, &lo, &hi);
     m->type = L->type;
     m->res = res;
     m->words = (res + 63) / 64;
@@ -48,11 +69,8 @@ int shadow_frame(const scene *s, const light *L, int li, int res, int has_opaque
     } else {
         vec3 centre = v3_scale(v3_add(lo, hi), 0.5f);
         float radius = 0.5f * diag, dist = v3_length(v3_sub(centre, L->position));
-        if (!(dist > 1.001f * radius))
-            return vx_fail(e, "%s: lights[%d]: a point light inside the scene's bounding sphere needs a cube of six "
-                              "shadow maps, which slicemap shadows do not have (a perspective frustum only); use "
-                              "--shadows march",
-                           s->path, li);
+        if (shadow_point_light_refused(s, L, li, e))
+            return -1;
         m->origin = L->position;
         m->w = v3_scale(v3_sub(centre, L->position), 1.0f / dist);
         m->u = perpendicular(m->w);

@@ -65,6 +65,14 @@ const char *shadow_method_name(int method);
  * computed), else r's or the scene's. */
 int shadow_effective_method(const scene *s, const shadow_request *r);
 
+/* Fails as the build would (shadow_prepare) for a point light inside the scene's bounding sphere
+ * under a method that builds maps, so that a caller can refuse it before any work: at every frame of
+ * an animation, whose bounds move. */
+int shadow_check_lights(const scene *s, const shadow_request *r, vx_err *e);
+/* Whether shadow_check_lights can fail at some pose of s: a method that builds maps and a point
+ * light (so that an animation's frames are posed and checked only then). */
+int shadow_lights_depend_on_pose(const scene *s, const shadow_request *r);
+
 /* A query view of set (NULL: none, the marchers march). */
 void shadow_set_view(const shadow_set *set, shadow_maps *out);
 

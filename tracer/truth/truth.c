@@ -350,6 +350,14 @@ const char *truth_shadow_method_unavailable(int method)
     return NULL;
 }
 
+shadow_request truth_shadow_request(const scene *s, const truth_options *o)
+{
+    /* A scene that asks for a method made from a model's data: its shadow rays are the reference. */
+    int method =
+        o->shadow_method < 0 && truth_shadow_method_unavailable(s->shadow_method) ? SHADOW_MARCH : o->shadow_method;
+    return (shadow_request){method, o->shadow_res, o->threads, NULL};
+}
+
 int truth_render(const rt_scene *rt, const truth_options *o, image *out, truth_counts *counts, vx_err *e)
 {
     if (o->spp < 1)
@@ -373,10 +381,7 @@ int truth_render(const rt_scene *rt, const truth_options *o, image *out, truth_c
     while (gcd(j.lens_a, m) != 1)
         j.lens_a++;
     /* The slicemap (--shadows slicemap), built before the clock starts: its time is reported apart. */
-    /* A scene that asks for a method made from a model's data: its shadow rays are the reference. */
-    int method =
-        o->shadow_method < 0 && truth_shadow_method_unavailable(s->shadow_method) ? SHADOW_MARCH : o->shadow_method;
-    shadow_request sr = {method, o->shadow_res, o->threads, NULL};
+    shadow_request sr = truth_shadow_request(s, o);
     shadow_stats sst;
     if (shadow_prepare(s, NULL, NULL, NULL, &sr, &j.maps, &sst, e)) {
         free(per_thread);

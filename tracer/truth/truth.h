@@ -32,5 +32,8 @@ int truth_render(const rt_scene *rt, const truth_options *o, image *out, truth_c
  * Python API refuse such a method with this reason; a scene that declares one gets the truth's shadow
  * rays (march), the reference. */
 const char *truth_shadow_method_unavailable(int method);
+/* The shadows truth_render asks for under o (the scene's method, or march where the scene's needs a
+ * model), for the checks a caller makes before any work (shadow_check_lights). */
+shadow_request truth_shadow_request(const scene *s, const truth_options *o);
 
 #endif
