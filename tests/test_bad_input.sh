@@ -141,6 +141,13 @@ check_fails clash_frame_is_mesh "^voxlab truth: -o $C/seq_0001\.exr is the scene
 same_bytes clash_frame_is_mesh-kept "$C/seq_0001.exr" "$C/seq.orig"
 [ -e "$C/seq_0000.exr" ] && { echo "not ok clash_frame_is_mesh-before_work: frame 0 was written"; failures=$((failures + 1)); } || echo "ok clash_frame_is_mesh-before_work"
 
+# --rays and --param are a bake's: with --vox they are refused, not ignored (--rays once was).
+check_fails vox_refuses_rays "^voxlab render: --rays applies to a bake \(--res\); a \.vox file keeps its bake's rays per voxel$" \
+  "$VOXLAB" render "$C/s.json" --vox "$C/a.vox" --rays 8 -o "$C/vr.exr"
+check_fails vox_refuses_param "^voxlab render: --param applies to a bake \(--res\)" \
+  "$VOXLAB" render "$C/s.json" --vox "$C/a.vox" --param extended=1 -o "$C/vr.exr"
+[ -e "$C/vr.exr" ] && { echo "not ok vox_refuses-no_output"; failures=$((failures + 1)); } || echo "ok vox_refuses-no_output"
+
 # --frames: what a later frame's render would refuse is found before the first is rendered, and
 # the message names the frame. Here a quad rises past a point light, which from frame 4 on lies
 # inside the scene's bounding sphere, where slicemap shadows have no map: the run once wrote frames

@@ -72,7 +72,7 @@ int cmd_render(int argc, char **argv)
     const char *scene_path = NULL, *out_path = NULL, *stats_path = NULL, *model_name = NULL, *vox = NULL,
                *size = NULL;
     const vx_backend *backend = backend_find("c");
-    int dry_run = 0, param_count = 0;
+    int dry_run = 0, param_count = 0, rays_given = 0;
     const char *param_assign[64];
     render_options o;
     render_default_options(&o);
@@ -152,6 +152,7 @@ int cmd_render(int argc, char **argv)
             if (cli_int("render", a, val, 1, 1 << 20, &v))
                 return 1;
             bo.rays = (int)v;
+            rays_given = 1;
         } else if (strcmp(a, "--spp") == 0) {
             if (cli_int("render", a, val, 1, 1 << 16, &v))
                 return 1;
@@ -184,8 +185,10 @@ int cmd_render(int argc, char **argv)
         return 1;
     }
     vx_err e;
-    if (vox && param_count) {
-        fprintf(stderr, "voxlab render: --param applies to a bake (--res); a .vox file keeps its bake's parameters\n");
+    /* Refused rather than ignored: the image would not be what the option asked for. */
+    if (vox && (param_count || rays_given)) {
+        fprintf(stderr, "voxlab render: %s applies to a bake (--res); a .vox file keeps its bake's %s\n",
+                param_count ? "--param" : "--rays", param_count ? "parameters" : "rays per voxel");
         return 1;
     }
     if (m && (bo.params_set = 1, bake_params_apply(m, param_assign, param_count, &bo.params, &e))) {
