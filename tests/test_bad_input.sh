@@ -148,6 +148,14 @@ check_fails vox_refuses_param "^voxlab render: --param applies to a bake \(--res
   "$VOXLAB" render "$C/s.json" --vox "$C/a.vox" --param extended=1 -o "$C/vr.exr"
 [ -e "$C/vr.exr" ] && { echo "not ok vox_refuses-no_output"; failures=$((failures + 1)); } || echo "ok vox_refuses-no_output"
 
+# --threads has one bound in every command (truth's once said 1 to 1048576, the others 1 to 1024).
+check_fails threads_bound_truth "^voxlab truth: --threads 2000: expected an integer from 1 to 1024$" \
+  "$VOXLAB" truth "$C/s.json" --threads 2000 -o "$C/th.exr"
+check_fails threads_bound_render "^voxlab render: --threads 2000: expected an integer from 1 to 1024$" \
+  "$VOXLAB" render "$C/s.json" --model binary --res 8 --threads 2000 -o "$C/th.exr"
+check_fails threads_bound_bake "^voxlab bake: --threads 2000: expected an integer from 1 to 1024$" \
+  "$VOXLAB" bake "$C/s.json" --model binary --res 8 --threads 2000 -o "$C/th.vox"
+
 # --frames: what a later frame's render would refuse is found before the first is rendered, and
 # the message names the frame. Here a quad rises past a point light, which from frame 4 on lies
 # inside the scene's bounding sphere, where slicemap shadows have no map: the run once wrote frames

@@ -6,6 +6,9 @@
 
 #include <stdio.h>
 
+/* --threads' upper bound, one for every command (truth once took up to 2^20, render and bake 1024). */
+#define CLI_MAX_THREADS 1024
+
 /* One option of a subcommand, for its --help (and the test that each listed option is accepted). */
 typedef struct {
     const char *flag;     /* "--spp" */

@@ -175,7 +175,7 @@ int cmd_bake(int argc, char **argv)
                 return 1;
             o.seed = (uint64_t)v;
         } else if (strcmp(a, "--threads") == 0) {
-            if (cli_int("bake", a, val, 1, 1024, &v))
+            if (cli_int("bake", a, val, 1, CLI_MAX_THREADS, &v))
                 return 1;
             o.threads = (int)v;
         } else if (a[0] == '-') {

@@ -162,7 +162,7 @@ int cmd_render(int argc, char **argv)
                 return 1;
             o.seed = bo.seed = (uint64_t)v;
         } else if (strcmp(a, "--threads") == 0) {
-            if (cli_int("render", a, val, 1, 1024, &v))
+            if (cli_int("render", a, val, 1, CLI_MAX_THREADS, &v))
                 return 1;
             o.threads = bo.threads = (int)v;
         } else if (a[0] == '-') {

@@ -102,7 +102,8 @@ int cmd_truth(int argc, char **argv)
             if (!(val = cli_value("truth", argc, argv, &i)))
                 return 1;
             int is_seed = strcmp(a, "--seed") == 0;
-            if (cli_int("truth", a, val, is_seed ? 0 : 1, is_seed ? (1LL << 53) : 1 << 20, &v))
+            long long hi = is_seed ? (1LL << 53) : strcmp(a, "--threads") == 0 ? CLI_MAX_THREADS : 1 << 20;
+            if (cli_int("truth", a, val, is_seed ? 0 : 1, hi, &v))
                 return 1;
             if (strcmp(a, "--spp") == 0)
                 o.spp = (int)v;
