@@ -11,7 +11,7 @@ from testlib import TMP, finish, read_image, report, voxlab, write_ply, write_sc
 
 def render(scene_path, out_name, *extra):
     out = os.path.join(TMP, out_name + ".exr")
-    stats = os.path.join(TMP, out_name + ".json")
+    stats = os.path.join(TMP, out_name + "_stats.json")  # not out_name.json: that is the scene's file
     voxlab("truth", scene_path, "-o", out, "--stats", stats, *extra)
     with open(stats) as f:
         return read_image(out), json.load(f)
