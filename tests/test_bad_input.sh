@@ -49,6 +49,32 @@ expect_error missing_file "nonexistent\.json.*cannot open" "$T/nonexistent.json"
 printf '{"name": "t", "size": [8, 8],\n "camera": {"position": [0, 1, 2]\n' >"$T/malformed.json"
 expect_error malformed_json "malformed\.json: malformed JSON near line" "$T/malformed.json"
 
+# One JSON document, each key once (json_util.h's json_parse_strict): cJSON alone stops at the
+# document's end and finds the first of two values, where other readers take the last.
+good_scene "$T/trail.json" "$quad"
+printf ' garbage' >>"$T/trail.json"
+expect_error trailing_garbage "trail\.json: line 5: text after the JSON document \(\"garbage\"\): expected the end" "$T/trail.json"
+good_scene "$T/second_doc.json" "$quad"
+printf '\n{}\n' >>"$T/second_doc.json"
+expect_error second_document "second_doc\.json: line 6: text after the JSON document" "$T/second_doc.json"
+good_scene "$T/nul_byte.json" "$quad"
+printf '\0{}' >>"$T/nul_byte.json"
+expect_error nul_byte "nul_byte\.json: byte [0-9]+ is a NUL: expected JSON text" "$T/nul_byte.json"
+good_scene "$T/dup_fov.json" "$quad"
+sed -i 's/"fov_deg": 40/"fov_deg": 40, "fov_deg": "x"/' "$T/dup_fov.json"
+expect_error duplicate_key "dup_fov\.json: camera\.fov_deg appears twice: expected each key once" "$T/dup_fov.json"
+good_scene "$T/dup_top.json" "$quad" '"size": [16, 16],'
+expect_error duplicate_top_key "dup_top\.json: size appears twice" "$T/dup_top.json"
+good_scene "$T/dup_deep.json" '[{"ply": "quad.ply", "material": "grey"},
+  {"ply": "quad.ply", "material": "grey", "transform": {"scale": 2, "translate": [0, 1, 0], "scale": 3}}]'
+expect_error duplicate_nested_key "dup_deep\.json: objects\[1\]\.transform\.scale appears twice" "$T/dup_deep.json"
+sed 's/^{"asset"/{"scene": 0, "asset"/' "$REPO/tests/data/quad.gltf" >"$T/dup.gltf"
+good_scene "$T/dup_gltf.json" '[{"gltf": "dup.gltf", "material": "grey"}]'
+expect_error duplicate_gltf_key "dup_gltf\.json: objects\[0\]\.gltf: .*dup\.gltf: scene appears twice" "$T/dup_gltf.json"
+good_scene "$T/trail_ws.json" "$quad"
+printf '  \n\t\r\n' >>"$T/trail_ws.json"
+check trailing_whitespace_loads "$VOXLAB" truth "$T/trail_ws.json" --spp 1 -o "$T/ws.exr"
+
 good_scene "$T/wrong_type.json" "$quad" '"background": "blue",'
 expect_error wrong_type "wrong_type\.json.*background.*expected an array of 3 numbers" "$T/wrong_type.json"
 

@@ -326,6 +326,27 @@ static void test_gltf_errors(void)
     expect_fail("gltf missing file", mesh_load_gltf, "tests/data/no_such_file.gltf", "cannot open glTF file");
     expect_fail("gltf malformed JSON", mesh_load_gltf, write_tmp("bad.gltf", "{\"asset\": {\"version\": "),
                 "tinygltf");
+    /* The scene file's rule for the glTF's JSON (json_util.h): each key once (tinygltf would keep
+     * one of the values without a word), nothing after the document. */
+    expect_fail("gltf key twice", mesh_load_gltf,
+                write_tmp("dup.gltf", "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"meshes\":[{\"primitives\":"
+                                      "[{\"attributes\":{\"POSITION\":0,\"POSITION\":1}}]}]}"),
+                "meshes[0].primitives[0].attributes.POSITION appears twice");
+    expect_fail("gltf text after the document", mesh_load_gltf,
+                write_tmp("trail.gltf", "{\"asset\":{\"version\":\"2.0\"}}\n{}"),
+                "line 2: text after the JSON document");
+    /* The same in a .glb's JSON chunk (header, chunk length and type "JSON", the JSON padded to 4). */
+    static const char dup_json[] = "{\"asset\":{\"version\":\"2.0\"},\"asset\":{\"version\":\"2.0\"}}  ";
+    unsigned char glb[12 + 8 + sizeof dup_json - 1] = {'g', 'l', 'T', 'F', 2, 0, 0, 0, sizeof glb, 0, 0, 0,
+                                                       sizeof dup_json - 1, 0, 0, 0, 'J', 'S', 'O', 'N'};
+    memcpy(glb + 20, dup_json, sizeof dup_json - 1);
+    const char *dup_glb = write_tmp("dup.glb", "");
+    FILE *g = fopen(dup_glb, "wb");
+    if (g) {
+        fwrite(glb, 1, sizeof glb, g);
+        fclose(g);
+    }
+    expect_fail("glb key twice in its JSON chunk", mesh_load_gltf, dup_glb, "JSON chunk: asset appears twice");
     expect_fail("gltf Draco-compressed", mesh_load_gltf,
                 write_tmp("draco.gltf", "{\"asset\":{\"version\":\"2.0\"},"
                                         "\"extensionsUsed\":[\"KHR_draco_mesh_compression\"],"

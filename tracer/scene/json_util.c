@@ -1,6 +1,8 @@
 #include "json_util.h"
 
 #include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 int json_number(const cJSON *obj, const char *field, const char *where, double *out, vx_err *e)
@@ -121,4 +123,99 @@ int json_only_fields(const cJSON *obj, const char *where, const char *const *kno
             return vx_fail(e, "%s: unknown field \"%s\"", where, f->string ? f->string : "?");
     }
     return 0;
+}
+
+/* The 1-based line of `at` in `text`. */
+static int line_of(const char *text, const char *at)
+{
+    int line = 1;
+    for (const char *c = text; at && *c && c < at; c++)
+        line += *c == '\n';
+    return line;
+}
+
+int json_nothing_after(const char *text, const char *end, const char *where, vx_err *e)
+{
+    const char *c = end;
+    while (*c == ' ' || *c == '\t' || *c == '\n' || *c == '\r') /* JSON's whitespace (RFC 8259) */
+        c++;
+    if (!*c)
+        return 0;
+    int shown = 0; /* quote at most 20 characters of it, and of its first line only */
+    while (shown < 20 && c[shown] && c[shown] != '\n' && c[shown] != '\r')
+        shown++;
+    return vx_fail(e, "%s: line %d: text after the JSON document (\"%.*s\"): expected the end of the file", where,
+                   line_of(text, c), shown, c);
+}
+
+static int by_key(const void *a, const void *b)
+{
+    return strcmp((*(const cJSON *const *)a)->string, (*(const cJSON *const *)b)->string);
+}
+
+/* The members of one object, sorted by key, so that a repeated key is a neighbour: n log n, not n^2
+ * (a generated scene may hold an object of many thousands of materials). Returns 0, or -1 with e
+ * naming the first repeated key under `path`. */
+static int object_keys_unique(const cJSON *obj, const char *where, const char *path, vx_err *e)
+{
+    int n = cJSON_GetArraySize(obj);
+    if (n < 2)
+        return 0;
+    const cJSON **keys = malloc(sizeof *keys * (size_t)n);
+    if (!keys)
+        return vx_fail(e, "%s: out of memory checking %s's keys", where, *path ? path : "the top level");
+    int k = 0;
+    for (const cJSON *c = obj->child; c && k < n; c = c->next)
+        keys[k++] = c;
+    qsort(keys, (size_t)k, sizeof *keys, by_key);
+    int rc = 0;
+    for (int i = 1; i < k && !rc; i++)
+        if (strcmp(keys[i - 1]->string, keys[i]->string) == 0)
+            rc = vx_fail(e, "%s: %s%s%s appears twice: expected each key once (which value counts would be a guess)",
+                         where, path, *path ? "." : "", keys[i]->string);
+    free(keys);
+    return rc;
+}
+
+/* Depth first, with path[0..len) the node's own path ("camera", "objects[2].transform"; "" at the
+ * top), one buffer for the whole walk (its depth is bounded by cJSON's nesting limit, 1000); a
+ * path longer than the buffer is cut short in the message, never overflows. */
+static int unique_keys_under(const cJSON *node, const char *where, char *path, size_t len, size_t cap, vx_err *e)
+{
+    if (cJSON_IsObject(node) && object_keys_unique(node, where, path, e))
+        return -1;
+    int i = 0;
+    for (const cJSON *c = node->child; c; c = c->next, i++) {
+        if (!cJSON_IsObject(c) && !cJSON_IsArray(c))
+            continue;
+        int n = cJSON_IsObject(node) ? snprintf(path + len, cap - len, "%s%s", len ? "." : "", c->string)
+                                     : snprintf(path + len, cap - len, "[%d]", i);
+        size_t sub = n < 0 ? len : len + (size_t)n < cap ? len + (size_t)n : cap - 1;
+        int rc = unique_keys_under(c, where, path, sub, cap, e);
+        path[len] = 0;
+        if (rc)
+            return -1;
+    }
+    return 0;
+}
+
+int json_unique_keys(const cJSON *root, const char *where, vx_err *e)
+{
+    char path[512] = "";
+    return unique_keys_under(root, where, path, 0, sizeof path, e);
+}
+
+cJSON *json_parse_strict(const char *text, const char *where, vx_err *e)
+{
+    const char *end = NULL;
+    cJSON *root = cJSON_ParseWithOpts(text, &end, 0); /* on failure, end is where it failed */
+    if (!root) {
+        vx_fail(e, "%s: malformed JSON near line %d", where, line_of(text, end));
+        return NULL;
+    }
+    if (json_nothing_after(text, end, where, e) || json_unique_keys(root, where, e)) {
+        cJSON_Delete(root);
+        return NULL;
+    }
+    return root;
 }

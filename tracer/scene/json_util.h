@@ -31,6 +31,19 @@ int json_int_in(const cJSON *obj, const char *field, const char *where, int lo, 
 /* Rejects fields not in the NULL-terminated list `known` (catches typos such as "efects"). */
 int json_only_fields(const cJSON *obj, const char *where, const char *const *known, vx_err *e);
 
+/* Parsing a whole file as one JSON document, strictly: cJSON alone accepts text after the document
+ * (cJSON_Parse stops at its end) and keeps every value of a repeated key (lookups find the first),
+ * so a file that another JSON reader takes differently (most keep the last value) would load
+ * without a word. `where` names the document in messages ("scenes/trees.json").
+ *
+ * The tree of `text` (NUL-terminated), or NULL with "WHERE: malformed JSON near line N", "WHERE:
+ * line N: text after the JSON document ..." or "WHERE: KEY.PATH appears twice ...". */
+cJSON *json_parse_strict(const char *text, const char *where, vx_err *e);
+/* Its two checks, for a caller that parses itself: only whitespace from `end` (where the document
+ * ended in `text`) on, and no object anywhere under `root` with a key twice. */
+int json_nothing_after(const char *text, const char *end, const char *where, vx_err *e);
+int json_unique_keys(const cJSON *root, const char *where, vx_err *e);
+
 #ifdef __cplusplus
 }
 #endif

@@ -7,6 +7,7 @@
 #include "mesh_load.h"
 #include "mesh_load_cpp.h"
 #include "image.h"
+#include "json_util.h"
 #include "readfile.h"
 
 #include <climits>
@@ -602,27 +603,49 @@ bool fs_read(std::vector<unsigned char> *out, std::string *err, const std::strin
 
 bool fs_write(std::string *, const std::string &, const std::vector<unsigned char> &, void *) { return false; }
 
-// glTF 1.0 (a different format: techniques, shaders, named objects) is refused by its version
-// rather than left to fail somewhere inside the 2.0 parser: the GLB header's version word, or the
-// JSON's asset.version.
-void check_version(const char *text, size_t size, bool binary)
+// The file's JSON (a .glb's JSON chunk), read before tinygltf reads it:
+//  - glTF 1.0 (a different format: techniques, shaders, named objects) is refused by its version
+//    rather than left to fail somewhere inside the 2.0 parser: the GLB header's version word, or
+//    the JSON's asset.version;
+//  - the scene file's rule (json_util.h): a key given twice in an object is refused (tinygltf's
+//    JSON reader keeps one of the values without a word; glTF 2.0 requires unique keys), and so is
+//    text after the document.
+// JSON that cJSON cannot parse at all is left to tinygltf, whose message says what is wrong.
+void check_json(const char *text, size_t size, bool binary, const std::string &file)
 {
-    std::string version;
+    std::string version, json, where = file;
     if (binary) {
-        if (size >= 8 && std::memcmp(text, "glTF", 4) == 0) {
-            uint32_t v;
-            std::memcpy(&v, text + 4, 4);
-            version = std::to_string(v);
+        if (size < 8 || std::memcmp(text, "glTF", 4) != 0)
+            return;
+        uint32_t v, length, type;
+        std::memcpy(&v, text + 4, 4);
+        version = std::to_string(v);
+        if (version[0] != '1' && size >= 20) {
+            std::memcpy(&length, text + 12, 4);
+            std::memcpy(&type, text + 16, 4);
+            if (type == 0x4E4F534Au && length <= size - 20) // "JSON", the first chunk
+                json.assign(text + 20, length);
+            where += ": JSON chunk";
         }
-    } else if (cJSON *root = cJSON_ParseWithLength(text, size)) {
+    } else {
+        json.assign(text, size);
+    }
+    const char *end = nullptr;
+    cJSON *root = json.empty() ? nullptr : cJSON_ParseWithOpts(json.c_str(), &end, 0);
+    if (root && !binary) {
         const cJSON *asset = cJSON_GetObjectItemCaseSensitive(root, "asset");
         const cJSON *v = asset ? cJSON_GetObjectItemCaseSensitive(asset, "version") : nullptr;
         if (cJSON_IsString(v) && v->valuestring)
             version = v->valuestring;
-        cJSON_Delete(root);
     }
+    vx_err e;
+    bool bad = root && (json_nothing_after(json.c_str(), end, where.c_str(), &e) ||
+                        json_unique_keys(root, where.c_str(), &e));
+    cJSON_Delete(root);
     if (!version.empty() && version[0] == '1')
         throw load_error{"asset version " + version + ": glTF 1.0 is not supported (expected glTF 2.0)"};
+    if (bad)
+        throw load_error{std::string(e.msg).substr(file.size() + 2)}; // mesh_load_gltf prefixes the path
 }
 
 // Every embedded image's bufferView lies inside its buffer's bytes (see load).
@@ -673,7 +696,7 @@ void load(const char *path, mesh *out, uint32_t material, bool uris_anywhere, gl
     if (!text)
         throw load_error{std::string(re.msg).substr(file.size() + 2)}; // mesh_load_gltf prefixes the path
     try {
-        check_version(text, size, binary);
+        check_json(text, size, binary, file);
     } catch (...) {
         std::free(text);
         throw;

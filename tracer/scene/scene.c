@@ -43,7 +43,14 @@ static char *read_file(const char *path, vx_err *e)
 {
     size_t size;
     /* Scene files are small; 64 MiB is far beyond any hand-written or generated one. */
-    return readfile_all(path, "scene file", 64u << 20, &size, e);
+    char *text = readfile_all(path, "scene file", 64u << 20, &size, e);
+    /* The parser reads up to the first NUL byte: whatever follows one would go unread. */
+    if (text && strlen(text) != size) {
+        vx_fail(e, "%s: byte %zu is a NUL: expected JSON text", path, strlen(text));
+        free(text);
+        return NULL;
+    }
+    return text;
 }
 
 /* Resolves a path relative to the scene file's directory (absolute paths stay as they are). */
@@ -731,14 +738,12 @@ int scene_load_text(const char *text, const char *path, scene *s, vx_err *e)
 {
     memset(s, 0, sizeof *s);
     s->path = strdup(path);
-    cJSON *root = cJSON_Parse(text);
+    /* Strictly: text after the document or a key given twice is refused (json_util.h), not read
+     * one way here and another way by a script reading the same file. */
+    cJSON *root = json_parse_strict(text, path, e);
     if (!root) {
-        const char *at = cJSON_GetErrorPtr();
-        int line = 1;
-        for (const char *c = text; at && c < at; c++)
-            line += *c == '\n';
         scene_free(s); /* s->path: every failure leaves nothing allocated */
-        return vx_fail(e, "%s: malformed JSON near line %d", path, line);
+        return -1;
     }
     int rc = -1;
     static const char *const known[] = {"name",      "size",    "background",  "effects", "camera", "lights",
