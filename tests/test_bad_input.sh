@@ -75,6 +75,35 @@ good_scene "$T/trail_ws.json" "$quad"
 printf '  \n\t\r\n' >>"$T/trail_ws.json"
 check trailing_whitespace_loads "$VOXLAB" truth "$T/trail_ws.json" --spp 1 -o "$T/ws.exr"
 
+# Fields that conflict, or that only another kind of object reads, are refused rather than one of
+# them dropped without a word.
+good_scene "$T/ply_and_obj.json" '[{"ply": "quad.ply", "obj": "gone.obj", "material": "grey"}]'
+expect_error ply_and_obj "ply_and_obj\.json: objects\[0\]: has both \"ply\" and \"obj\": expected one mesh source" "$T/ply_and_obj.json"
+good_scene "$T/gen_and_gltf.json" '[{"generator": "spheres", "gltf": "gone.gltf", "material": "grey"}]'
+expect_error generator_and_gltf "gen_and_gltf\.json: objects\[0\]: has both \"generator\" and \"gltf\"" "$T/gen_and_gltf.json"
+good_scene "$T/ply_seed.json" '[{"ply": "quad.ply", "material": "grey", "seed": 3}]'
+expect_error ply_with_seed "ply_seed\.json: objects\[0\]: a ply object has \"seed\": expected it only with \"generator\"" "$T/ply_seed.json"
+good_scene "$T/ply_uris.json" '[{"ply": "quad.ply", "material": "grey", "uris_outside_folder": true}]'
+expect_error ply_with_uris "ply_uris\.json: objects\[0\]: a ply object has \"uris_outside_folder\": expected it only with \"gltf\"" "$T/ply_uris.json"
+good_scene "$T/cam_both.json" "$quad"
+sed -i 's/"fov_deg": 40/"fov_deg": 40, "orbit": {"distance": 4}/' "$T/cam_both.json"
+expect_error camera_position_and_orbit "cam_both\.json: camera: has both \"position\" and \"orbit\": expected one of them" "$T/cam_both.json"
+good_scene "$T/dir_intensity.json" "$quad"
+sed -i 's/"irradiance": \[3, 3, 3\]/"irradiance": [3, 3, 3], "intensity": [9, 9, 9]/' "$T/dir_intensity.json"
+expect_error directional_with_intensity "dir_intensity\.json: lights\[0\]: a directional light has \"intensity\": expected \"direction\" and \"irradiance\"" "$T/dir_intensity.json"
+good_scene "$T/dir_position.json" "$quad"
+sed -i 's/"irradiance": \[3, 3, 3\]/"irradiance": [3, 3, 3], "position": [0, 5, 0]/' "$T/dir_position.json"
+expect_error directional_with_position "dir_position\.json: lights\[0\]: a directional light has \"position\"" "$T/dir_position.json"
+good_scene "$T/point_direction.json" "$quad"
+sed -i 's/"type": "directional", "direction": \[0, 1, 0\], "irradiance": \[3, 3, 3\]/"type": "point", "position": [0, 2, 0], "direction": [0, 1, 0]/' "$T/point_direction.json"
+expect_error point_with_direction "point_direction\.json: lights\[0\]: a point light has \"direction\": expected \"position\" and \"intensity\"" "$T/point_direction.json"
+good_scene "$T/point_irradiance.json" "$quad"
+sed -i 's/"type": "directional", "direction": \[0, 1, 0\]/"type": "point", "position": [0, 2, 0]/' "$T/point_irradiance.json"
+expect_error point_with_irradiance "point_irradiance\.json: lights\[0\]: a point light has \"irradiance\"" "$T/point_irradiance.json"
+good_scene "$T/point_ok.json" "$quad"
+sed -i 's/"type": "directional", "direction": \[0, 1, 0\], "irradiance": \[3, 3, 3\]/"type": "point", "position": [0, 2, 0], "intensity": [9, 9, 9]/' "$T/point_ok.json"
+check point_light_loads "$VOXLAB" truth "$T/point_ok.json" --spp 1 -o "$T/point.exr"
+
 good_scene "$T/wrong_type.json" "$quad" '"background": "blue",'
 expect_error wrong_type "wrong_type\.json.*background.*expected an array of 3 numbers" "$T/wrong_type.json"
 

@@ -369,6 +369,11 @@ static int parse_camera(scene *s, const cJSON *root, vx_err *e)
         json_number_in(cam, "focus_distance", where, 1e-6, 1e9, &focus, e))
         return -1;
     const cJSON *orbit = cJSON_GetObjectItemCaseSensitive(cam, "orbit");
+    /* Either places the camera: with both, one would be dropped without a word. */
+    if (orbit && cJSON_GetObjectItemCaseSensitive(cam, "position"))
+        return vx_fail(e, "%s: has both \"position\" and \"orbit\": expected one of them (orbit places the camera "
+                          "around look_at)",
+                       where);
     if (orbit) {
         char w2[600];
         snprintf(w2, sizeof w2, "%s.orbit", where);
@@ -413,6 +418,18 @@ static int parse_camera(scene *s, const cJSON *root, vx_err *e)
     return 0;
 }
 
+/* Refuses a light's field that only the other type of light reads (a directional light's
+ * "intensity" would be dropped without a word, its "irradiance" being the one that counts). */
+static int light_fields_of_type(const cJSON *l, const char *where, const char *type, const char *const *foreign,
+                                const char *expected, const char *other, vx_err *e)
+{
+    for (const char *const *f = foreign; *f; f++)
+        if (cJSON_GetObjectItemCaseSensitive(l, *f))
+            return vx_fail(e, "%s: a %s light has \"%s\": expected %s (\"%s\" is a %s light's)", where, type, *f,
+                           expected, *f, other);
+    return 0;
+}
+
 static int parse_lights(scene *s, const cJSON *root, vx_err *e)
 {
     const cJSON *lights = cJSON_GetObjectItemCaseSensitive(root, "lights");
@@ -438,7 +455,11 @@ static int parse_lights(scene *s, const cJSON *root, vx_err *e)
             return vx_fail(e, "%s: expected an object", where);
         if (json_only_fields(l, where, known, e) || json_string(l, "type", where, &type, e))
             return -1;
+        static const char *const point_only[] = {"position", "intensity", NULL};
+        static const char *const directional_only[] = {"direction", "irradiance", NULL};
         if (type && strcmp(type, "directional") == 0) {
+            if (light_fields_of_type(l, where, type, point_only, "\"direction\" and \"irradiance\"", "point", e))
+                return -1;
             L->type = LIGHT_DIRECTIONAL;
             L->direction = v3(0, 1, 0);
             L->radiance = v3(3, 3, 3);
@@ -449,6 +470,9 @@ static int parse_lights(scene *s, const cJSON *root, vx_err *e)
                 return vx_fail(e, "%s.direction: must not be zero", where);
             L->direction = v3_normalize(L->direction);
         } else if (type && strcmp(type, "point") == 0) {
+            if (light_fields_of_type(l, where, type, directional_only, "\"position\" and \"intensity\"", "directional",
+                                     e))
+                return -1;
             L->type = LIGHT_POINT;
             L->radiance = v3(10, 10, 10);
             if (!cJSON_GetObjectItemCaseSensitive(l, "position"))
@@ -546,6 +570,33 @@ static void warn_unused_texture(const scene *s, size_t v0, size_t t0, const char
             where);
 }
 
+/* An object's one source of triangles, and no field that only another kind of source reads: with
+ * "ply" and "obj" both given, the obj was never even opened; a ply's "seed" would be ignored. *kind
+ * is the source ("generator", "ply", "obj" or "gltf"). */
+static int object_source(const cJSON *o, const char *where, const char **kind, vx_err *e)
+{
+    static const char *const sources[] = {"generator", "ply", "obj", "gltf"};
+    *kind = NULL;
+    for (int k = 0; k < 4; k++) {
+        if (!cJSON_GetObjectItemCaseSensitive(o, sources[k]))
+            continue;
+        if (*kind)
+            return vx_fail(e, "%s: has both \"%s\" and \"%s\": expected one mesh source", where, *kind, sources[k]);
+        *kind = sources[k];
+    }
+    if (!*kind)
+        return vx_fail(e, "%s: expected one of \"generator\", \"ply\", \"obj\" or \"gltf\"", where);
+    static const char *const generator_only[] = {"seed", "params", "materials", NULL};
+    for (const char *const *f = generator_only; strcmp(*kind, "generator") != 0 && *f; f++)
+        if (cJSON_GetObjectItemCaseSensitive(o, *f))
+            return vx_fail(e, "%s: a %s object has \"%s\": expected it only with \"generator\"", where, *kind, *f);
+    if (strcmp(*kind, "gltf") != 0 && cJSON_GetObjectItemCaseSensitive(o, "uris_outside_folder"))
+        return vx_fail(e, "%s: a %s object has \"uris_outside_folder\": expected it only with \"gltf\" (a glTF's "
+                          "external buffers)",
+                       where, *kind);
+    return 0;
+}
+
 static int parse_objects(scene *s, const cJSON *root, vx_err *e)
 {
     const cJSON *objs = cJSON_GetObjectItemCaseSensitive(root, "objects");
@@ -562,21 +613,18 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
                                             "name", "instances", "scatter", "subdivide", NULL};
         if (!cJSON_IsObject(o))
             return vx_fail(e, "%s: expected an object", where);
-        if (json_only_fields(o, where, known, e))
+        const char *kind;
+        if (json_only_fields(o, where, known, e) || object_source(o, where, &kind, e))
             return -1;
         size_t v0 = s->mesh.vertex_count, t0 = s->mesh.triangle_count;
         const char *file = NULL, *matname = NULL;
-        if (cJSON_GetObjectItemCaseSensitive(o, "generator")) {
+        if (strcmp(kind, "generator") == 0) {
             if (parse_generator_object(s, o, where, e))
                 return -1;
         } else {
-            int is_ply = cJSON_GetObjectItemCaseSensitive(o, "ply") != NULL;
-            int is_obj = !is_ply && cJSON_GetObjectItemCaseSensitive(o, "obj") != NULL;
-            const char *kind = is_ply ? "ply" : is_obj ? "obj" : "gltf";
+            int is_ply = strcmp(kind, "ply") == 0, is_obj = strcmp(kind, "obj") == 0;
             if (json_string(o, kind, where, &file, e) || json_string(o, "material", where, &matname, e))
                 return -1;
-            if (!file)
-                return vx_fail(e, "%s: expected one of \"generator\", \"ply\", \"obj\" or \"gltf\"", where);
             /* A glTF brings its own materials: the scene's is optional there (white, default lobe). */
             int mat;
             if (!matname && !is_ply && !is_obj) {
