@@ -144,7 +144,7 @@ typedef struct {
 /* The interface version a model was written against: the registry refuses a model built for
  * another (tests/unit_models.c checks every registered model). Bump it when a field's meaning
  * changes, so that an out-of-tree model fails loudly instead of rendering garbage. */
-#define VX_MODEL_ABI_VERSION 6
+#define VX_MODEL_ABI_VERSION 7 /* 7: vx_param.is_switch */
 
 /* A portable evaluation function as both backends see it: the C function and its name in the
  * model's portable source, which the OpenCL program calls (OpenCL C has no function pointers).
@@ -225,6 +225,10 @@ typedef struct {
     double fallback; /* the default */
     double min, max;
     const char *doc; /* one line: what it changes */
+    /* 1: a switch, off or on: only 0 and 1 are accepted (range [0, 1], default 0 or 1). Without it a
+     * value between, such as 0.5, would pass the range check and be read as whichever side the
+     * model's own test (> 0.5) puts it: a bake labelled with a setting it did not use. */
+    int is_switch;
 } vx_param;
 #define VX_MAX_PARAMS 8
 

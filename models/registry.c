@@ -84,6 +84,8 @@ int model_check(const vx_model *m, char *why, size_t why_size)
             return BROKEN("parameter %d: a name of letters, digits and _ and a doc line are required", n);
         if (!(p->min <= p->fallback && p->fallback <= p->max))
             return BROKEN("parameter %s: default %g outside [%g, %g]", p->name, p->fallback, p->min, p->max);
+        if (p->is_switch && !(p->min == 0 && p->max == 1 && (p->fallback == 0 || p->fallback == 1)))
+            return BROKEN("parameter %s: a switch needs the range [0, 1] and a default of 0 or 1", p->name);
     }
     return 0;
 }

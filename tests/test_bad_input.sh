@@ -143,6 +143,10 @@ expect_error camera_out_of_range "far_camera\.json: camera\.position: \(0, 2\.9e
 good_scene "$T/ok.json" "$quad"
 expect_error size_option_zero "--size 0x0: expected WxH" "$T/ok.json" --size 0x0
 expect_error spp_zero "--spp 0: expected an integer from 1" "$T/ok.json" --spp 0
+# A model's switch parameter takes 0 or 1 (vicini's extended: 0.5 lay in its range, read as off).
+check_fails switch_param_half "--param extended=0\.5: extended is a switch: expected 0 or 1" \
+  "$VOXLAB" bake "$T/ok.json" --model vicini --res 4 --rays 8 --param extended=0.5 -o "$T/half.vox"
+check switch_param_one "$VOXLAB" bake "$T/ok.json" --model vicini --res 4 --rays 8 --param extended=1 -o "$T/one.vox"
 
 # Unwritable output: a directory that does not exist, and a read-only one.
 check_fails unwritable_missing_dir "nodir/out\.exr: cannot write" "$VOXLAB" truth "$T/ok.json" --spp 1 -o "$T/nodir/out.exr"

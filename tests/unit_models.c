@@ -752,8 +752,10 @@ static void check_registry(void)
 
 /* model_check refuses each broken rule of the interface (a copy of a registered model, one field
  * broken at a time), and the parameters' parsing refuses what it must. */
-static const vx_param test_params[] = {{"k", 0.5, 0.0, 1.0, "a test knob"}, {"n", 3, 1, 8, "another"}, {0}};
-static const vx_param bad_default[] = {{"k", 2.0, 0.0, 1.0, "default outside its range"}, {0}};
+static const vx_param test_params[] = {
+    {"k", 0.5, 0.0, 1.0, "a test knob", 0}, {"n", 3, 1, 8, "another", 0}, {"s", 0, 0, 1, "a switch", 1}, {0}};
+static const vx_param bad_default[] = {{"k", 2.0, 0.0, 1.0, "default outside its range", 0}, {0}};
+static const vx_param bad_switch[] = {{"s", 0, 0, 2, "a switch with three settings", 1}, {0}};
 
 static void check_interface_rules(void)
 {
@@ -799,6 +801,9 @@ static void check_interface_rules(void)
     m.params = bad_default;
     CHECK("model_check: a parameter's default outside its range is refused",
           model_check(&m, why, sizeof why) && strstr(why, "default"));
+    m.params = bad_switch;
+    CHECK("model_check: a switch whose range is not [0, 1] is refused",
+          model_check(&m, why, sizeof why) && strstr(why, "switch"));
     m.params = test_params;
     CHECK("model_check: parameters with defaults in range pass", model_check(&m, why, sizeof why) == 0);
 
@@ -812,6 +817,15 @@ static void check_interface_rules(void)
     CHECK("params: a value out of range is refused with the range",
           bake_params_assign(&m, "k=1.5", &p, &e) && strstr(e.msg, "[0, 1]"));
     CHECK("params: a value that is not a number is refused", bake_params_assign(&m, "k=abc", &p, &e) != 0);
+    /* A switch is 0 or 1: 0.5 is in its range, but the model reads it as one side (> 0.5) while the
+     * .vox and --stats would say 0.5. */
+    CHECK("params: a switch between 0 and 1 is refused",
+          bake_params_assign(&m, "s=0.5", &p, &e) && strstr(e.msg, "s is a switch: expected 0 or 1"));
+    CHECK("params: a switch takes 1 and 0", bake_params_assign(&m, "s=1", &p, &e) == 0 && p.value[2] == 1 &&
+                                                bake_params_assign(&m, "s=0", &p, &e) == 0 && p.value[2] == 0);
+    CHECK("params: vicini's extended is declared a switch",
+          model_find("vicini") && !strcmp(model_find("vicini")->params[0].name, "extended") &&
+              model_find("vicini")->params[0].is_switch);
     CHECK("params: no '=' is refused", bake_params_assign(&m, "k", &p, &e) && strstr(e.msg, "name=value"));
     CHECK("params: a model without parameters refuses any", bake_params_assign(binary, "k=1", &p, &e) &&
                                                                  strstr(e.msg, "(its parameters: none)"));
@@ -819,7 +833,7 @@ static void check_interface_rules(void)
     struct vx_bake_params back;
     bake_params_assign(&m, "k=0.1", &p, &e);
     CHECK("params: formatted text reads back exactly",
-          bake_params_format(&m, &p, text, sizeof text) == 0 && !strcmp(text, "k=0.10000000000000001,n=5") &&
+          bake_params_format(&m, &p, text, sizeof text) == 0 && !strcmp(text, "k=0.10000000000000001,n=5,s=0") &&
               bake_params_parse(&m, text, &back, &e) == 0 && back.value[0] == p.value[0] && back.value[1] == 5);
     CHECK("params: heitz-neyret declares edge_clear",
           hn->params && !strcmp(hn->params[0].name, "edge_clear") && hn->params[0].fallback == 0.4);

@@ -779,7 +779,8 @@ static const void *hn_table(size_t *bytes)
 
 static const vx_param hn_params[] = {
     {"edge_clear", HN_EDGE_CLEAR_DEFAULT, 0.0, 0.5,
-     "coarser levels: a child whose |psi| < edge_clear x its size sees the edge (0: the moments' edge alone)"},
+     "coarser levels: a child whose |psi| < edge_clear x its size sees the edge (0: the moments' edge alone)",
+     .is_switch = 0},
     {0},
 };
 

@@ -273,9 +273,11 @@ static void vicini_combine(const vx_record_part *parts, int n, float voxel_size,
 static const vx_param vicini_params[] = {
     {"extended", 0.0, 0.0, 1.0,
      "1: Vicini et al.'s extended rays (hits on the voxel's triangles outside it end the flight at its side); "
-     "0: Brito et al.'s flights inside the voxel"},
+     "0: Brito et al.'s flights inside the voxel",
+     .is_switch = 1},
     {"sggx_min_area", SGGX_MIN_AREA_DEFAULT, 0.01, 1.0,
-     "floor of the SGGX fit's projected areas: how opaque a flat voxel stays edge-on, how far its shading spreads"},
+     "floor of the SGGX fit's projected areas: how opaque a flat voxel stays edge-on, how far its shading spreads",
+     .is_switch = 0},
     {0},
 };
 

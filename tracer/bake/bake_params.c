@@ -43,6 +43,9 @@ int bake_params_assign(const vx_model *m, const char *assignment, struct vx_bake
         double v = strtod(eq + 1, &end);
         if (end == eq + 1 || *end || errno || !isfinite(v))
             return vx_fail(e, "--param %s: the value of %s must be a number", assignment, d->name);
+        if (d->is_switch && v != 0 && v != 1)
+            return vx_fail(e, "--param %s: %s is a switch: expected 0 or 1 (default %g: %s)", assignment, d->name,
+                           d->fallback, d->doc);
         if (!(v >= d->min && v <= d->max))
             return vx_fail(e, "--param %s: %s must be in [%g, %g] (default %g: %s)", assignment, d->name, d->min,
                            d->max, d->fallback, d->doc);

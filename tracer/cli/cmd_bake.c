@@ -318,7 +318,10 @@ int cmd_models(int argc, char **argv)
             printf("%-14s %4zu B/voxel  %-9s  %s\n", (*m)->name, (*m)->record.bytes, rules[vx_model_compositing(*m)],
                    (*m)->description);
         for (const vx_param *p = (*m)->params; params && p && p->name; p++)
-            printf("%-14s %s=%g (%g..%g): %s\n", (*m)->name, p->name, p->fallback, p->min, p->max, p->doc);
+            if (p->is_switch)
+                printf("%-14s %s=%g (0 or 1): %s\n", (*m)->name, p->name, p->fallback, p->doc);
+            else
+                printf("%-14s %s=%g (%g..%g): %s\n", (*m)->name, p->name, p->fallback, p->min, p->max, p->doc);
     }
     return 0;
 }
