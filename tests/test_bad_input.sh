@@ -130,11 +130,22 @@ expect_error unknown_material "unknown_material\.json.*objects\[0\].*unknown mat
 
 good_scene "$T/size0.json" "$quad"
 sed -i 's/"size": \[8, 8\]/"size": [0, 8]/' "$T/size0.json"
-expect_error size_zero "size0\.json\.size: 0x8 is not a valid image size" "$T/size0.json"
+expect_error size_zero "size0\.json: size: 0x8 is not a valid image size" "$T/size0.json"
 
 good_scene "$T/size_huge.json" "$quad"
 sed -i 's/"size": \[8, 8\]/"size": [100000, 100000]/' "$T/size_huge.json"
-expect_error size_huge "size_huge\.json\.size: 100000x100000 is not a valid image size" "$T/size_huge.json"
+expect_error size_huge "size_huge\.json: size: 100000x100000 is not a valid image size" "$T/size_huge.json"
+
+# A top-level field follows the file as every other field does ("file: field: ..."), not joined
+# to the file name by a dot ("bg_neg.json.background").
+good_scene "$T/bg_neg.json" "$quad" '"background": [-1, 0, 0],'
+expect_error background_negative "bg_neg\.json: background: expected non-negative values" "$T/bg_neg.json"
+good_scene "$T/name_number.json" "$quad"
+sed -i 's/"name": "t"/"name": 3/' "$T/name_number.json"
+expect_error name_not_string "name_number\.json: name: expected a string" "$T/name_number.json"
+good_scene "$T/materials_empty.json" "$quad"
+sed -i 's/"materials": {.*}},/"materials": {},/' "$T/materials_empty.json"
+expect_error materials_empty "materials_empty\.json: materials: expected a non-empty object" "$T/materials_empty.json"
 
 good_scene "$T/far_camera.json" "$quad"
 sed -i 's/"position": \[0, 3, 3\]/"position": [0, 2.9e38, 3]/' "$T/far_camera.json"

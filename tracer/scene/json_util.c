@@ -5,13 +5,19 @@
 #include <stdlib.h>
 #include <string.h>
 
+const char *json_sep(const char *where)
+{
+    size_t n = strlen(where);
+    return n && where[n - 1] == ':' ? " " : ".";
+}
+
 int json_number(const cJSON *obj, const char *field, const char *where, double *out, vx_err *e)
 {
     const cJSON *f = cJSON_GetObjectItemCaseSensitive(obj, field);
     if (!f)
         return 0;
     if (!cJSON_IsNumber(f) || !isfinite(f->valuedouble))
-        return vx_fail(e, "%s.%s: expected a finite number", where, field);
+        return vx_fail(e, "%s%s%s: expected a finite number", where, json_sep(where), field);
     *out = f->valuedouble;
     return 0;
 }
@@ -22,7 +28,7 @@ int json_float(const cJSON *obj, const char *field, const char *where, float *ou
     if (json_number(obj, field, where, &d, e))
         return -1;
     if (fabs(d) > 3.0e38)
-        return vx_fail(e, "%s.%s: %g does not fit a float", where, field, d);
+        return vx_fail(e, "%s%s%s: %g does not fit a float", where, json_sep(where), field, d);
     *out = (float)d;
     return 0;
 }
@@ -35,7 +41,7 @@ int json_number_in(const cJSON *obj, const char *field, const char *where, doubl
     if (json_number(obj, field, where, out, e))
         return -1;
     if (*out < lo || *out > hi)
-        return vx_fail(e, "%s.%s: %g is out of range (expected %g to %g)", where, field, *out, lo, hi);
+        return vx_fail(e, "%s%s%s: %g is out of range (expected %g to %g)", where, json_sep(where), field, *out, lo, hi);
     return 0;
 }
 
@@ -52,9 +58,9 @@ int json_int_in(const cJSON *obj, const char *field, const char *where, int lo, 
     if (json_number(obj, field, where, &d, e))
         return -1;
     if (d != floor(d))
-        return vx_fail(e, "%s.%s: expected an integer, got %g", where, field, d);
+        return vx_fail(e, "%s%s%s: expected an integer, got %g", where, json_sep(where), field, d);
     if (d < lo || d > hi)
-        return vx_fail(e, "%s.%s: %g is out of range (expected %d to %d)", where, field, d, lo, hi);
+        return vx_fail(e, "%s%s%s: %g is out of range (expected %d to %d)", where, json_sep(where), field, d, lo, hi);
     *out = (int)d;
     return 0;
 }
@@ -65,7 +71,7 @@ int json_u64(const cJSON *obj, const char *field, const char *where, uint64_t *o
     if (json_number(obj, field, where, &d, e))
         return -1;
     if (d != floor(d) || d < 0 || d > 9007199254740992.0)
-        return vx_fail(e, "%s.%s: expected a non-negative integer, got %g", where, field, d);
+        return vx_fail(e, "%s%s%s: expected a non-negative integer, got %g", where, json_sep(where), field, d);
     *out = (uint64_t)d;
     return 0;
 }
@@ -76,7 +82,7 @@ int json_bool(const cJSON *obj, const char *field, const char *where, int *out, 
     if (!f)
         return 0;
     if (!cJSON_IsBool(f))
-        return vx_fail(e, "%s.%s: expected true or false", where, field);
+        return vx_fail(e, "%s%s%s: expected true or false", where, json_sep(where), field);
     *out = cJSON_IsTrue(f);
     return 0;
 }
@@ -87,12 +93,12 @@ int json_vec3(const cJSON *obj, const char *field, const char *where, vec3 *out,
     if (!f)
         return 0;
     if (!cJSON_IsArray(f) || cJSON_GetArraySize(f) != 3)
-        return vx_fail(e, "%s.%s: expected an array of 3 numbers", where, field);
+        return vx_fail(e, "%s%s%s: expected an array of 3 numbers", where, json_sep(where), field);
     float c[3];
     for (int i = 0; i < 3; i++) {
         const cJSON *x = cJSON_GetArrayItem(f, i);
         if (!cJSON_IsNumber(x) || !isfinite(x->valuedouble) || fabs(x->valuedouble) > 3.0e38)
-            return vx_fail(e, "%s.%s[%d]: expected a finite number", where, field, i);
+            return vx_fail(e, "%s%s%s[%d]: expected a finite number", where, json_sep(where), field, i);
         c[i] = (float)x->valuedouble;
     }
     *out = v3(c[0], c[1], c[2]);
@@ -105,7 +111,7 @@ int json_string(const cJSON *obj, const char *field, const char *where, const ch
     if (!f)
         return 0;
     if (!cJSON_IsString(f))
-        return vx_fail(e, "%s.%s: expected a string", where, field);
+        return vx_fail(e, "%s%s%s: expected a string", where, json_sep(where), field);
     *out = f->valuestring;
     return 0;
 }

@@ -1,5 +1,7 @@
 /* Typed reads of cJSON fields with errors that name the file, the field and what was expected.
- * `where` is the field's parent path for messages, e.g. "scenes/trees.json: objects[1].params". */
+ * `where` is the field's parent path for messages, e.g. "scenes/trees.json: objects[1].params"
+ * (then "...params.size: ..."); for a field at a file's top level it is the file name and a colon,
+ * "scenes/trees.json:" (then "scenes/trees.json: size: ...", not "scenes/trees.json.size"). */
 #ifndef VX_JSON_UTIL_H
 #define VX_JSON_UTIL_H
 
@@ -12,6 +14,9 @@
 #ifdef __cplusplus
 extern "C" {
 #endif
+
+/* What joins `where` and a field in a message: "." below an object, " " after "file:". */
+const char *json_sep(const char *where);
 
 /* Each returns 0 when the field is absent (leaving *out at the default already in it), 0 when it is
  * present and valid, and -1 (with e filled) when it is present but of the wrong type or not finite. */

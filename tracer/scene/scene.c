@@ -93,7 +93,7 @@ static int parse_color(const cJSON *obj, const char *field, const char *where, v
     if (json_vec3(obj, field, where, out, e))
         return -1;
     if (out->x < 0 || out->y < 0 || out->z < 0)
-        return vx_fail(e, "%s.%s: expected non-negative values", where, field);
+        return vx_fail(e, "%s%s%s: expected non-negative values", where, json_sep(where), field);
     return 0;
 }
 
@@ -105,8 +105,8 @@ static int parse_albedo(const cJSON *obj, const char *field, const char *where, 
     if (json_vec3(obj, field, where, out, e))
         return -1;
     if (!(out->x >= 0 && out->x <= 1 && out->y >= 0 && out->y <= 1 && out->z >= 0 && out->z <= 1))
-        return vx_fail(e, "%s.%s: expected an albedo: 3 numbers from 0 to 1 (got %g, %g, %g)", where, field, out->x,
-                       out->y, out->z);
+        return vx_fail(e, "%s%s%s: expected an albedo: 3 numbers from 0 to 1 (got %g, %g, %g)", where, json_sep(where),
+                       field, out->x, out->y, out->z);
     return 0;
 }
 
@@ -151,13 +151,13 @@ static int parse_materials(scene *s, const cJSON *root, vx_err *e)
     if (!mats)
         return vx_fail(e, "%s: missing field \"materials\" (an object of named materials)", s->path);
     if (!cJSON_IsObject(mats) || cJSON_GetArraySize(mats) == 0)
-        return vx_fail(e, "%s.materials: expected a non-empty object of named materials", s->path);
+        return vx_fail(e, "%s: materials: expected a non-empty object of named materials", s->path);
     int n = cJSON_GetArraySize(mats);
     s->materials = calloc((size_t)n, sizeof(material));
     s->material_names = calloc((size_t)n, sizeof(char *));
     s->shadow_sigma = calloc((size_t)n, sizeof(float));
     if (!s->materials || !s->material_names || !s->shadow_sigma)
-        return vx_fail(e, "%s.materials: out of memory", s->path);
+        return vx_fail(e, "%s: materials: out of memory", s->path);
     const cJSON *m;
     cJSON_ArrayForEach(m, mats)
     {
@@ -321,18 +321,19 @@ static int parse_shadows(scene *s, const cJSON *root, vx_err *e)
     return 0;
 }
 
-static int parse_size(const cJSON *obj, const char *where, int *w, int *h, vx_err *e)
+/* The top level's "size"; `path` is the scene file's. */
+static int parse_size(const cJSON *obj, const char *path, int *w, int *h, vx_err *e)
 {
     const cJSON *size = cJSON_GetObjectItemCaseSensitive(obj, "size");
     if (!size)
         return 0;
     if (!cJSON_IsArray(size) || cJSON_GetArraySize(size) != 2 || !cJSON_IsNumber(cJSON_GetArrayItem(size, 0)) ||
         !cJSON_IsNumber(cJSON_GetArrayItem(size, 1)))
-        return vx_fail(e, "%s.size: expected [width, height]", where);
+        return vx_fail(e, "%s: size: expected [width, height]", path);
     double dw = cJSON_GetArrayItem(size, 0)->valuedouble, dh = cJSON_GetArrayItem(size, 1)->valuedouble;
     if (dw != floor(dw) || dh != floor(dh) || dw < 1 || dh < 1 || dw > MAX_IMAGE_SIDE || dh > MAX_IMAGE_SIDE ||
         dw * dh > MAX_IMAGE_PIXELS)
-        return vx_fail(e, "%s.size: %gx%g is not a valid image size (integers from 1 to %d, at most %d pixels)", where,
+        return vx_fail(e, "%s: size: %gx%g is not a valid image size (integers from 1 to %d, at most %d pixels)", path,
                        dw, dh, MAX_IMAGE_SIDE, MAX_IMAGE_PIXELS);
     *w = (int)dw;
     *h = (int)dh;
@@ -803,8 +804,10 @@ int scene_load_text(const char *text, const char *path, scene *s, vx_err *e)
         vx_fail(e, "%s: expected a JSON object at the top level", path);
         goto done;
     }
-    if (json_only_fields(root, path, known, e) || json_string(root, "name", path, &name, e) ||
-        parse_size(root, path, &s->width, &s->height, e) || parse_color(root, "background", path, &s->background, e) ||
+    char top[4200]; /* the top level's fields: "file: background: ..." (json_util.h) */
+    snprintf(top, sizeof top, "%s:", path);
+    if (json_only_fields(root, path, known, e) || json_string(root, "name", top, &name, e) ||
+        parse_size(root, path, &s->width, &s->height, e) || parse_color(root, "background", top, &s->background, e) ||
         parse_effects(s, root, e) || parse_shadows(s, root, e) || parse_camera(s, root, e) || parse_lights(s, root, e) ||
         parse_materials(s, root, e) || parse_objects(s, root, e))
         goto done;
