@@ -135,7 +135,8 @@ static void check_shift(void)
     for (int j = 0; j < 3; j++) /* a slab of sub-cells at x index 1 */
         for (int k = 0; k < 3; k++)
             a.opacity[(1 * 3 + j) * 3 + k] = 200;
-    vx_record_part p = {&a, 1.0f, {0.34f, 0, 0}};
+    /* split8's piece: the weight is the volume its unit cube overlaps the cell (0.66). */
+    vx_record_part p = {&a, 0.66f, {0.34f, 0, 0}};
     vmesh_record s;
     vmesh_combine(&p, 1, 1.0f, &s);
     int moved = 1;
@@ -143,8 +144,18 @@ static void check_shift(void)
         int i = c / 9, want = i == 2; /* the slab one sub-cell further along +x */
         moved &= (s.opacity[c] > 128) == want;
     }
-    CHECK("vmesh: a subgrid moved by (0.34, 0, 0) cells moves its occupied sub-cells by one along x", moved);
+    CHECK("vmesh: a split piece's subgrid moved by (0.34, 0, 0) cells moves its occupied sub-cells by one along x",
+          moved);
     CHECK_NEAR("vmesh: ... keeping their opacity (200 of 255, 2 % left behind)", s.opacity[(2 * 3 + 1) * 3 + 1], 196, 2);
+    /* nearest's record, placed whole (weight 1), snaps into the cell as the dynamic-SVO paper's
+     * nearest filtering does: unshifted, whatever its offset. Shifted, a record moved by half a cell
+     * on each axis kept an eighth of its subgrid (the fidelity audit). */
+    vx_record_part whole = {&a, 1.0f, {0.5f, 0.5f, 0.5f}};
+    vmesh_combine(&whole, 1, 1.0f, &s);
+    int same = 1;
+    for (int c = 0; c < VMESH_SUBCELLS; c++)
+        same &= abs((int)s.opacity[c] - (int)a.opacity[c]) <= 1;
+    CHECK("vmesh: a record placed whole (nearest, offset (0.5, 0.5, 0.5)) keeps its subgrid unshifted", same);
 }
 
 /* A scaled object's placement (tracer/dynamic/: scale 2 spreads a record over the cells its cube
