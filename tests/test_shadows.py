@@ -22,6 +22,9 @@
    the OpenCL backend reads the same precomputation (its image within 1e-4 of the C backend's and of
    its own march, as its march is of the C backend's); a cone model (either backend) and the truth
    refuse it; a scene that declares it gets it, and its truth uses its shadow rays.
+10. heitz-neyret's `slicemap-model` approaches its own `march` as --shadow-res grows: columns finer
+   than a voxel asked the model for coverage below its voxels' scale, and the maps' distance to the
+   march grew with the resolution (the fidelity audit: MSE 6.2e-4 at 48 columns, 1.3e-3 at 768).
 (The popcount transmittance (1 - σ)^n of a stack of leaf quads is tests/unit_shadows.c's.)
 """
 import json
@@ -334,4 +337,17 @@ report("the truth of a voxel scene uses its shadow rays", st["shadow_method"] ==
 _, s6 = api.render(sd, vox=b, base_dir=TMP, shadows="voxel")
 report("the Python API's render takes shadows=\"voxel\"", s6["shadow_method"] == "voxel" and
        s6["shadow_rays"] == 0 and s6["shadow_build_seconds"] > 0, str(s6["shadow_method"]))
+# ---------- 10. heitz-neyret's slicemap-model converges with --shadow-res ----------
+if "heitz-neyret" in models():
+    hn_box = os.path.join(TMP, "box_heitz-neyret.vox")
+    if not os.path.exists(hn_box):
+        voxlab("bake", box, "--model", "heitz-neyret", "--res", RES, "-o", hn_box)
+    hn_march, _ = render(box, "hn_conv_march", "--vox", hn_box, "--shadows", "march")
+    dist = {}
+    for r in (2 * RES, 16 * RES):
+        img, _ = render(box, f"hn_conv_{r}", "--vox", hn_box, "--shadows", "slicemap-model", "--shadow-res", r)
+        dist[r] = float(np.mean((img - hn_march) ** 2))
+    report(f"heitz-neyret slicemap-model: 16x the columns comes no farther from its march than 2x ({dist})",
+           dist[16 * RES] <= 1.25 * dist[2 * RES], str(dist))
+
 finish()

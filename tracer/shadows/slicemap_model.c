@@ -144,9 +144,9 @@ static void cone_column(model_job *j, int i, int jj, element_list *L, float *cum
     x.effects = j->s->effects;
     x.m = j->m;
     /* A light cone as wide as the column: its radius at the far plane, shrinking toward a point
-     * light with the frustum. */
+     * light with the frustum; no narrower than the marcher's light cones (CONE_LIGHT_MIN_RADIUS). */
     float r_far = shadow_column_radius(b, b->len), r_near = shadow_column_radius(b, 0.0f);
-    cone c = {org, dir, r_far, (r_near - r_far) / b->len, 0.0f, 1.0f, 1.0f, 0.125f * g->voxel_size};
+    cone c = {org, dir, r_far, (r_near - r_far) / b->len, 0.0f, 1.0f, 1.0f, CONE_LIGHT_MIN_RADIUS * g->voxel_size};
     L->n = 0;
     float t0, t1;
     /* The column's axis inside the grid's box, not its reach (cone_clip_reach, which camera and light
