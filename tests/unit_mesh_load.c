@@ -15,7 +15,7 @@ typedef int (*loader_fn)(const char *, mesh *, uint32_t, vx_err *);
 
 static char tmp_dir[512];
 static bool tmp_dir_is_ours; /* made by mkdtemp, so removed at the end */
-static char tmp_files[32][1024];
+static char tmp_files[64][1024];
 static int tmp_file_count;
 
 /* A scratch directory: $TEST_TMP when run_all.sh provides one, else a fresh one under /tmp. */
@@ -41,19 +41,25 @@ static void remove_tmp_files(void)
         rmdir(tmp_dir);
 }
 
-/* Writes `text` to a file in the scratch directory and returns its path (static storage, reused). */
-static const char *write_tmp(const char *name, const char *text)
+/* Writes n bytes to a file in the scratch directory and returns its path (static storage, reused). */
+static const char *write_tmp_bytes(const char *name, const void *data, size_t n)
 {
     static char path[1024];
     snprintf(path, sizeof path, "%s/%s", tmp_dir, name);
-    if (tmp_file_count < 32)
+    if (tmp_file_count < (int)(sizeof tmp_files / sizeof tmp_files[0]))
         snprintf(tmp_files[tmp_file_count++], sizeof tmp_files[0], "%s", path);
     FILE *f = fopen(path, "wb");
     if (f) {
-        fputs(text, f);
+        fwrite(data, 1, n, f);
         fclose(f);
     }
     return path;
+}
+
+/* The same for text. */
+static const char *write_tmp(const char *name, const char *text)
+{
+    return write_tmp_bytes(name, text, strlen(text));
 }
 
 static bool near3(const float *v, float x, float y, float z, float tol)
@@ -340,13 +346,8 @@ static void test_gltf_errors(void)
     unsigned char glb[12 + 8 + sizeof dup_json - 1] = {'g', 'l', 'T', 'F', 2, 0, 0, 0, sizeof glb, 0, 0, 0,
                                                        sizeof dup_json - 1, 0, 0, 0, 'J', 'S', 'O', 'N'};
     memcpy(glb + 20, dup_json, sizeof dup_json - 1);
-    const char *dup_glb = write_tmp("dup.glb", "");
-    FILE *g = fopen(dup_glb, "wb");
-    if (g) {
-        fwrite(glb, 1, sizeof glb, g);
-        fclose(g);
-    }
-    expect_fail("glb key twice in its JSON chunk", mesh_load_gltf, dup_glb, "JSON chunk: asset appears twice");
+    expect_fail("glb key twice in its JSON chunk", mesh_load_gltf, write_tmp_bytes("dup.glb", glb, sizeof glb),
+                "JSON chunk: asset appears twice");
     expect_fail("gltf Draco-compressed", mesh_load_gltf,
                 write_tmp("draco.gltf", "{\"asset\":{\"version\":\"2.0\"},"
                                         "\"extensionsUsed\":[\"KHR_draco_mesh_compression\"],"
@@ -357,13 +358,8 @@ static void test_gltf_errors(void)
                 write_tmp("v1.gltf", "{\"asset\":{\"version\":\"1.0\"},\"meshes\":{}}"), "glTF 1.0 is not supported");
     /* A GLB header of version 1 (magic, version, length: zeros included, so written with fwrite). */
     static const unsigned char glb1[20] = {'g', 'l', 'T', 'F', 1, 0, 0, 0, 20, 0, 0, 0};
-    const char *glb1_path = write_tmp("v1.glb", "");
-    FILE *f = fopen(glb1_path, "wb");
-    if (f) {
-        fwrite(glb1, 1, sizeof glb1, f);
-        fclose(f);
-    }
-    expect_fail("glb 1.0 refused by its version", mesh_load_gltf, glb1_path, "glTF 1.0 is not supported");
+    expect_fail("glb 1.0 refused by its version", mesh_load_gltf, write_tmp_bytes("v1.glb", glb1, sizeof glb1),
+                "glTF 1.0 is not supported");
 }
 
 /* OBJ: the fixture quad (one polygon with vt and vn) and a file without normals, against the values
