@@ -38,7 +38,6 @@ typedef struct {
  * surface (a black occluder) has shaded = 0 and zeros elsewhere: it never gets light. */
 typedef struct {
     float px[PACKET], py[PACKET], pz[PACKET]; /* hit point */
-    float eps[PACKET]; /* how far a shadow ray starts off the surface (shadow_offset) */
     float nx[PACKET], ny[PACKET], nz[PACKET]; /* unit shading normal, on the viewer's side */
     float gx[PACKET], gy[PACKET], gz[PACKET]; /* unit geometric normal, on the viewer's side */
     float fr[PACKET], fg[PACKET], fb[PACKET]; /* Lambert BRDF: albedo / pi */
@@ -97,7 +96,6 @@ static void describe_surfaces(const truth_job *j, const struct RTCRayHit16 *rh, 
             continue;
         vec3 side = sh.front_facing ? sh.geometric_normal : v3_scale(sh.geometric_normal, -1.0f);
         h->px[k] = sh.position.x, h->py[k] = sh.position.y, h->pz[k] = sh.position.z;
-        h->eps[k] = shadow_offset(rt->epsilon, org, dir, rh->ray.tfar[k]);
         h->nx[k] = sh.normal.x, h->ny[k] = sh.normal.y, h->nz[k] = sh.normal.z;
         h->gx[k] = side.x, h->gy[k] = side.y, h->gz[k] = side.z;
         h->fr[k] = sh.albedo.x * (1.0f / VX_PI);
@@ -165,9 +163,14 @@ static void shade_light(const truth_job *j, int li, const struct RTCRayHit16 *rh
         int svalid[PACKET] __attribute__((aligned(64)));
         int nshadow = 0;
         for (int k = 0; k < PACKET; k++) {
-            sr.org_x[k] = h->px[k] + h->gx[k] * h->eps[k];
-            sr.org_y[k] = h->py[k] + h->gy[k] * h->eps[k];
-            sr.org_z[k] = h->pz[k] + h->gz[k] * h->eps[k];
+            /* Only for the lanes that cast one (a miss's t is infinite); a scene without shadows pays
+             * nothing for it. */
+            vec3 org = v3(rh->ray.org_x[k], rh->ray.org_y[k], rh->ray.org_z[k]);
+            vec3 dir = v3(rh->ray.dir_x[k], rh->ray.dir_y[k], rh->ray.dir_z[k]);
+            float eps = lit[k] ? shadow_offset(j->rt->epsilon, org, dir, rh->ray.tfar[k]) : 0.0f;
+            sr.org_x[k] = h->px[k] + h->gx[k] * eps;
+            sr.org_y[k] = h->py[k] + h->gy[k] * eps;
+            sr.org_z[k] = h->pz[k] + h->gz[k] * eps;
             sr.dir_x[k] = pl.lx[k], sr.dir_y[k] = pl.ly[k], sr.dir_z[k] = pl.lz[k];
             sr.tnear[k] = 0.0f;
             sr.tfar[k] = pl.tfar[k];
