@@ -15,10 +15,10 @@ int render_frames(scene *s, const vx_model *m, int res, const bake_options *bo, 
                   const vx_backend *backend, const char *out_path, const char *stats_path, const frame_range *fr,
                   int filter, int argc, char **argv, vx_err *e)
 {
-    int first = fr->given ? fr->first : (s->anim ? s->anim->first : 0), last = fr->given ? fr->last : first;
-    int ref = s->anim ? s->anim->first : 0;
-    if (scene_set_frame(s, first, e) || scene_set_frame(s, last, e) || backend->check(m, o, e))
+    frame_range range = *fr; /* resolved already by cmd_render; not by every caller */
+    if (frames_resolve(s, &range, e) || backend->check(m, o, e))
         return -1;
+    int first = range.first, last = range.last, ref = s->anim ? s->anim->first : 0;
     int used = filter;
     const char *fallback = NULL;
     if (filter != DYN_REBAKE && !(m->transform && m->combine)) {
