@@ -125,10 +125,11 @@ static void shift_subgrid(const unsigned char in[VMESH_SUBCELLS], const float d[
  * into the cell, as the dynamic-SVO paper's nearest filtering does (§3.3, Fig. 1a). Shifted by its
  * offset inside the cell, a record moved by half a cell kept an eighth of its subgrid and the rest
  * was cut off: an object moved by (0.5, 0.5, 0.5) cells turned mostly transparent, at every
- * resolution (the fidelity audit: MSE 3.4e-3 at 128^3 where the re-bake's is 6.6e-4). A scaled object's placements (tracer/dynamic/: the record's cube of edge s spread
- * over the cells it overlaps, weight = covered volume / s) have a weight above that volume or an
- * offset beyond the unit cube; a shift would cut their content off and open holes, so they enter
- * unshifted, thinned by their weight (s cells along a ray then keep the record's opacity). */
+ * resolution (the fidelity audit: MSE 3.4e-3 at 128^3 where the re-bake's is 6.6e-4). A scaled
+ * object's placements (tracer/dynamic/: the record's cube of edge s spread over the cells it
+ * overlaps, weight = covered volume / s) have a weight above that volume or an offset beyond the
+ * unit cube; a shift would cut their content off and open holes, so they enter unshifted, thinned
+ * by their weight (s cells along a ray then keep the record's opacity). */
 static float coverage_share(const vx_record_part *p, int *shift)
 {
     float ov = 1.0f;

@@ -41,7 +41,6 @@ void image_free(image *img)
     memset(img, 0, sizeof *img);
 }
 
-/* The extension after the last '.' of the file name (not of a directory), or "" when there is none. */
 int image_check_output(const char *path, vx_err *e)
 {
     const char *ext = fileio_extension(path);

@@ -494,7 +494,7 @@ VX_INLINE void cone_cached_transmittance(cone_ctx *x, vec3 p, float level, int l
      * pushed out by half the cell's diagonal: the centre may lie that far below the surface that p
      * enters from outside, and a cone starting inside the surface would shadow itself. */
     float size = (float)s;
-    float r = 0.70710678f * size, start = 3.0f * r + 0.8660254f * size;
+    float r = CONE_LIGHT_MIN_RADIUS * size, start = 3.0f * r + 0.8660254f * size;
     for (int li = 0; li < lights; li++) {
         vec3 to_light, irr;
         float dist;
