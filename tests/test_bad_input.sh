@@ -203,6 +203,29 @@ ln -sf A.exr "$C/A_link.json"
 check_fails clash_stats_is_o "^voxlab truth: --stats $C/A_link\.json is the same file as -o $C/A\.exr: refusing to write two" \
   "$VOXLAB" truth "$C/s.json" --spp 1 -o "$C/A.exr" --stats "$C/A_link.json"
 same_bytes clash_stats_is_o-kept "$C/A.exr" "$C/A.orig"
+# A glTF's external files (its buffer, its texture) are inputs too: a truth's or a render's -o naming the
+# texture would have replaced it. The quad fixture with its buffer moved into quad.bin and an
+# external PNG texture (any PNG: here a truth image) named by its material.
+G=$T/clash_gltf && mkdir -p "$G"
+"$VOXLAB" truth "$C/s.json" --spp 1 --size 4x4 -o "$G/tex.png" && cp "$G/tex.png" "$G/tex.orig"
+/usr/bin/python3 - "$(dirname "$0")/data/quad.gltf" "$G" <<'PY'
+import base64, json, sys
+g = json.load(open(sys.argv[1]))
+data = base64.b64decode(g["buffers"][0]["uri"].split(",", 1)[1])
+open(sys.argv[2] + "/quad.bin", "wb").write(data)
+g["buffers"][0]["uri"] = "quad.bin"
+g["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = {"index": 0}
+g["textures"] = [{"source": 0}]
+g["images"] = [{"uri": "tex.png"}]
+json.dump(g, open(sys.argv[2] + "/quad.gltf", "w"))
+PY
+good_scene "$G/s.json" '[{"gltf": "quad.gltf", "material": "grey"}]' '"effects": ["textures"],'
+check_fails clash_o_is_gltf_texture "^voxlab truth: -o $G/tex\.png is the scene's objects\[0\]\.gltf \(a file it names\): refusing to overwrite an input" \
+  "$VOXLAB" truth "$G/s.json" --spp 1 -o "$G/tex.png"
+same_bytes clash_o_is_gltf_texture-kept "$G/tex.png" "$G/tex.orig"
+check_fails clash_render_o_is_gltf_texture "^voxlab render: -o \./tex\.png is the scene's objects\[0\]\.gltf \(a file it names\)[ :].*refusing to overwrite an input" \
+  bash -c "cd '$G' && '$VOXLAB' render s.json --model alpha --res 8 -o ./tex.png"
+same_bytes clash_render_o_is_gltf_texture-kept "$G/tex.png" "$G/tex.orig"
 # --frames: every numbered output is checked (here frame 1's image would replace the mesh).
 cp "$C/quad.ply" "$C/seq_0001.exr" && cp "$C/quad.ply" "$C/seq.orig"
 good_scene "$C/seq.json" '[{"ply": "seq_0001.exr", "material": "grey"}]' '"frames": [0, 2],'

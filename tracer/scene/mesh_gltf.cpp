@@ -10,6 +10,7 @@
 #include "json_util.h"
 #include "readfile.h"
 
+#include <algorithm>
 #include <climits>
 #include <cstdlib>
 #include <unistd.h>
@@ -551,6 +552,7 @@ struct uri_fs {
     std::string folder; // realpath of the glTF's folder, with a trailing '/'
     std::string refused; // the first URI refused, for the message
     bool anywhere = false; // the scene allows URIs outside the folder
+    std::vector<std::string> read; // the external files read (buffers, images), each once
 };
 
 bool inside(const uri_fs &fs, const std::string &file)
@@ -598,6 +600,8 @@ bool fs_read(std::vector<unsigned char> *out, std::string *err, const std::strin
     }
     out->assign(buf, buf + size);
     std::free(buf);
+    if (std::find(fs->read.begin(), fs->read.end(), file) == fs->read.end())
+        fs->read.push_back(file);
     return true;
 }
 
@@ -671,7 +675,7 @@ void check_image_ranges(const tinygltf::Model &m)
 }
 
 void load(const char *path, mesh *out, uint32_t material, bool uris_anywhere, gltf_material_fn make_material,
-          void *material_ctx)
+          void *material_ctx, gltf_file_fn on_file, void *file_ctx)
 {
     std::string file(path);
     bool binary;
@@ -754,6 +758,12 @@ void load(const char *path, mesh *out, uint32_t material, bool uris_anywhere, gl
             fail("requires extension " + ext + " (compressed geometry is not supported; expected plain "
                  "accessors)");
 
+    // The external files the load read, for the caller's list of inputs (an output must not
+    // overwrite a glTF's texture or buffer any more than the glTF itself).
+    for (const std::string &f : fs.read)
+        if (on_file && on_file(file_ctx, f.c_str()))
+            fail("out of memory for the list of the files the glTF names");
+
     loader l{model, out, material, make_material, material_ctx, {}};
     std::vector<char> on_path(model.nodes.size(), 0);
     if (!model.scenes.empty()) {
@@ -793,6 +803,14 @@ extern "C" int mesh_load_gltf_uris(const char *path, mesh *out, uint32_t materia
 extern "C" int mesh_load_gltf_materials(const char *path, mesh *out, uint32_t material, int uris_anywhere,
                                         gltf_material_fn make_material, void *ctx, vx_err *e)
 {
+    return mesh_load_gltf_files(path, out, material, uris_anywhere, make_material, ctx, nullptr, nullptr, e);
+}
+
+extern "C" int mesh_load_gltf_files(const char *path, mesh *out, uint32_t material, int uris_anywhere,
+                                    gltf_material_fn make_material, void *ctx, gltf_file_fn on_file, void *file_ctx,
+                                    vx_err *e)
+{
     return vx_mesh_load::guarded(
-        path, out, "glTF", [&] { load(path, out, material, uris_anywhere != 0, make_material, ctx); }, e);
+        path, out, "glTF",
+        [&] { load(path, out, material, uris_anywhere != 0, make_material, ctx, on_file, file_ctx); }, e);
 }

@@ -55,6 +55,12 @@ typedef int (*gltf_material_fn)(void *ctx, int index, const gltf_material_desc *
  * without get `material`. Images are decoded (at most IMAGE_MAX_PIXELS each). */
 int mesh_load_gltf_materials(const char *path, mesh *out, uint32_t material, int uris_anywhere,
                              gltf_material_fn make_material, void *ctx, vx_err *e);
+/* Told the path of each external file (a buffer or an image URI) a successful glTF load read, once
+ * each; returns 0, or -1 to fail the load (out of memory). */
+typedef int (*gltf_file_fn)(void *ctx, const char *file);
+/* mesh_load_gltf_materials that also reports the external files it read to on_file (NULL: not). */
+int mesh_load_gltf_files(const char *path, mesh *out, uint32_t material, int uris_anywhere,
+                         gltf_material_fn make_material, void *ctx, gltf_file_fn on_file, void *file_ctx, vx_err *e);
 
 #ifdef __cplusplus
 }

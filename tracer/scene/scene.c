@@ -225,6 +225,20 @@ typedef struct {
     const char *where; /* "file: objects[i]" */
 } gltf_materials;
 
+/* A file a glTF names (its external buffers and images): an input too (note_input), which no output
+ * may overwrite. */
+typedef struct {
+    scene *s;
+    const char *where; /* "file: objects[i]" */
+    vx_err *e;
+} gltf_files;
+
+static int note_gltf_file(void *p, const char *file)
+{
+    gltf_files *g = p;
+    return note_input(g->s, g->where, "gltf (a file it names)", file, g->e);
+}
+
 static int make_gltf_material(void *p, int index, const gltf_material_desc *d, uint32_t *out, vx_err *e)
 {
     gltf_materials *g = p;
@@ -648,10 +662,11 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
             char path[4096];
             resolve_path(s->path, file, path, sizeof path);
             gltf_materials own = {s, mat, where};
+            gltf_files named = {s, where, e};
             int rc = is_ply   ? mesh_load_ply(path, &s->mesh, (uint32_t)mat, e)
                      : is_obj ? mesh_load_obj(path, &s->mesh, (uint32_t)mat, e)
-                              : mesh_load_gltf_materials(path, &s->mesh, (uint32_t)mat, anywhere, make_gltf_material,
-                                                         &own, e);
+                              : mesh_load_gltf_files(path, &s->mesh, (uint32_t)mat, anywhere, make_gltf_material,
+                                                     &own, note_gltf_file, &named, e);
             if (rc)
                 return vx_wrap(e, "%s.%s", where, kind);
             if (note_input(s, where, kind, path, e))
