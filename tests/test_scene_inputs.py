@@ -86,6 +86,29 @@ diff = float(np.abs(g_img - read_image(os.path.join(TMP, "h.exr"))).max()) if ok
 report("glTF baseColorFactor x baseColorTexture renders as the same factor and PNG given to the scene "
        "(orientation, sRGB decoding; 1e-6)", ok and diff <= 1e-6 and len(np.unique(g_img[..., 0])) > 3,
        f"max difference {diff}; {p.stderr} {p2.stderr}")
+# "8-bit formats are decoded from sRGB" holds for every 8-bit format, not only for the extensions
+# .png and .jpg: the same texels as TGA, BMP and 8-bit TIFF were read as linear (a texel of 200 gave an
+# albedo of 0.78 instead of 0.58), so the same texture lit the truth differently by its file's format.
+texels = np.array([[[200, 60, 128], [30, 90, 250]], [[120, 180, 10], [240, 5, 70]]], np.uint8)  # mid-range values
+h_img = None
+for ext in ("png", "tga", "bmp", "tif"):
+    tex8 = os.path.join(TMP, "tex8." + ext)
+    out8 = oiio.ImageOutput.create(tex8)
+    out8.open(tex8, oiio.ImageSpec(2, 2, 3, oiio.UINT8))
+    out8.write_image(texels)
+    out8.close()
+    s["materials"]["m"]["texture"] = tex8
+    escene = os.path.join(TMP, f"ply_{ext}.json")
+    with open(escene, "w") as f:
+        json.dump(s, f)
+    p8 = truth(escene, os.path.join(TMP, f"tex8_{ext}.exr"))
+    img8 = read_image(os.path.join(TMP, f"tex8_{ext}.exr")) if p8.returncode == 0 else None
+    if ext == "png":
+        h_img = img8
+        continue
+    diff = float(np.abs(img8 - h_img).max()) if img8 is not None and h_img is not None else 1
+    report(f"an 8-bit {ext.upper()} texture is decoded from sRGB as the same PNG is (the same image; 1e-6)",
+           diff <= 1e-6, f"max difference {diff}; {p8.stderr}")
 p = truth(scene("gltf_nofx", {"gltf": glb}, [], texture=False), os.path.join(TMP, "i.exr"))
 report("a glTF texture without the \"textures\" effect is a warning too", p.returncode == 0 and "objects[0]" in p.stderr
        and '"textures" effect' in p.stderr, p.stderr)

@@ -9,6 +9,7 @@ typedef struct {
     int width, height, channels;
     float *data;             /* width * height * channels floats */
     const image_meta *meta;  /* provenance written with an EXR (NULL: none; not owned) */
+    int stored_8bit;         /* image_read: the file holds 8-bit unsigned samples (0 for images made here) */
 } image;
 
 #ifdef __cplusplus
@@ -33,7 +34,9 @@ int image_write_png(const image *img, const char *path, vx_err *e);
 #define IMAGE_MAX_PIXELS (64LL * 1024 * 1024)
 
 /* Reads any format OpenImageIO knows, as float values as stored (no colour conversion); a regular
- * file only, of at most IMAGE_MAX_PIXELS pixels. */
+ * file only, of at most IMAGE_MAX_PIXELS pixels. Sets stored_8bit when the file's samples are 8-bit
+ * unsigned integers (PNG, JPEG, TGA, BMP, 8-bit TIFF...), which by convention are sRGB-encoded: the
+ * texture loader decodes those. */
 int image_read(const char *path, image *out, vx_err *e);
 
 /* The voxlab provenance attributes (IMAGE_META_PREFIX) of an EXR file's header; none (count 0)

@@ -122,6 +122,7 @@ extern "C" int vx_oiio_read(const char *path, image *out, vx_err *e)
         return vx_fail(e, "cannot read %s: %s", path, msg.c_str());
     }
     in->close();
+    out->stored_8bit = spec.format == TypeDesc::UINT8;
     return 0;
 }
 

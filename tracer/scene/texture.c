@@ -31,9 +31,14 @@ vec3 texture_lookup(const texture *t, float u, float v)
     return acc;
 }
 
-/* 8-bit image formats store sRGB-encoded values; EXR, HDR and PFM store linear ones. */
-static int stores_srgb(const char *path)
+/* 8-bit image formats store sRGB-encoded values; EXR, HDR and PFM store linear ones. A file counts
+ * as sRGB when its samples are 8-bit (whatever the format: a TGA, BMP or 8-bit TIFF as much as a PNG;
+ * by extension alone those were read as linear, 0.78 for a texel of 200 instead of 0.58) or when it
+ * is a PNG or JPEG (whose 16-bit samples are sRGB-encoded too). */
+static int stores_srgb(const char *path, const image *img)
 {
+    if (img->stored_8bit)
+        return 1;
     const char *dot = strrchr(path, '.');
     return dot && (strcasecmp(dot, ".png") == 0 || strcasecmp(dot, ".jpg") == 0 || strcasecmp(dot, ".jpeg") == 0);
 }
@@ -42,10 +47,10 @@ static float srgb_to_linear(float x) { return x <= 0.04045f ? x / 12.92f : powf(
 
 int texture_load_image(texture *t, const char *path, vx_err *e)
 {
-    int srgb = stores_srgb(path);
     image img = {0};
     if (image_read(path, &img, e))
         return -1;
+    int srgb = stores_srgb(path, &img);
     memset(t, 0, sizeof *t);
     t->kind = TEXTURE_IMAGE;
     t->width = img.width;
