@@ -232,10 +232,28 @@ def voxlab_cli_lines(*args):
     return [x for x in cli(*args).stdout.split() if x]
 
 
+def compare_first():
+    """compare() of two arrays as a process's first call into the library: it used the library
+    before anything had opened it (AttributeError: 'NoneType' object has no attribute
+    'vxapi_compare'), as only the paths' branch loaded it. A fresh interpreter, since this one has
+    loaded it already."""
+    code = ("import json, numpy as np, voxlab\n"
+            "a = np.linspace(0, 1, 16 * 16 * 3, dtype=np.float32).reshape(16, 16, 3)\n"
+            "print(json.dumps(voxlab.compare(a, a * 0.5)))\n")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       env=dict(os.environ, PYTHONPATH=os.path.join(REPO, "experiments")))
+    got = json.loads(p.stdout) if p.returncode == 0 else {}
+    a = np.linspace(0, 1, 16 * 16 * 3, dtype=np.float32).reshape(16, 16, 3).astype(np.float64)
+    want = float(np.mean((a - a * 0.5) ** 2))
+    report("compare(arrays) as the first call of a process", p.returncode == 0 and abs(got.get("mse", -1) - want)
+           <= 1e-12, p.stderr.strip()[-300:])
+
+
 def main():
     if not os.path.exists(LIB):
         report("build/libvoxlab.so exists (make pylib)", False, LIB)
         return
+    compare_first()
     report("models(): `voxlab models`' names", voxlab.models() == [
         line.split()[0] for line in cli("models").stdout.splitlines() if line.strip()], "")
     img = bit_for_bit()

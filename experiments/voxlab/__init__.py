@@ -270,7 +270,8 @@ def compare(reference, image):
         raise VoxlabError(f"image sizes differ: {a.shape[1]}x{a.shape[0]} with {a.shape[2]} channels vs "
                           f"{b.shape[1]}x{b.shape[0]} with {b.shape[2]} channels")
     call = _Call()
-    if _lib.vxapi_compare(a.ctypes.data_as(_float_p), b.ctypes.data_as(_float_p), a.shape[1], a.shape[0],
+    # _load(): arrays may be the first thing a process hands the library (no Scene opened it yet).
+    if _load().vxapi_compare(a.ctypes.data_as(_float_p), b.ctypes.data_as(_float_p), a.shape[1], a.shape[0],
                           a.shape[2], ctypes.byref(call.text), call.err, _ERR_SIZE):
         call.fail()
     return call.json()
