@@ -419,6 +419,86 @@ static void test_obj(void)
     expect_fail("obj directory", mesh_load_obj, "tests/data", "not a regular file");
 }
 
+/* mesh_crease_normals against normals worked out by hand: a cube on 8 shared corners gets 24 corner
+ * vertices, each with its face's normal, and the same positions; a regular octahedron's 109-degree
+ * edges split it the same way (8 faces x 3 corners); an icosahedron's 42-degree edges keep its 12
+ * vertices, each with its radial direction (the area-weighted mean of 5 congruent faces); a
+ * zero-area triangle on a flat patch takes the patch's normal. Before the crease rule, the cube's
+ * corners pointed along the diagonals. */
+static void test_crease_normals(void)
+{
+    mesh m = {0};
+    static const int faces[6][4] = {{0, 4, 6, 2}, {1, 3, 7, 5}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 2, 3, 1}, {4, 5, 7, 6}};
+    for (int k = 0; k < 8; k++)
+        mesh_add_vertex(&m, v3(k & 1 ? 1.0f : -1.0f, k & 2 ? 1.0f : -1.0f, k & 4 ? 1.0f : -1.0f), v3(0, 0, 0), 0, 0);
+    for (int f = 0; f < 6; f++) {
+        mesh_add_triangle(&m, faces[f][0], faces[f][1], faces[f][2], 0);
+        mesh_add_triangle(&m, faces[f][0], faces[f][2], faces[f][3], 0);
+    }
+    mesh_crease_normals(&m, 0, 0, MESH_CREASE_DEG);
+    int ok = m.vertex_count == 24;
+    for (size_t t = 0; t < m.triangle_count; t++) {
+        const uint32_t *tri = &m.indices[3 * t];
+        vec3 a = mesh_position(&m, tri[0]), b = mesh_position(&m, tri[1]), c = mesh_position(&m, tri[2]);
+        vec3 n = v3_normalize(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+        for (int k = 0; k < 3; k++)
+            ok &= near3(&m.normals[3 * tri[k]], n.x, n.y, n.z, 1e-6f);
+    }
+    CHECK("crease normals: a cube on 8 shared corners gets 24 vertices with its faces' normals", ok);
+    mesh_free(&m);
+
+    memset(&m, 0, sizeof m);
+    const vec3 oct[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    for (int k = 0; k < 6; k++)
+        mesh_add_vertex(&m, oct[k], v3(0, 0, 0), 0, 0);
+    for (int sx = 0; sx < 2; sx++)
+        for (int sy = 0; sy < 2; sy++)
+            for (int sz = 0; sz < 2; sz++) {
+                uint32_t a = (uint32_t)sx, b = (uint32_t)(2 + sy), c = (uint32_t)(4 + sz);
+                if ((sx + sy + sz) % 2) /* outward winding */
+                    mesh_add_triangle(&m, a, c, b, 0);
+                else
+                    mesh_add_triangle(&m, a, b, c, 0);
+            }
+    mesh_crease_normals(&m, 0, 0, MESH_CREASE_DEG);
+    CHECK("crease normals: an octahedron (109-degree edges) splits into 24 flat corners", m.vertex_count == 24);
+    mesh_free(&m);
+
+    memset(&m, 0, sizeof m);
+    const float g = 1.6180340f;
+    const vec3 ico[12] = {{-1, g, 0}, {1, g, 0}, {-1, -g, 0}, {1, -g, 0}, {0, -1, g}, {0, 1, g},
+                          {0, -1, -g}, {0, 1, -g}, {g, 0, -1}, {g, 0, 1}, {-g, 0, -1}, {-g, 0, 1}};
+    static const int tris[20][3] = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+                                    {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
+                                    {3, 8, 9},  {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
+    for (int k = 0; k < 12; k++)
+        mesh_add_vertex(&m, ico[k], v3(0, 0, 0), 0, 0);
+    for (int t = 0; t < 20; t++)
+        mesh_add_triangle(&m, (uint32_t)tris[t][0], (uint32_t)tris[t][1], (uint32_t)tris[t][2], 0);
+    mesh_crease_normals(&m, 0, 0, MESH_CREASE_DEG);
+    ok = m.vertex_count == 12;
+    for (size_t v = 0; v < 12 && ok; v++) {
+        vec3 r = v3_normalize(mesh_position(&m, (uint32_t)v));
+        ok &= near3(&m.normals[3 * v], r.x, r.y, r.z, 1e-5f);
+    }
+    CHECK("crease normals: an icosahedron (42-degree edges) keeps 12 smooth radial normals", ok);
+    mesh_free(&m);
+
+    memset(&m, 0, sizeof m);
+    mesh_add_vertex(&m, v3(0, 0, 0), v3(0, 0, 0), 0, 0);
+    mesh_add_vertex(&m, v3(1, 0, 0), v3(0, 0, 0), 0, 0);
+    mesh_add_vertex(&m, v3(0, 1, 0), v3(0, 0, 0), 0, 0);
+    mesh_add_vertex(&m, v3(2, 0, 0), v3(0, 0, 0), 0, 0);
+    mesh_add_triangle(&m, 0, 1, 2, 0);
+    mesh_add_triangle(&m, 0, 1, 3, 0); /* collinear: zero area */
+    mesh_crease_normals(&m, 0, 0, MESH_CREASE_DEG);
+    ok = m.vertex_count == 4;
+    for (size_t v = 0; v < m.vertex_count; v++)
+        ok &= near3(&m.normals[3 * v], 0, 0, 1, 1e-6f);
+    CHECK("crease normals: a zero-area triangle takes its neighbour's normal, no split", ok);
+    mesh_free(&m);
+}
+
 int main(void)
 {
     make_tmp_dir();
@@ -432,6 +512,7 @@ int main(void)
     test_gltf_mirrored();
     test_gltf_errors();
     test_obj();
+    test_crease_normals();
     remove_tmp_files();
     return unit_exit();
 }

@@ -1,5 +1,6 @@
 #include "mesh.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -106,6 +107,7 @@ vec3 mesh_position(const mesh *m, uint32_t i)
 
 void mesh_smooth_normals(mesh *m, size_t first_vertex, size_t first_triangle)
 {
+    m->normals_smoothed = 1;
     for (size_t i = first_vertex; i < m->vertex_count; i++)
         m->normals[3 * i] = m->normals[3 * i + 1] = m->normals[3 * i + 2] = 0.0f;
     for (size_t t = first_triangle; t < m->triangle_count; t++) {
@@ -126,6 +128,141 @@ void mesh_smooth_normals(mesh *m, size_t first_vertex, size_t first_triangle)
         m->normals[3 * i + 1] = n.y;
         m->normals[3 * i + 2] = n.z;
     }
+}
+
+/* A vertex shared by more triangles than this whose normals do not all lie within half the crease
+ * of their mean (a cone's apex) gives each corner its own triangle's normal: grouping its corners
+ * by shared edges is quadratic in the triangles around it. */
+#define CREASE_MAX_PAIRWISE 4096
+
+static int is_zero(vec3 u) { return u.x == 0.0f && u.y == 0.0f && u.z == 0.0f; }
+
+/* Whether every triangle around a vertex lies within half the crease of their mean direction, so
+ * that every pair lies within the crease (the common smooth case: one group, no pairwise test). */
+static int all_within(const vec3 *unit, const uint32_t *corners, size_t n, float cos_half)
+{
+    vec3 mean = v3(0.0f, 0.0f, 0.0f);
+    for (size_t i = 0; i < n; i++)
+        mean = v3_add(mean, unit[corners[i] / 3]);
+    mean = v3_normalize_or(mean, v3(0.0f, 0.0f, 0.0f));
+    for (size_t i = 0; i < n; i++) {
+        vec3 u = unit[corners[i] / 3];
+        if (!is_zero(u) && !(v3_dot(u, mean) >= cos_half))
+            return 0;
+    }
+    return 1;
+}
+
+static size_t group_root(size_t *parent, size_t i)
+{
+    while (parent[i] != i)
+        i = parent[i] = parent[parent[i]];
+    return i;
+}
+
+/* Whether triangles a and b (mesh-local numbers) share an edge through vertex v: another vertex. */
+static int share_edge(const uint32_t *indices, size_t a, size_t b, uint32_t v)
+{
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            if (indices[3 * a + (size_t)i] != v && indices[3 * a + (size_t)i] == indices[3 * b + (size_t)j])
+                return 1;
+    return 0;
+}
+
+void mesh_crease_normals(mesh *m, size_t v0, size_t t0, float crease_deg)
+{
+    size_t nv = m->vertex_count - v0, nt = m->triangle_count - t0;
+    if (nt == 0)
+        return;
+    const double radians = 3.14159265358979323846 / 180.0;
+    float cos_crease = (float)cos(crease_deg * radians), cos_half = (float)cos(0.5 * crease_deg * radians);
+    vec3 *face = grow(NULL, 2 * nt, sizeof *face), *unit = face + nt; /* cross products, and unit */
+    size_t *start = grow(NULL, nv + 1, sizeof *start);
+    uint32_t *corners = grow(NULL, 3 * nt, sizeof *corners); /* corner 3 t + k, by vertex */
+    const uint32_t *tri_of = m->indices + 3 * t0;            /* the object's triangles */
+    memset(start, 0, (nv + 1) * sizeof *start);
+    for (size_t t = 0; t < nt; t++) {
+        const uint32_t *tri = &tri_of[3 * t];
+        vec3 a = mesh_position(m, tri[0]), b = mesh_position(m, tri[1]), c = mesh_position(m, tri[2]);
+        face[t] = v3_cross(v3_sub(b, a), v3_sub(c, a)); /* twice the area times the normal */
+        unit[t] = v3_normalize_or(face[t], v3(0.0f, 0.0f, 0.0f));
+        for (int k = 0; k < 3; k++)
+            start[tri[k] - v0 + 1]++;
+    }
+    for (size_t v = 0; v < nv; v++)
+        start[v + 1] += start[v];
+    size_t *fill = grow(NULL, nv, sizeof *fill);
+    memcpy(fill, start, nv * sizeof *fill);
+    for (size_t t = 0; t < nt; t++)
+        for (int k = 0; k < 3; k++)
+            corners[fill[tri_of[3 * t + (size_t)k] - v0]++] = (uint32_t)(3 * t + (size_t)k);
+    free(fill);
+    size_t cap = 0, *parent = NULL;
+    vec3 *sum = NULL; /* per group (indexed by its root corner) */
+    uint32_t *carrier = NULL; /* the vertex that carries each group's normal; UINT32_MAX: none yet */
+    for (size_t v = 0; v < nv; v++) {
+        const uint32_t *c = corners + start[v];
+        size_t n = start[v + 1] - start[v];
+        if (n == 0)
+            continue;
+        if (n > cap) {
+            cap = n;
+            parent = grow(parent, cap, sizeof *parent);
+            sum = grow(sum, cap, sizeof *sum);
+            carrier = grow(carrier, cap, sizeof *carrier);
+        }
+        /* The corners' groups: around the vertex, two triangles that share an edge and lie within
+         * the crease of each other are one smooth surface (an edge-based crease, as a modeller's
+         * smoothing angle: an icosahedron's 42-degree edges join its five faces around a corner
+         * though the faces across the corner lie 64 degrees apart). */
+        uint32_t vertex = (uint32_t)(v0 + v);
+        int one = all_within(unit, c, n, cos_half), flat = !one && n > CREASE_MAX_PAIRWISE;
+        for (size_t i = 0; i < n; i++)
+            parent[i] = one ? 0 : i;
+        for (size_t i = 0; !one && !flat && i < n; i++)
+            for (size_t j = i + 1; j < n; j++) {
+                size_t ti = c[i] / 3, tj = c[j] / 3;
+                if ((is_zero(unit[ti]) || is_zero(unit[tj]) || v3_dot(unit[ti], unit[tj]) >= cos_crease) &&
+                    share_edge(tri_of, ti, tj, vertex)) {
+                    size_t ri = group_root(parent, i), rj = group_root(parent, j);
+                    parent[ri > rj ? ri : rj] = ri < rj ? ri : rj; /* the earlier corner is the root */
+                }
+            }
+        for (size_t i = 0; i < n; i++) {
+            sum[i] = v3(0.0f, 0.0f, 0.0f);
+            carrier[i] = UINT32_MAX;
+        }
+        for (size_t i = 0; i < n; i++) {
+            size_t r = group_root(parent, i);
+            sum[r] = v3_add(sum[r], face[c[i] / 3]);
+        }
+        /* The first group (in triangle order) keeps the vertex, every other one gets a copy. */
+        int first = 1;
+        for (size_t i = 0; i < n; i++) {
+            size_t r = group_root(parent, i);
+            if (carrier[r] == UINT32_MAX) {
+                vec3 nrm = v3_normalize(sum[r]);
+                uint32_t idx = vertex;
+                if (!first) {
+                    vec3 col = v3(m->colors[3 * idx], m->colors[3 * idx + 1], m->colors[3 * idx + 2]);
+                    idx = mesh_add_vertex(m, mesh_position(m, vertex), nrm, m->uvs[2 * vertex], m->uvs[2 * vertex + 1]);
+                    mesh_set_vertex_color(m, idx, col);
+                    tri_of = m->indices + 3 * t0; /* unchanged: only the vertex arrays grow */
+                }
+                m->normals[3 * idx] = nrm.x, m->normals[3 * idx + 1] = nrm.y, m->normals[3 * idx + 2] = nrm.z;
+                carrier[r] = idx;
+                first = 0;
+            }
+            m->indices[3 * t0 + c[i]] = carrier[r];
+        }
+    }
+    free(parent);
+    free(sum);
+    free(carrier);
+    free(corners);
+    free(start);
+    free(face);
 }
 
 void mesh_set_vertex_color(mesh *m, uint32_t i, vec3 c)

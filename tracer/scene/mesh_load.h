@@ -15,14 +15,16 @@ extern "C" {
  * red/green/blue as uchar 0..255 or float 0..1; u/v or s/t), of any PLY scalar type in any order,
  * other properties and elements (lists included) skipped; "face" element with a vertex_indices (or
  * vertex_index) list of integers (polygons are fan-triangulated, zero-area triangles kept). Without
- * normals in the file, smooth area-weighted normals are computed. Non-finite coordinates,
+ * normals in the file, smooth area-weighted normals are computed (mesh_smooth_normals; a scene's
+ * object then gives them creases, mesh_crease_normals). Non-finite coordinates,
  * out-of-range indices, truncated data are errors. */
 int mesh_load_ply(const char *path, mesh *out, uint32_t material, vx_err *e);
 
 /* Wavefront OBJ through tinyobjloader: `v` positions, `vn` normals, `vt` texture coordinates, `f`
  * faces (polygons fan-triangulated; negative, relative indices allowed); `mtllib`, materials,
  * groups and other statements ignored (the scene's material applies). Corners sharing position,
- * normal and uv share a vertex; without any `vn`, smooth area-weighted normals are computed. Indices
+ * normal and uv share a vertex; without any `vn`, smooth area-weighted normals are computed (as for
+ * a PLY: creases come from the scene). Indices
  * out of range, non-finite values and a file without faces are errors. */
 int mesh_load_obj(const char *path, mesh *out, uint32_t material, vx_err *e);
 

@@ -633,11 +633,14 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
             return -1;
         size_t v0 = s->mesh.vertex_count, t0 = s->mesh.triangle_count;
         const char *file = NULL, *matname = NULL;
+        int creased = 0; /* a PLY or OBJ: normals the file lacks get creases (below) */
+        s->mesh.normals_smoothed = 0;
         if (strcmp(kind, "generator") == 0) {
             if (parse_generator_object(s, o, where, e))
                 return -1;
         } else {
             int is_ply = strcmp(kind, "ply") == 0, is_obj = strcmp(kind, "obj") == 0;
+            creased = is_ply || is_obj;
             if (json_string(o, kind, where, &file, e) || json_string(o, "material", where, &matname, e))
                 return -1;
             /* A glTF brings its own materials: the scene's is optional there (white, default lobe). */
@@ -674,8 +677,15 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
             warn_unused_texture(s, v0, t0, where);
         }
         /* "subdivide": k Loop levels, on the object as loaded, before its placement. */
-        if (mesh_subdivide_object(&s->mesh, v0, t0, o, where, e) ||
-            apply_transform(&s->mesh, v0, t0, cJSON_GetObjectItemCaseSensitive(o, "transform"), where, e) ||
+        if (mesh_subdivide_object(&s->mesh, v0, t0, o, where, e))
+            return -1;
+        /* A PLY or OBJ without normals (or subdivided, whose normals are recomputed): smooth normals
+         * with creases (mesh_crease_normals), after the subdivision, whose connectivity is by vertex
+         * index and would tear where the creases split the vertices. (A glTF's normals are given or
+         * computed per primitive, by its loader.) */
+        if (creased && s->mesh.normals_smoothed)
+            mesh_crease_normals(&s->mesh, v0, t0, MESH_CREASE_DEG);
+        if (apply_transform(&s->mesh, v0, t0, cJSON_GetObjectItemCaseSensitive(o, "transform"), where, e) ||
             inst_parse_object(s, o, where, v0, t0, e) || anim_parse_object(s, o, where, i - 1, v0, e))
             return -1;
         for (size_t v = v0; v < s->mesh.vertex_count; v++)
