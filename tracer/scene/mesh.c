@@ -247,8 +247,7 @@ void mesh_crease_normals(mesh *m, size_t v0, size_t t0, float crease_deg)
                 if (!first) {
                     vec3 col = v3(m->colors[3 * idx], m->colors[3 * idx + 1], m->colors[3 * idx + 2]);
                     idx = mesh_add_vertex(m, mesh_position(m, vertex), nrm, m->uvs[2 * vertex], m->uvs[2 * vertex + 1]);
-                    mesh_set_vertex_color(m, idx, col);
-                    tri_of = m->indices + 3 * t0; /* unchanged: only the vertex arrays grow */
+                    mesh_set_vertex_color(m, idx, col); /* (only the vertex arrays grow: tri_of stays) */
                 }
                 m->normals[3 * idx] = nrm.x, m->normals[3 * idx + 1] = nrm.y, m->normals[3 * idx + 2] = nrm.z;
                 carrier[r] = idx;

@@ -17,8 +17,9 @@ typedef struct {
     uint32_t *indices;   /* 3 per triangle */
     uint32_t *materials; /* 1 per triangle */
     size_t triangle_count, triangle_capacity;
-    int normals_smoothed; /* set by mesh_smooth_normals: a loader computed normals the file lacked (the
-                           * scene then gives its objects creases, mesh_crease_normals) */
+    int normals_smoothed; /* set by mesh_smooth_normals: a loader computed normals the file lacked, or
+                           * a subdivision recomputed them (the scene then gives a PLY or OBJ object
+                           * creases, mesh_crease_normals) */
 } mesh;
 
 #ifdef __cplusplus
