@@ -134,6 +134,13 @@ VX_INLINE int hn_fill_stencil(const voxel_grid *g, vec3 p, float level, hn_stenc
     return found0 > 0 || found1 > 0;
 }
 
+/* Where the edge is read at the foot (hn_cone_element_eval): the blended normal's length, the cells'
+ * unit normals' agreement. Why so close to 1: where the blend mixes faces (a box's corner, the
+ * bunny's creases) the top face's plane carried past the side put the foot on empty cells, which
+ * cut the element (bunny +20 %, city +12 % at 128^3 reading the foot everywhere; at a 0.97
+ * threshold bunny +1.5 %, at 0.99 +1.1 %, at 0.995 nothing). */
+#define HN_FLAT_COHERENCE 0.995f
+
 /* One cone element: geometry and mask at the element's centre; for an element that shows and has
  * lights, the attributes at the foot of the centre on the blended plane (see hn_blend_attributes:
  * they describe the surface, wherever the element sits above or below it). q->table is the mask
@@ -160,6 +167,28 @@ VX_INLINE void hn_cone_element_eval(const vx_query *q, vx_answer *a)
     if (hn_constraints_empty(mb.c, mb.nc, r, mb.behind))
         return;
     hn_blend_edge(records, &st, q->position, &s);
+    if (sqrtf(v3_dot(s.n, s.n)) > HN_FLAT_COHERENCE && st.count == HN_STENCIL_MAX) {
+        /* On a flat surface the edge is read at the foot of the element's centre on the blended
+         * plane: psi is an in-plane distance, the same all along the normal, but from an element
+         * below a solid's plane by about its radius (one that the layer below the plane still
+         * covers) the finer 2x2x2 block misses the empty cells the plane runs through past the
+         * edge, or the plane altogether, and the coarser level, twice as coarse and its empty
+         * cells at +size/2, placed the edge alone (a plate tilted 20 degrees, 64^2: its near edge
+         * +0.81 / +0.89 px at 128^3 / 256^3, MSE 6.7e-4 / 8.6e-4). The foot's field is kept only
+         * where its finer level has cells to blend. */
+        hn_sample sf = s;
+        vec3 nf = v3_normalize_or(s.n, v3(0.0f, 0.0f, 1.0f));
+        vec3 foot = v3_madd(q->position, nf, -s.D);
+        hn_stencil sts;
+        if (fabsf(s.D) < 1e30f && hn_fill_stencil(q->grid, foot, q->level, &sts)) {
+            sf.D = 0.0f; /* the foot lies on the plane */
+            if (hn_blend_edge(records, &sts, foot, &sf)) {
+                s.psi = sf.psi;
+                s.gpsi = sf.gpsi;
+                s.edge = sf.edge;
+            }
+        }
+    }
     vec3 N = hn_mask_finish(table, &s, &mb, r, a);
     if (q->light_count <= 0 || !(a->opacity > 0.0f))
         return;

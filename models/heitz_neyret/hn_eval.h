@@ -155,8 +155,9 @@ VX_INLINE int hn_blend_geometry(VX_GLOBAL const hn_record *records, const hn_ste
  * the least distance from its centre to any surface; an empty cell the plane misses lies above or
  * below the surface, says nothing about where it ends, and is left out (weights renormalised).
  * The gradient is that of the interpolant (the weights' gradients times the values). The element's
- * mask then keeps the side of the edge line psi = 0 (hn_mask_answer). */
-VX_INLINE void hn_blend_edge(VX_GLOBAL const hn_record *records, const hn_stencil *st, vec3 p, hn_sample *s)
+ * mask then keeps the side of the edge line psi = 0 (hn_mask_answer). Returns whether the finer
+ * level (slot 0) had any cell to blend. */
+VX_INLINE int hn_blend_edge(VX_GLOBAL const hn_record *records, const hn_stencil *st, vec3 p, hn_sample *s)
 {
     vec3 N = v3_normalize_or(s->n, v3(0.0f, 0.0f, 1.0f));
     float support = 0.5f * (fabsf(N.x) + fabsf(N.y) + fabsf(N.z));
@@ -203,7 +204,7 @@ VX_INLINE void hn_blend_edge(VX_GLOBAL const hn_record *records, const hn_stenci
     float w0, w1;
     hn_level_weights(f, W[0] > 0.0f, W[1] > 0.0f, &w0, &w1);
     if (!(w0 + w1 > 0.0f))
-        return;
+        return 0;
     s->psi = 0.0f;
     s->gpsi = v3(0.0f, 0.0f, 0.0f);
     for (int k = 0; k < 2; k++) {
@@ -217,6 +218,7 @@ VX_INLINE void hn_blend_edge(VX_GLOBAL const hn_record *records, const hn_stenci
         s->gpsi = v3_madd(s->gpsi, gk, wk);
     }
     s->edge = 1;
+    return W[0] > 0.0f;
 }
 
 /* Attributes (colours, variances, material) at a point p of the surface: they are averages over
