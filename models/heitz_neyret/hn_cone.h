@@ -167,6 +167,8 @@ VX_INLINE void hn_cone_element_eval(const vx_query *q, vx_answer *a)
     if (hn_constraints_empty(mb.c, mb.nc, r, mb.behind))
         return;
     hn_blend_edge(records, &st, q->position, &s);
+    hn_stencil sts; /* the foot's stencil, when the edge is read there: the attributes' too */
+    int foot_filled = 0;
     if (sqrtf(v3_dot(s.n, s.n)) > HN_FLAT_COHERENCE && st.count == HN_STENCIL_MAX) {
         /* On a flat surface the edge is read at the foot of the element's centre on the blended
          * plane: psi is an in-plane distance, the same all along the normal, but from an element
@@ -179,8 +181,8 @@ VX_INLINE void hn_cone_element_eval(const vx_query *q, vx_answer *a)
         hn_sample sf = s;
         vec3 nf = v3_normalize_or(s.n, v3(0.0f, 0.0f, 1.0f));
         vec3 foot = v3_madd(q->position, nf, -s.D);
-        hn_stencil sts;
-        if (fabsf(s.D) < 1e30f && hn_fill_stencil(q->grid, foot, q->level, &sts)) {
+        foot_filled = fabsf(s.D) < 1e30f;
+        if (foot_filled && hn_fill_stencil(q->grid, foot, q->level, &sts)) {
             sf.D = 0.0f; /* the foot lies on the plane */
             if (hn_blend_edge(records, &sts, foot, &sf)) {
                 s.psi = sf.psi;
@@ -196,8 +198,12 @@ VX_INLINE void hn_cone_element_eval(const vx_query *q, vx_answer *a)
     vec3 foot = v3_madd(q->position, nu, -s.D);
     if (!(fabsf(s.D) < 1e30f))
         foot = q->position;
-    hn_fill_stencil(q->grid, foot, q->level, &st);
-    hn_blend_attributes(records, &st, foot, nu, &s);
+    /* The same foot as the edge's read above when there was one (s.n long enough that both
+     * normalisations agree, s.D unchanged since): its stencil serves as filled, whatever the fill
+     * returned (an empty one reads as one). */
+    if (!foot_filled)
+        hn_fill_stencil(q->grid, foot, q->level, &sts);
+    hn_blend_attributes(records, &sts, foot, nu, &s);
     /* Point lights from the foot, where the surface is, as the truth lights its hit points: from
      * the element's centre a light lying on the surface would be seen at a slant and at a distance
      * as small as the centre's height, so its 1/d^2 would blow up (a light on the ground lit the
