@@ -152,6 +152,21 @@ def main():
         ("twice_run", '{"name": "t", "scenes": ["spheres"], "runs": [{"res": [8], "spp": [1], "res": [16]}]}',
          "runs[0].res", "given twice"),
     ]
+    # Plain scene files are read by voxlab's scene parser too (a file it refuses failed every job).
+    with open(os.path.join(REPO, "scenes", "spheres.json")) as f:
+        spheres = json.load(f)
+    with open(os.path.join(TMP, "scene_unknown.json"), "w") as f:
+        json.dump({**spheres, "lightz": []}, f)
+    missing = {**spheres, "objects": [{"ply": "no_such_mesh.ply", "material": next(iter(spheres["materials"]))}]}
+    missing.pop("generator", None)
+    with open(os.path.join(TMP, "scene_missing_mesh.json"), "w") as f:
+        json.dump(missing, f)
+    cases += [
+        ("plain_unknown", {"scenes": ["spheres", "scene_unknown.json"]}, "scenes[1]",
+         'scene_unknown.json: unknown field "lightz"'),
+        ("plain_base", {"scenes": [{"base": "scene_unknown.json"}]}, "scenes[0]", 'unknown field "lightz"'),
+        ("plain_mesh", {"scenes": ["scene_missing_mesh.json"]}, "scenes[0]", "no_such_mesh.ply"),
+    ]
     for name, fields, where, what in cases:
         p = check_only(write(name, [1] if fields is None else fields if isinstance(fields, str) else {**BASE, **fields}))
         line = p.stderr.strip()

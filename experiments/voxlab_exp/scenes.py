@@ -157,6 +157,21 @@ def write_variant(base_path, name, settings, out_dir):
     return path
 
 
+def _dry_run_refusal(voxlab, path, tmp):
+    """voxlab's words against the scene file at path (`truth --dry-run`, see scene_refusal), its own
+    prefix and the file's name left out; None when it takes the scene."""
+    cmd = [voxlab, "truth", path, "--dry-run", "--size", "1x1", "--spp", "1", "--threads", "1",
+           "-o", os.path.join(tmp, "x.exr")]
+    try:
+        p = subprocess.run(cmd, capture_output=True, text=True)
+    except OSError as e:
+        raise VoxlabError(f"cannot run {voxlab} to check the scenes ({e.strerror}): run make first")
+    if p.returncode == 0:
+        return None
+    lines = p.stderr.strip().splitlines() or p.stdout.strip().splitlines() or [f"exit status {p.returncode}"]
+    return lines[-1].removeprefix("voxlab truth: ").replace(path + ": ", "").replace(path + ".", "")
+
+
 def scene_refusal(voxlab, text):
     """What voxlab's scene parser says against a scene (its JSON text), or None when it takes it.
 
@@ -169,14 +184,12 @@ def scene_refusal(voxlab, text):
         path = os.path.join(tmp, "scene.json")
         with open(path, "w") as f:
             f.write(text)
-        cmd = [voxlab, "truth", path, "--dry-run", "--size", "1x1", "--spp", "1", "--threads", "1",
-               "-o", os.path.join(tmp, "x.exr")]
-        try:
-            p = subprocess.run(cmd, capture_output=True, text=True)
-        except OSError as e:
-            raise VoxlabError(f"cannot run {voxlab} to check the scene variants ({e.strerror}): run make first")
-    if p.returncode == 0:
-        return None
-    lines = p.stderr.strip().splitlines() or p.stdout.strip().splitlines() or [f"exit status {p.returncode}"]
-    msg = lines[-1].removeprefix("voxlab truth: ").replace(path + ": ", "").replace(path + ".", "")
-    return msg.replace(path, "the variant")
+        msg = _dry_run_refusal(voxlab, path, tmp)
+    return None if msg is None else msg.replace(path, "the variant")
+
+
+def scene_file_refusal(voxlab, path):
+    """scene_refusal for a scene file as it is (a declaration's plain scene): its meshes, textures
+    and generators read from where the file names them."""
+    with tempfile.TemporaryDirectory(prefix="voxlab-scene-") as tmp:
+        return _dry_run_refusal(voxlab, path, tmp)

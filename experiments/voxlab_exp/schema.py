@@ -7,9 +7,9 @@ one message naming the file, the field (runs[0].res[1]), what was expected and w
 voxlab's own); what a schema cannot say (no key given twice, scene files exist, scene names are
 unique, a run's scene subset names declared scenes, the number of variants and configurations, image
 sizes within voxlab's pixel cap, the truth curve's seed differs from the reference's) is checked here
-after it. Two checks ask the voxlab binary, because only it knows the answer: every scene variant is
-applied to its scene and read by voxlab's scene parser (`truth --dry-run`), and every tolerance names
-one of its metrics (`compare --list-metrics`) or a baseline column.
+after it. Two checks ask the voxlab binary, because only it knows the answer: every scene file and
+every scene variant (applied to its scene) is read by voxlab's scene parser (`truth --dry-run`), and
+every tolerance names one of its metrics (`compare --list-metrics`) or a baseline column.
 """
 import concurrent.futures
 import itertools
@@ -21,7 +21,7 @@ import re
 from .config import DEFAULT_VOXLAB, REPO, SEED
 from .errors import DeclarationError, VoxlabError
 from .hashing import canonical
-from .scenes import SettingError, resolve_scene, scene_refusal, variant_text
+from .scenes import SettingError, resolve_scene, scene_file_refusal, scene_refusal, variant_text
 
 SCHEMA_PATH = os.path.join(REPO, "experiments", "declaration.schema.json")
 RUN_DEFAULTS = {"models": "all", "size": "res", "spp": [4], "rays": [150], "cache": [True], "shadow_skip": [True],
@@ -210,6 +210,21 @@ def _declared_setting(field, variant):
     return None
 
 
+def check_plain_scenes(plain, voxlab, fail):
+    """Has voxlab's scene parser read each plain scene file ((where, path) in declaration order), as
+    check_variants does a variant: a scene file voxlab refuses (a field it does not know, a mesh that
+    is missing) stops the declaration, not every one of its jobs."""
+    if voxlab is None or not plain:
+        return
+    paths = list(dict.fromkeys(p for _, p in plain))
+    with concurrent.futures.ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:
+        refusals = dict(zip(paths, pool.map(lambda p: scene_file_refusal(voxlab, p), paths)))
+    for where, path in plain:
+        if refusals[path] is not None:
+            shown = os.path.relpath(path, REPO) if path.startswith(REPO + os.sep) else path
+            fail(where, f"scene file {shown}: {refusals[path]}")
+
+
 def check_variants(variants, voxlab, fail):
     """Applies each variant ((where, variant) in declaration order) to its scene and, with a voxlab
     binary, has voxlab's scene parser read the result: a setting the scene has no place for or a value
@@ -395,6 +410,7 @@ def declaration_from_dict(d, shown="<declaration dict>", base_dir=None, path=Non
     decl["tolerances"] = d.get("tolerances", {})
     # Last, as they run voxlab: a mistake the checks above can name is named without waiting for it.
     check_tolerance_names(decl["tolerances"], voxlab, fail)
+    check_plain_scenes([(where, s["path"]) for where, made in entries for s in made if not s["base"]], voxlab, fail)
     check_variants([(where, s) for where, made in entries for s in made if s["base"]], voxlab, fail)
     return decl
 
