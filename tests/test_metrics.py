@@ -70,6 +70,58 @@ def png_size(path):
     return int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big"), head[24], head[25]
 
 
+def write_exr(path, img, names):
+    """An EXR whose channels carry the given names (OpenImageIO marks "A" as the alpha channel)."""
+    import OpenImageIO as oiio
+    h, w, n = img.shape
+    spec = oiio.ImageSpec(w, h, n, "float")
+    spec.channelnames = tuple(names)
+    spec.alpha_channel = names.index("A") if "A" in names else -1
+    out = oiio.ImageOutput.create(path)
+    ok = out.open(path, spec) and out.write_image(np.ascontiguousarray(img, np.float32)) and out.close()
+    assert ok, path
+
+
+def read_pfm(path):
+    with open(path, "rb") as f:
+        grey = f.readline().strip() == b"Pf"
+        w, h = map(int, f.readline().split())
+        f.readline()
+        img = np.frombuffer(f.read(), "<f4").reshape(h, w, *(() if grey else (3,)))[::-1]
+    return img.astype(np.float32)
+
+
+def channels_named(pair):
+    """A second or fourth channel is alpha only when the file names it so: (R, G) is refused with its
+    names, (R, G, B, Z) is colour (Z left out), (R, G, B, A) colour with alpha ignored."""
+    a, b = read_pfm(pair[0]), read_pfm(pair[1])
+    mse, _ = reference(a, b)
+    depth = np.full(a.shape[:2] + (1,), 7.0, np.float32)
+    rgbz_a, rgbz_b = os.path.join(TMP, "rgbz_a.exr"), os.path.join(TMP, "rgbz_b.exr")
+    write_exr(rgbz_a, np.concatenate([a, depth], -1), ["R", "G", "B", "Z"])
+    write_exr(rgbz_b, np.concatenate([b, depth + 1], -1), ["R", "G", "B", "Z"])
+    p = voxlab("compare", rgbz_a, rgbz_b, "--json", check=False)
+    got = __import__("json").loads(p.stdout) if p.returncode == 0 else {}
+    report("R, G, B, Z: the colour compared, Z left out (not read as alpha)",
+           p.returncode == 0 and abs(got.get("mse", -1) - mse) <= TOL, f"{p.stderr.strip()} {got} want mse {mse}")
+    p = voxlab("compare", rgbz_a, pair[1], "--json", check=False)
+    report("R, G, B, Z against R, G, B: 3 channels each", p.returncode == 0, p.stderr.strip())
+    rg = os.path.join(TMP, "rg.exr")
+    write_exr(rg, a[..., :2], ["R", "G"])
+    p = voxlab("compare", rg, rg, "--json", check=False)
+    report("R, G: refused, naming the file and its channels (not read as grey + alpha)",
+           p.returncode == 1 and p.stdout == "" and rg in p.stderr and "(R, G)" in p.stderr
+           and "grey + alpha" in p.stderr, p.stderr.strip())
+    ya_a, ya_b = os.path.join(TMP, "ya_a.exr"), os.path.join(TMP, "ya_b.exr")
+    write_exr(ya_a, np.stack([a[..., 0], a[..., 1]], -1), ["Y", "A"])
+    write_exr(ya_b, np.stack([b[..., 0], a[..., 2]], -1), ["Y", "A"])
+    p = voxlab("compare", ya_a, ya_b, "--json", check=False)
+    got = __import__("json").loads(p.stdout) if p.returncode == 0 else {}
+    want, _ = reference(a[..., 0], b[..., 0])
+    report("Y, A: grey + alpha, alpha ignored", p.returncode == 0 and abs(got.get("mse", -1) - want) <= TOL,
+           f"{p.stderr.strip()} {got} want {want}")
+
+
 def main():
     worst = 0.0
     paths = {}
@@ -116,6 +168,8 @@ def main():
     grey = paths["grey 64x48 blurred"][0]
     p = voxlab("compare", pa, grey, check=False)
     report("channel mismatch fails", p.returncode != 0 and pa in p.stderr and grey in p.stderr, p.stderr.strip())
+
+    channels_named(paths["rgb 64x48 noisy"])
 
     small = os.path.join(TMP, "small.pfm")
     write_pfm(small, np.zeros((8, 8), np.float32))

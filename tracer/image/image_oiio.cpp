@@ -113,6 +113,20 @@ extern "C" int vx_oiio_read(const char *path, image *out, vx_err *e)
                        spec.height, (long long)spec.width * spec.height, IMAGE_MAX_PIXELS);
     // Anything past 4 channels (AOVs, depth...) has no place in an RGBA image; keep the first four.
     int channels = spec.nchannels < 4 ? spec.nchannels : 4;
+    // Every reader (the metrics, the textures) takes a second or fourth channel for alpha, so it is
+    // kept only where the file says it is one (OIIO names it: "A", a PNG's or TIFF's alpha). A
+    // fourth that is not (R, G, B, Z) is left out; two channels that are not grey + alpha (an EXR's
+    // R, G) have no reading as colour, and were compared as grey + alpha without a word.
+    if (channels == 4 && spec.alpha_channel != 3)
+        channels = 3;
+    if (channels == 2 && spec.alpha_channel != 1) {
+        std::string names;
+        for (int c = 0; c < spec.nchannels && c < 8; c++)
+            names += (c ? ", " : "") + (c < int(spec.channelnames.size()) ? spec.channelnames[size_t(c)] : "?");
+        return vx_fail(e, "cannot read %s: its 2 channels (%s) are not grey + alpha (expected 1 grey channel, grey + "
+                          "alpha, RGB or RGBA)",
+                       path, one_line(names).c_str());
+    }
     vx_err alloc_err;
     if (image_alloc(out, spec.width, spec.height, channels, &alloc_err) != 0)
         return vx_fail(e, "cannot read %s: %s", path, alloc_err.msg);
