@@ -122,6 +122,28 @@ def channels_named(pair):
            f"{p.stderr.strip()} {got} want {want}")
 
 
+def non_finite(pair):
+    """An image with NaN or infinite colour values is refused, naming it, the count and the first
+    pixel (its metrics were null, which the tables showed as a missing row); alpha may hold anything."""
+    a = read_pfm(pair[0])
+    bad = a.copy()
+    bad[5, 7, 1] = np.nan
+    bad[9, 2, 0] = np.inf
+    pb = os.path.join(TMP, "nonfinite.pfm")
+    write_pfm(pb, bad)
+    heat = os.path.join(TMP, "nonfinite_heat.png")
+    p = voxlab("compare", pair[0], pb, "--json", "--heatmap", heat, check=False)
+    report("NaN / inf colour values: refused, naming the image, the count and the first pixel",
+           p.returncode == 1 and p.stdout == "" and pb in p.stderr and "second image has 2 NaN or infinite" in p.stderr
+           and "x=7, y=5" in p.stderr and not os.path.exists(heat), p.stderr.strip())
+    p = voxlab("compare", pb, pair[0], check=False)
+    report("... as the first image too", p.returncode == 1 and "first image has 2" in p.stderr, p.stderr.strip())
+    rgba = os.path.join(TMP, "nan_alpha.exr")
+    write_exr(rgba, np.concatenate([a, np.full(a.shape[:2] + (1,), np.nan, np.float32)], -1), ["R", "G", "B", "A"])
+    p = voxlab("compare", rgba, rgba, "--json", check=False)
+    report("NaN in alpha only: compared (alpha is not colour)", p.returncode == 0, p.stderr.strip())
+
+
 def main():
     worst = 0.0
     paths = {}
@@ -170,6 +192,7 @@ def main():
     report("channel mismatch fails", p.returncode != 0 and pa in p.stderr and grey in p.stderr, p.stderr.strip())
 
     channels_named(paths["rgb 64x48 noisy"])
+    non_finite(paths["rgb 64x48 noisy"])
 
     small = os.path.join(TMP, "small.pfm")
     write_pfm(small, np.zeros((8, 8), np.float32))

@@ -38,7 +38,8 @@ static int fail(const char *fmt, ...)
     return 1;
 }
 
-/* JSON has no inf/NaN: infinite PSNR (identical images) and NaN (NaN pixels) become null. */
+/* JSON has no inf/NaN: infinite PSNR (identical images) becomes null (images with NaN or infinite
+ * pixels are refused by metrics_compare). */
 static size_t json_double(char *out, size_t size, const char *key, double v)
 {
     int n = isfinite(v) ? snprintf(out, size, "\"%s\":%.17g,", key, v) : snprintf(out, size, "\"%s\":null,", key);

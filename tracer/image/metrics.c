@@ -155,6 +155,25 @@ static int check_same(const image *a, const image *b, vx_err *e)
     return 0;
 }
 
+/* Refuses an image with a NaN or infinite colour value, naming which image, how many and the first
+ * (row by row). Why: the metrics of such an image are NaN, which JSON writes as null, and the
+ * experiments' tables showed a model that had made NaNs as "–", as if its row were missing. A model
+ * that makes them has a defect to be seen, and its first bad pixel is named. */
+static int check_finite(const image *img, const char *which, vx_err *e)
+{
+    const int cc = colour_channels(img->channels);
+    size_t bad = 0, first = 0;
+    for (size_t p = 0, n = (size_t)img->width * (size_t)img->height; p < n; p++)
+        for (int c = 0; c < cc; c++)
+            if (!isfinite(img->data[p * (size_t)img->channels + (size_t)c]) && bad++ == 0)
+                first = p;
+    if (bad)
+        return vx_fail(e, "%s image has %zu NaN or infinite colour value%s (the first at pixel x=%zu, y=%zu): its "
+                       "MSE and SSIM are undefined",
+                       which, bad, bad == 1 ? "" : "s", first % (size_t)img->width, first / (size_t)img->width);
+    return 0;
+}
+
 int metrics_compare(const image *a, const image *b, image_metrics *out, vx_err *e)
 {
     if (check_same(a, b, e) != 0)
@@ -163,6 +182,8 @@ int metrics_compare(const image *a, const image *b, image_metrics *out, vx_err *
     if (w < SSIM_WIN || h < SSIM_WIN)
         return vx_fail(e, "image is %dx%d but SSIM needs at least %dx%d pixels (its Gaussian window, as in "
                        "scikit-image)", w, h, SSIM_WIN, SSIM_WIN);
+    if (check_finite(a, "the first", e) || check_finite(b, "the second", e))
+        return -1;
 
     /* MSE over pixels and colour channels, summed per row as numpy would, in double. */
     double *row = malloc(sizeof(double) * (size_t)w * cc);

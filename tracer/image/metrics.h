@@ -15,8 +15,9 @@ extern "C" {
 #endif
 
 /* Images of different sizes or channel counts are an error, and so are images smaller than 11x11
- * (SSIM's window; scikit-image raises too). With 2 or 4 channels the last one (alpha) is ignored:
- * only colour channels count, in MSE, SSIM and the heat map. */
+ * (SSIM's window; scikit-image raises too), and so is an image with a NaN or infinite colour value.
+ * With 2 or 4 channels the last one (alpha) is ignored: only colour channels count, in MSE, SSIM and
+ * the heat map. */
 int metrics_compare(const image *a, const image *b, image_metrics *out, vx_err *e);
 
 /* SSIM of one channel of a and b, skimage's structural_similarity(gaussian_weights=True,
