@@ -4,14 +4,15 @@ naming the object: the scene does not declare "textures", or the mesh has no tex
 more than 8 are refused when read (truth and render), and with 8 every renderer counts all of them. An albedo
 outside [0, 1] is refused, from a material, a checker, a float texture or a PLY's vertex colours. A cube
 without normals on 8 shared corners (PLY or OBJ) renders as the flat-faced cube, in the truth and every model
-(normals with creases)."""
+(normals with creases); so does the cube as a glTF without NORMAL (flat normals, as glTF 2.0 asks), alone or
+beside a primitive with NORMAL, unless subdivided (shared vertices: the subdivision's smooth normals)."""
 import json
 import os
 import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from testlib import REPO, TMP, VOXLAB, finish, read_image, report, write_ply  # noqa: E402
+from testlib import REPO, TMP, VOXLAB, finish, read_image, report, write_gltf, write_ply  # noqa: E402
 
 import numpy as np  # noqa: E402
 import OpenImageIO as oiio  # noqa: E402
@@ -237,6 +238,28 @@ with open(flat_obj, "w") as f:
     f.write("".join(f"v {x} {y} {z}\n" for q in CUBE_QUADS for x, y, z in (CORNERS[i] for i in q)))
     f.write("".join(f"f {4 * k + 1} {4 * k + 2} {4 * k + 3} {4 * k + 4}\n" for k in range(6)))
 
+# The same cubes as glTF (each quad as the triangles (a, b, c), (a, c, d), as the PLY's fan): on the 8
+# corners without NORMAL, the flat-faced reference with each face's NORMAL, and a mixed file whose
+# first three faces carry NORMAL and whose last three share corners without it. glTF 2.0 asks for flat
+# normals where NORMAL is missing; before, such a primitive got smooth ones (the blob of diagonals).
+FACE_NORMALS = [(-1, 0, 0), (1, 0, 0), (0, -1, 0), (0, 1, 0), (0, 0, -1), (0, 0, 1)]
+
+
+def fan(quads):
+    return [t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))]
+
+
+def flat_faces(faces):
+    """A glTF primitive of the cube's faces, each with its own four corners and its NORMAL."""
+    return ([CORNERS[i] for f in faces for i in CUBE_QUADS[f]], fan([range(4 * k, 4 * k + 4) for k in range(len(faces))]),
+            [FACE_NORMALS[f] for f in faces for _ in range(4)])
+
+
+cube_gltf, flat_gltf, mixed_gltf = (os.path.join(TMP, f"cube_{k}.gltf") for k in ("shared", "flat", "mixed"))
+write_gltf(cube_gltf, [(CORNERS, fan(CUBE_QUADS), None)])
+write_gltf(flat_gltf, [flat_faces(range(6))])
+write_gltf(mixed_gltf, [flat_faces(range(3)), (CORNERS, fan(CUBE_QUADS[3:]), None)])
+
 
 def cube_scene(name, obj):
     s = {"name": name, "size": [32, 32], "background": [0.2, 0.3, 0.4], "effects": [],
@@ -252,7 +275,8 @@ def cube_scene(name, obj):
 
 cubes = {k: cube_scene("cube_" + k, o) for k, o in
          (("shared", {"ply": shared}), ("flat", {"ply": flat}), ("obj", {"obj": cube_obj}),
-          ("flat_obj", {"obj": flat_obj}))}
+          ("flat_obj", {"obj": flat_obj}), ("gltf", {"gltf": cube_gltf}), ("flat_gltf", {"gltf": flat_gltf}),
+          ("mixed_gltf", {"gltf": mixed_gltf}))}
 for name, cmd in [("truth", ["truth", "--spp", "4"])] + [(m, ["render", "--model", m, "--res", "24"]) for m in models]:
     imgs = {}
     for k, path in cubes.items():
@@ -264,4 +288,21 @@ for name, cmd in [("truth", ["truth", "--spp", "4"])] + [(m, ["render", "--model
     d = [float(np.abs(imgs[a] - imgs[b]).max()) for a, b in (("shared", "flat"), ("obj", "flat_obj"))] if ok else None
     report(f"{name}: a cube on 8 shared corners without normals (PLY, OBJ) renders as the flat-faced cube (1e-6)",
            ok and max(d) <= 1e-6, f"max differences {d}")
+    g = [float(np.abs(imgs[a] - imgs["flat_gltf"]).max()) for a in ("gltf", "mixed_gltf")] if ok else None
+    report(f"{name}: a glTF cube on 8 shared corners without NORMAL (alone, or beside a primitive with NORMAL) "
+           "renders as the flat-faced cube with NORMAL (1e-6)", ok and max(g) <= 1e-6, f"max differences {g}")
+# With "subdivide" a glTF primitive without NORMAL keeps its shared corners (Loop subdivision connects
+# by vertex index; split corners would come apart into separate patches): the same image as the cube
+# with NORMAL on the same 8 corners, whose given normals the subdivision replaces anyway.
+diag_gltf = os.path.join(TMP, "cube_diag.gltf")
+write_gltf(diag_gltf, [(CORNERS, fan(CUBE_QUADS), [tuple(c / 3 ** 0.5 for c in p) for p in CORNERS])])
+sub = {}
+for k, path in (("none", cube_gltf), ("diag", diag_gltf)):
+    out = os.path.join(TMP, f"cube-sub-{k}.exr")
+    p = truth(cube_scene(f"cube_sub_{k}", {"gltf": path, "subdivide": 1}), out)
+    sub[k] = read_image(out)[..., :3] if p.returncode == 0 else None
+ok = all(v is not None for v in sub.values())
+d = float(np.abs(sub["none"] - sub["diag"]).max()) if ok else None
+report("truth: a subdivided glTF cube without NORMAL renders as with NORMAL on the same 8 corners (shared "
+       "vertices; 1e-6)", ok and d <= 1e-6, f"max difference {d}")
 finish()

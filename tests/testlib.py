@@ -71,6 +71,39 @@ def write_ply(path, verts, faces, extra=()):
             f.write(f"{len(fc)} " + " ".join(map(str, fc)) + "\n")
 
 
+def write_gltf(path, primitives):
+    """A glTF 2.0 file (one node, one mesh, one data-URI buffer): each primitive is (positions,
+    triangles, normals or None: then the primitive has no NORMAL), float VEC3s and uint32 indices."""
+    import base64
+    import struct
+    buf, views, accessors, prims = b"", [], [], []
+
+    def add(values, fmt, kind, minmax=False):
+        nonlocal buf
+        data = b"".join(struct.pack(fmt, *v) if kind == "VEC3" else struct.pack(fmt, v) for v in values)
+        views.append({"buffer": 0, "byteOffset": len(buf), "byteLength": len(data)})
+        acc = {"bufferView": len(views) - 1, "componentType": 5126 if kind == "VEC3" else 5125,
+               "count": len(values), "type": kind}
+        if minmax:
+            acc.update(min=[min(v[k] for v in values) for k in range(3)],
+                       max=[max(v[k] for v in values) for k in range(3)])
+        accessors.append(acc)
+        buf += data
+        return len(accessors) - 1
+
+    for positions, triangles, normals in primitives:
+        attributes = {"POSITION": add(positions, "<3f", "VEC3", minmax=True)}
+        if normals is not None:
+            attributes["NORMAL"] = add(normals, "<3f", "VEC3")
+        prims.append({"attributes": attributes, "indices": add([i for t in triangles for i in t], "<I", "SCALAR")})
+    doc = {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+           "meshes": [{"primitives": prims}], "bufferViews": views, "accessors": accessors,
+           "buffers": [{"byteLength": len(buf),
+                        "uri": "data:application/octet-stream;base64," + base64.b64encode(buf).decode()}]}
+    with open(path, "w") as f:
+        json.dump(doc, f)
+
+
 def write_scene(name, objects, lights, camera, effects=(), materials=None, size=(16, 16), background=(0, 0, 0)):
     """Writes a scene file into TMP and returns its path."""
     scene = {

@@ -281,7 +281,9 @@ static void test_gltf_quad(const char *path, bool glb)
               near3(&m.positions[12], 1, 2, 3, 1e-6f) && near3(&m.positions[15], 3, 2, 3, 1e-6f) &&
                   near3(&m.positions[18], 1, 3, 3, 1e-6f));
         CHECK("glb unindexed primitive triangle", m.indices[6] == 4 && m.indices[7] == 5 && m.indices[8] == 6);
-        CHECK("glb primitive without normals is smoothed", near3(&m.normals[12], 0, 0, 1, 1e-6f));
+        CHECK("glb primitive without normals gets its triangle's normal (flat; the other primitive keeps its NORMAL)",
+              near3(&m.normals[12], 0, 0, 1, 1e-6f) && near3(&m.normals[15], 0, 0, 1, 1e-6f) &&
+                  near3(&m.normals[18], 0, 0, 1, 1e-6f));
         CHECK("glb primitive without material is white", near3(&m.colors[12], 1, 1, 1, 0));
     }
     mesh_free(&m);
@@ -499,6 +501,96 @@ static void test_crease_normals(void)
     mesh_free(&m);
 }
 
+/* mesh_flat_normals on a bent quad worked out by hand: corners (0,0,0), (1,0,0), (1,1,0), (0,1,1)
+ * shared by triangles (0,1,2), normal +z, and (0,2,3), normal (1,-1,1)/sqrt 3; each triangle gets
+ * three vertices of its own with its normal and its corners' positions, uvs and colours; a vertex no
+ * triangle uses goes; an earlier object's triangle and vertices stay as they were. Before, a glTF
+ * primitive without NORMAL got smooth normals: its shared corners (0,0,0) and (1,1,0) pointed
+ * along (1,-1,2)/sqrt 6. */
+static const float bent_pos[4][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 1}};
+static const uint16_t bent_idx[6] = {0, 1, 2, 0, 2, 3};
+
+static bool bent_normals_flat(const mesh *m, size_t t0)
+{
+    const float r = 1.0f / sqrtf(3.0f);
+    bool ok = m->triangle_count == t0 + 2;
+    for (int k = 0; ok && k < 3; k++)
+        ok = near3(&m->normals[3 * m->indices[3 * t0 + (size_t)k]], 0, 0, 1, 1e-6f) &&
+             near3(&m->normals[3 * m->indices[3 * t0 + 3 + (size_t)k]], r, -r, r, 1e-6f);
+    return ok;
+}
+
+static void test_flat_normals(void)
+{
+    mesh m = {0};
+    mesh_add_flat_triangle(&m, v3(5, 5, 5), v3(6, 5, 5), v3(5, 5, 4), 3); /* normal (0, 1, 0) */
+    for (int k = 0; k < 4; k++) {
+        uint32_t v = mesh_add_vertex(&m, v3(bent_pos[k][0], bent_pos[k][1], bent_pos[k][2]), v3(0, 0, 0),
+                                     0.25f * (float)k, 1.0f - 0.25f * (float)k);
+        mesh_set_vertex_color(&m, v, v3(0.1f * (float)k, 0.2f, 0.3f + 0.1f * (float)k));
+    }
+    mesh_add_vertex(&m, v3(9, 9, 9), v3(0, 0, 1), 0, 0); /* used by no triangle */
+    mesh_add_triangle(&m, 3 + bent_idx[0], 3 + bent_idx[1], 3 + bent_idx[2], 7);
+    mesh_add_triangle(&m, 3 + bent_idx[3], 3 + bent_idx[4], 3 + bent_idx[5], 8);
+    mesh_flat_normals(&m, 3, 1);
+    CHECK("flat normals: 3 vertices per triangle (the unused one gone)", m.vertex_count == 3 + 6 && m.triangle_count == 3);
+    bool own = true, kept = true;
+    for (size_t i = 0; i < 6; i++) {
+        uint32_t v = m.indices[3 + i], k = bent_idx[i];
+        own &= v == 3 + i;
+        kept &= near3(&m.positions[3 * v], bent_pos[k][0], bent_pos[k][1], bent_pos[k][2], 0) &&
+                m.uvs[2 * v] == 0.25f * (float)k && m.uvs[2 * v + 1] == 1.0f - 0.25f * (float)k &&
+                near3(&m.colors[3 * v], 0.1f * (float)k, 0.2f, 0.3f + 0.1f * (float)k, 0);
+    }
+    CHECK("flat normals: each corner its own vertex, in triangle order", own);
+    CHECK("flat normals: each corner keeps its position, uv and colour", kept);
+    CHECK("flat normals: each triangle's corners carry its face normal (1e-6)", bent_normals_flat(&m, 1));
+    CHECK("flat normals: materials kept, normals_smoothed not set", m.materials[1] == 7 && m.materials[2] == 8 &&
+                                                                       !m.normals_smoothed);
+    CHECK("flat normals: the earlier object's triangle untouched",
+          m.indices[0] == 0 && m.indices[1] == 1 && m.indices[2] == 2 && near3(&m.positions[3], 6, 5, 5, 0) &&
+              near3(&m.normals[0], 0, 1, 0, 1e-6f) && near3(&m.normals[6], 0, 1, 0, 1e-6f));
+    mesh_free(&m);
+}
+
+/* The same bent quad as a glTF primitive on 4 shared vertices without NORMAL (external buffer): flat
+ * normals (glTF 2.0: "client implementations MUST calculate flat normals"), 6 vertices; for an
+ * object to be subdivided, the 4 shared vertices with smooth normals (the area-weighted means). */
+static void test_gltf_without_normals(void)
+{
+    unsigned char bin[60];
+    memcpy(bin, bent_pos, 48);
+    memcpy(bin + 48, bent_idx, 12);
+    write_tmp_bytes("bent.bin", bin, sizeof bin);
+    const char *path = write_tmp(
+        "bent.gltf",
+        "{\"asset\": {\"version\": \"2.0\"}, \"scene\": 0, \"scenes\": [{\"nodes\": [0]}], \"nodes\": [{\"mesh\": 0}],"
+        " \"meshes\": [{\"primitives\": [{\"attributes\": {\"POSITION\": 0}, \"indices\": 1}]}],"
+        " \"buffers\": [{\"byteLength\": 60, \"uri\": \"bent.bin\"}],"
+        " \"bufferViews\": [{\"buffer\": 0, \"byteLength\": 48}, {\"buffer\": 0, \"byteOffset\": 48, \"byteLength\": 12}],"
+        " \"accessors\": [{\"bufferView\": 0, \"componentType\": 5126, \"count\": 4, \"type\": \"VEC3\","
+        " \"min\": [0, 0, 0], \"max\": [1, 1, 1]},"
+        " {\"bufferView\": 1, \"componentType\": 5123, \"count\": 6, \"type\": \"SCALAR\"}]}");
+    mesh m = {0};
+    vx_err e = {{0}};
+    int rc = mesh_load_gltf(path, &m, 0, &e);
+    if (rc)
+        printf("# %s\n", e.msg);
+    CHECK("gltf without NORMAL: flat normals, 3 vertices per triangle",
+          rc == 0 && m.vertex_count == 6 && bent_normals_flat(&m, 0));
+    mesh_free(&m);
+    memset(&m, 0, sizeof m);
+    rc = mesh_load_gltf_files(path, &m, 0, 0, 1, NULL, NULL, NULL, NULL, &e);
+    if (rc)
+        printf("# %s\n", e.msg);
+    const float h = 1.0f / sqrtf(6.0f), r = 1.0f / sqrtf(3.0f);
+    CHECK("gltf without NORMAL, to be subdivided: shared vertices, smooth normals",
+          rc == 0 && m.vertex_count == 4 && near3(&m.normals[0], h, -h, 2 * h, 1e-6f) &&
+              near3(&m.normals[3], 0, 0, 1, 1e-6f) && near3(&m.normals[6], h, -h, 2 * h, 1e-6f) &&
+              near3(&m.normals[9], r, -r, r, 1e-6f));
+    mesh_free(&m);
+}
+
 int main(void)
 {
     make_tmp_dir();
@@ -513,6 +605,8 @@ int main(void)
     test_gltf_errors();
     test_obj();
     test_crease_normals();
+    test_flat_normals();
+    test_gltf_without_normals();
     remove_tmp_files();
     return unit_exit();
 }

@@ -130,6 +130,35 @@ void mesh_smooth_normals(mesh *m, size_t first_vertex, size_t first_triangle)
     }
 }
 
+void mesh_flat_normals(mesh *m, size_t v0, size_t t0)
+{
+    size_t nv = m->vertex_count - v0, nt = m->triangle_count - t0;
+    /* The corners' attributes are read from a copy: the new vertices overwrite the old ones' slots
+     * (vertex v0 + 3 t + k is corner k of triangle t0 + t). */
+    float *pos = grow(NULL, nv ? 8 * nv : 1, sizeof *pos), *uv = pos + 3 * nv, *col = uv + 2 * nv;
+    memcpy(pos, m->positions + 3 * v0, 3 * nv * sizeof *pos);
+    memcpy(uv, m->uvs + 2 * v0, 2 * nv * sizeof *uv);
+    memcpy(col, m->colors + 3 * v0, 3 * nv * sizeof *col);
+    m->vertex_count = v0;
+    for (size_t t = t0; t < t0 + nt; t++) {
+        uint32_t *tri = &m->indices[3 * t];
+        const float *p[3];
+        for (int k = 0; k < 3; k++)
+            p[k] = pos + 3 * (tri[k] - v0);
+        vec3 a = v3(p[0][0], p[0][1], p[0][2]), b = v3(p[1][0], p[1][1], p[1][2]), c = v3(p[2][0], p[2][1], p[2][2]);
+        /* As mesh_add_flat_triangle; a zero-area triangle gets +z as mesh_smooth_normals gives its
+         * lone vertices (the scene drops it, drop_degenerate). */
+        vec3 n = v3_normalize(v3_cross(v3_sub(b, a), v3_sub(c, a)));
+        for (int k = 0; k < 3; k++) {
+            size_t old = tri[k] - v0;
+            uint32_t idx = mesh_add_vertex(m, v3(p[k][0], p[k][1], p[k][2]), n, uv[2 * old], uv[2 * old + 1]);
+            mesh_set_vertex_color(m, idx, v3(col[3 * old], col[3 * old + 1], col[3 * old + 2]));
+            tri[k] = idx;
+        }
+    }
+    free(pos);
+}
+
 /* A vertex shared by more triangles than this whose normals do not all lie within half the crease
  * of their mean (a cone's apex) gives each corner its own triangle's normal: grouping its corners
  * by shared edges is quadratic in the triangles around it. */

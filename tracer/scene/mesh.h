@@ -54,6 +54,14 @@ void mesh_smooth_normals(mesh *m, size_t first_vertex, size_t first_triangle);
  * model, which sees only the shading normals, lights them as the normals say: a bias no voxel size
  * removed (binary +13 % on a rotated cube). Deterministic: corners are visited in triangle order. */
 void mesh_crease_normals(mesh *m, size_t first_vertex, size_t first_triangle, float crease_deg);
+/* Flat normals, as glTF 2.0 asks of a primitive without NORMAL ("client implementations MUST
+ * calculate flat normals"): each triangle from first_triangle on (which use only the vertices from
+ * first_vertex on) gets three vertices of its own, in triangle order, that carry its geometric
+ * normal (counter-clockwise = front; +z for a zero-area one) and the position, uv and colour of the
+ * corner each came from. The vertices from first_vertex on are replaced (3 per triangle; one no
+ * triangle uses is gone). Leaves normals_smoothed alone: these normals need no creases. The
+ * caller keeps 3 x the triangles within 32-bit indices. */
+void mesh_flat_normals(mesh *m, size_t first_vertex, size_t first_triangle);
 vec3 mesh_position(const mesh *m, uint32_t vertex);
 void mesh_set_vertex_color(mesh *m, uint32_t vertex, vec3 color);
 

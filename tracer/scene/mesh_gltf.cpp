@@ -235,6 +235,7 @@ struct loader {
     uint32_t material;
     gltf_material_fn make_material; // NULL: base colours become vertex colours
     void *material_ctx;
+    bool to_subdivide;              // a primitive without NORMAL keeps shared vertices (see add_primitive)
     std::vector<int64_t> made;      // voxlab material per glTF material, -1 until made
     size_t triangle_primitives = 0, other_primitives = 0;
 
@@ -437,8 +438,19 @@ struct loader {
             for (size_t t = 0; t < pos.count; t += 3)
                 add(t, t + 1, t + 2);
         }
-        if (!has_normals)
+        // Without NORMAL glTF 2.0 asks for flat normals: each triangle gets its own corners. An object
+        // to be subdivided keeps the shared vertices (Loop subdivision connects by vertex index,
+        // and would tear a split surface into separate pieces) and smooth ones, which the
+        // subdivision recomputes from the refined surface anyway.
+        if (!has_normals && to_subdivide) {
             mesh_smooth_normals(out, v0, t0);
+        } else if (!has_normals) {
+            size_t triangles = out->triangle_count - t0;
+            if (triangles > (size_t(UINT32_MAX) - v0) / 3)
+                fail(prim_name + ": " + std::to_string(triangles) + " triangles without NORMAL make " +
+                     std::to_string(3 * triangles) + " flat-shaded vertices, which do not fit 32-bit indices");
+            mesh_flat_normals(out, v0, t0);
+        }
     }
 
     void walk(int node_index, const mat4 &parent, std::vector<char> &on_path)
@@ -674,8 +686,8 @@ void check_image_ranges(const tinygltf::Model &m)
     }
 }
 
-void load(const char *path, mesh *out, uint32_t material, bool uris_anywhere, gltf_material_fn make_material,
-          void *material_ctx, gltf_file_fn on_file, void *file_ctx)
+void load(const char *path, mesh *out, uint32_t material, bool uris_anywhere, bool to_subdivide,
+          gltf_material_fn make_material, void *material_ctx, gltf_file_fn on_file, void *file_ctx)
 {
     std::string file(path);
     bool binary;
@@ -764,7 +776,7 @@ void load(const char *path, mesh *out, uint32_t material, bool uris_anywhere, gl
         if (on_file && on_file(file_ctx, f.c_str()))
             fail("out of memory for the list of the files the glTF names");
 
-    loader l{model, out, material, make_material, material_ctx, {}};
+    loader l{model, out, material, make_material, material_ctx, to_subdivide, {}};
     std::vector<char> on_path(model.nodes.size(), 0);
     if (!model.scenes.empty()) {
         size_t s = model.defaultScene >= 0 && size_t(model.defaultScene) < model.scenes.size()
@@ -803,14 +815,14 @@ extern "C" int mesh_load_gltf_uris(const char *path, mesh *out, uint32_t materia
 extern "C" int mesh_load_gltf_materials(const char *path, mesh *out, uint32_t material, int uris_anywhere,
                                         gltf_material_fn make_material, void *ctx, vx_err *e)
 {
-    return mesh_load_gltf_files(path, out, material, uris_anywhere, make_material, ctx, nullptr, nullptr, e);
+    return mesh_load_gltf_files(path, out, material, uris_anywhere, 0, make_material, ctx, nullptr, nullptr, e);
 }
 
 extern "C" int mesh_load_gltf_files(const char *path, mesh *out, uint32_t material, int uris_anywhere,
-                                    gltf_material_fn make_material, void *ctx, gltf_file_fn on_file, void *file_ctx,
-                                    vx_err *e)
+                                    int to_subdivide, gltf_material_fn make_material, void *ctx, gltf_file_fn on_file,
+                                    void *file_ctx, vx_err *e)
 {
-    return vx_mesh_load::guarded(
-        path, out, "glTF",
-        [&] { load(path, out, material, uris_anywhere != 0, make_material, ctx, on_file, file_ctx); }, e);
+    return vx_mesh_load::guarded(path, out, "glTF", [&] {
+        load(path, out, material, uris_anywhere != 0, to_subdivide != 0, make_material, ctx, on_file, file_ctx);
+    }, e);
 }

@@ -31,9 +31,10 @@ int mesh_load_obj(const char *path, mesh *out, uint32_t material, vx_err *e);
 /* glTF 2.0, .gltf (with external or data-URI buffers) or .glb, through tinygltf. Every mesh
  * primitive of mode TRIANGLES in the default scene (or under every root node when there is none) is
  * added with its node transforms applied (winding swapped under mirroring transforms); POSITION is
- * required, NORMAL and TEXCOORD_0 are used when present; here (without the material callback of
- * mesh_load_gltf_materials) a material's baseColorFactor (times COLOR_0, if any) becomes the vertex
- * colour and images are not decoded. A file with no triangle primitive, an accessor outside
+ * required, NORMAL and TEXCOORD_0 are used when present; a primitive without NORMAL gets flat
+ * normals, as the spec asks (mesh_flat_normals: three vertices of its own per triangle); here
+ * (without the material callback of mesh_load_gltf_materials) a material's baseColorFactor (times
+ * COLOR_0, if any) becomes the vertex colour and images are not decoded. A file with no triangle primitive, an accessor outside
  * its buffer, a non-finite position or compressed geometry (Draco, meshopt) is an error. */
 int mesh_load_gltf(const char *path, mesh *out, uint32_t material, vx_err *e);
 /* The same; external files (buffer URIs) are read only from inside the glTF's own folder unless
@@ -60,8 +61,11 @@ int mesh_load_gltf_materials(const char *path, mesh *out, uint32_t material, int
 /* Told the path of each external file (a buffer or an image URI) a successful glTF load read, once
  * each; returns 0, or -1 to fail the load (out of memory). */
 typedef int (*gltf_file_fn)(void *ctx, const char *file);
-/* mesh_load_gltf_materials that also reports the external files it read to on_file (NULL: not). */
-int mesh_load_gltf_files(const char *path, mesh *out, uint32_t material, int uris_anywhere,
+/* mesh_load_gltf_materials that also reports the external files it read to on_file (NULL: not).
+ * to_subdivide: the object will be subdivided (mesh_subdivide), so a primitive without NORMAL
+ * keeps its shared vertices with smooth normals (mesh_smooth_normals) instead of flat ones: the
+ * subdivision connects triangles by vertex index and recomputes the normals itself. */
+int mesh_load_gltf_files(const char *path, mesh *out, uint32_t material, int uris_anywhere, int to_subdivide,
                          gltf_material_fn make_material, void *ctx, gltf_file_fn on_file, void *file_ctx, vx_err *e);
 
 #ifdef __cplusplus

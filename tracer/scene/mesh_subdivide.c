@@ -285,11 +285,14 @@ int mesh_subdivide(mesh *m, size_t v0, size_t t0, int levels, vx_err *e)
     return 0;
 }
 
-int mesh_subdivide_object(mesh *m, size_t v0, size_t t0, const cJSON *o, const char *where, vx_err *e)
+int mesh_subdivide_levels(const cJSON *o, const char *where, int *levels, vx_err *e)
 {
-    int levels = 0;
-    if (json_int_in(o, "subdivide", where, 0, SUBDIVIDE_MAX_LEVELS, &levels, e))
-        return -1;
+    *levels = 0;
+    return json_int_in(o, "subdivide", where, 0, SUBDIVIDE_MAX_LEVELS, levels, e);
+}
+
+int mesh_subdivide_object(mesh *m, size_t v0, size_t t0, int levels, const char *where, vx_err *e)
+{
     if (mesh_subdivide(m, v0, t0, levels, e))
         return vx_wrap(e, "%s.subdivide", where);
     return 0;

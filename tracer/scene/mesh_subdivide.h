@@ -32,8 +32,11 @@
 int mesh_subdivide(mesh *m, size_t v0, size_t t0, int levels, vx_err *e);
 
 /* The object field "subdivide": k (an integer 0..SUBDIVIDE_MAX_LEVELS; absent: 0) read from object
- * `o` and applied to the object's vertices from v0 and triangles from t0 on; `where` names the
- * object in messages ("scene.json: objects[0]"). */
-int mesh_subdivide_object(mesh *m, size_t v0, size_t t0, const cJSON *o, const char *where, vx_err *e);
+ * `o` into *levels, before the object is loaded (a glTF's loader must know: mesh_load_gltf_files);
+ * `where` names the object in messages ("scene.json: objects[0]"). */
+int mesh_subdivide_levels(const cJSON *o, const char *where, int *levels, vx_err *e);
+/* Those levels applied to the object's vertices from v0 and triangles from t0 on (mesh_subdivide),
+ * its errors naming the field. */
+int mesh_subdivide_object(mesh *m, size_t v0, size_t t0, int levels, const char *where, vx_err *e);
 
 #endif

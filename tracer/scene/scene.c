@@ -634,7 +634,10 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
         size_t v0 = s->mesh.vertex_count, t0 = s->mesh.triangle_count;
         const char *file = NULL, *matname = NULL;
         int creased = 0; /* a PLY or OBJ: normals the file lacks get creases (below) */
+        int levels;      /* "subdivide", read first: a glTF's loader shares vertices for it */
         s->mesh.normals_smoothed = 0;
+        if (mesh_subdivide_levels(o, where, &levels, e))
+            return -1;
         if (strcmp(kind, "generator") == 0) {
             if (parse_generator_object(s, o, where, e))
                 return -1;
@@ -668,8 +671,8 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
             gltf_files named = {s, where, e};
             int rc = is_ply   ? mesh_load_ply(path, &s->mesh, (uint32_t)mat, e)
                      : is_obj ? mesh_load_obj(path, &s->mesh, (uint32_t)mat, e)
-                              : mesh_load_gltf_files(path, &s->mesh, (uint32_t)mat, anywhere, make_gltf_material,
-                                                     &own, note_gltf_file, &named, e);
+                              : mesh_load_gltf_files(path, &s->mesh, (uint32_t)mat, anywhere, levels > 0,
+                                                     make_gltf_material, &own, note_gltf_file, &named, e);
             if (rc)
                 return vx_wrap(e, "%s.%s", where, kind);
             if (note_input(s, where, kind, path, e))
@@ -677,12 +680,13 @@ static int parse_objects(scene *s, const cJSON *root, vx_err *e)
             warn_unused_texture(s, v0, t0, where);
         }
         /* "subdivide": k Loop levels, on the object as loaded, before its placement. */
-        if (mesh_subdivide_object(&s->mesh, v0, t0, o, where, e))
+        if (mesh_subdivide_object(&s->mesh, v0, t0, levels, where, e))
             return -1;
         /* A PLY or OBJ without normals (or subdivided, whose normals are recomputed): smooth normals
          * with creases (mesh_crease_normals), after the subdivision, whose connectivity is by vertex
          * index and would tear where the creases split the vertices. (A glTF's normals are given or
-         * computed per primitive, by its loader.) */
+         * computed per primitive by its loader: flat, as its spec asks, or smooth before a
+         * subdivision, which recomputes them.) */
         if (creased && s->mesh.normals_smoothed)
             mesh_crease_normals(&s->mesh, v0, t0, MESH_CREASE_DEG);
         if (apply_transform(&s->mesh, v0, t0, cJSON_GetObjectItemCaseSensitive(o, "transform"), where, e) ||
