@@ -133,9 +133,11 @@ void mesh_smooth_normals(mesh *m, size_t first_vertex, size_t first_triangle)
 void mesh_flat_normals(mesh *m, size_t v0, size_t t0)
 {
     size_t nv = m->vertex_count - v0, nt = m->triangle_count - t0;
+    if (nv == 0)
+        return; /* no vertices, no triangles (and a mesh's arrays may still be NULL) */
     /* The corners' attributes are read from a copy: the new vertices overwrite the old ones' slots
      * (vertex v0 + 3 t + k is corner k of triangle t0 + t). */
-    float *pos = grow(NULL, nv ? 8 * nv : 1, sizeof *pos), *uv = pos + 3 * nv, *col = uv + 2 * nv;
+    float *pos = grow(NULL, 8 * nv, sizeof *pos), *uv = pos + 3 * nv, *col = uv + 2 * nv;
     memcpy(pos, m->positions + 3 * v0, 3 * nv * sizeof *pos);
     memcpy(uv, m->uvs + 2 * v0, 2 * nv * sizeof *uv);
     memcpy(col, m->colors + 3 * v0, 3 * nv * sizeof *col);
@@ -202,6 +204,8 @@ static int share_edge(const uint32_t *indices, size_t a, size_t b, uint32_t v)
 void mesh_crease_normals(mesh *m, size_t v0, size_t t0, float crease_deg)
 {
     size_t nv = m->vertex_count - v0, nt = m->triangle_count - t0;
+    if (nv == 0)
+        return; /* no vertices, no triangles (and a mesh's arrays may still be NULL) */
     if (nt == 0)
         return;
     const double radians = 3.14159265358979323846 / 180.0;
