@@ -305,4 +305,56 @@ ok = all(v is not None for v in sub.values())
 d = float(np.abs(sub["none"] - sub["diag"]).max()) if ok else None
 report("truth: a subdivided glTF cube without NORMAL renders as with NORMAL on the same 8 corners (shared "
        "vertices; 1e-6)", ok and d <= 1e-6, f"max difference {d}")
+
+# A zero normal in a file (PLY nx ny nz = 0, OBJ `vn 0 0 0`) is no direction: the shading takes the
+# face's geometric normal, as a file without normals gives a flat quad, whatever the format and
+# whether the object is transformed or instanced. (A PLY's zero normal became +z, and an OBJ's did
+# once transformed: a plate facing +y was lit as if tangent to its light, 10 times too dark.)
+quad_up = [(0, 0, 0), (0, 0, 1), (1, 0, 1), (1, 0, 0)]
+zero_ply, plain_ply, zero_obj, plain_obj = (os.path.join(TMP, n) for n in
+                                            ("zero_normals.ply", "no_normals.ply", "zero_vn.obj", "no_vn.obj"))
+write_ply(zero_ply, [v + (0, 0, 0) for v in quad_up], [(0, 1, 2, 3)], extra=("nx", "ny", "nz"))
+write_ply(plain_ply, quad_up, [(0, 1, 2, 3)])
+with open(zero_obj, "w") as f:
+    f.write("".join(f"v {x} {y} {z}\n" for x, y, z in quad_up) + "vn 0 0 0\nf 1//1 2//1 3//1 4//1\n")
+with open(plain_obj, "w") as f:
+    f.write("".join(f"v {x} {y} {z}\n" for x, y, z in quad_up) + "f 1 2 3 4\n")
+zero_gltf, plain_gltf = os.path.join(TMP, "zero_normals.gltf"), os.path.join(TMP, "no_normals.gltf")
+write_gltf(zero_gltf, [(quad_up, fan([(0, 1, 2, 3)]), [(0, 0, 0)] * 4)])
+write_gltf(plain_gltf, [(quad_up, fan([(0, 1, 2, 3)]), None)])
+
+
+def plate_scene(name, obj):
+    s = {"name": name, "size": [24, 24], "background": [0.2, 0.3, 0.4], "effects": [],
+         "camera": {"position": [0.5, 2.5, 2.0], "look_at": [0.5, 0.0, 0.5], "up": [0, 1, 0], "fov_deg": 40},
+         "lights": [{"type": "directional", "direction": [0.2, 1.0, 0.1], "irradiance": [3, 3, 3]}],
+         "materials": {"m": {"color": [0.5, 0.5, 0.5]}}, "objects": [dict(obj, material="m")]}
+    path = os.path.join(TMP, name + ".json")
+    with open(path, "w") as f:
+        json.dump(s, f)
+    return path
+
+
+same = {"scale": 1.0}
+plates = {"plain": {"ply": plain_ply}, "plain_obj": {"obj": plain_obj}, "zero_ply": {"ply": zero_ply},
+          "zero_ply_moved": {"ply": zero_ply, "transform": same},
+          "zero_obj": {"obj": zero_obj}, "zero_obj_moved": {"obj": zero_obj, "transform": same},
+          "zero_obj_instanced": {"obj": zero_obj, "instances": [{"translate": [0, 0, 0]}]},
+          "plain_gltf": {"gltf": plain_gltf}, "zero_gltf": {"gltf": zero_gltf},
+          "zero_gltf_moved": {"gltf": zero_gltf, "transform": same}}
+for name, cmd in [("truth", ["truth", "--spp", "4"])] + [(m, ["render", "--model", m, "--res", "16"]) for m in models]:
+    imgs = {}
+    for k, obj in plates.items():
+        out = os.path.join(TMP, f"plate-{k}-{name}.exr")
+        p = subprocess.run([VOXLAB, cmd[0], plate_scene("plate_" + k, obj), *cmd[1:], "-o", out], capture_output=True,
+                           text=True)
+        imgs[k] = read_image(out)[..., :3] if p.returncode == 0 else None
+    ok = all(v is not None for v in imgs.values())
+    # Each format against its own quad without normals (the same loader, the same triangulation).
+    own = {"obj": "plain_obj", "gltf": "plain_gltf"}
+    d = {k: float(np.abs(v - imgs[next((p for f, p in own.items() if f in k), "plain")]).max())
+         for k, v in imgs.items() if not k.startswith("plain")} if ok else None
+    report(f"{name}: a quad with zero normals (PLY, OBJ, glTF; transformed, instanced) renders as without normals "
+           "(1e-6)",
+           ok and max(d.values()) <= 1e-6, f"max differences {d}")
 finish()

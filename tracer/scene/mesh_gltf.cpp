@@ -375,8 +375,8 @@ struct loader {
                 if (!std::isfinite(wn[0]) || !std::isfinite(wn[1]) || !std::isfinite(wn[2]))
                     fail(prim_name + ": vertex " + std::to_string(i) + " has a non-finite normal");
                 double len = std::sqrt(wn[0] * wn[0] + wn[1] * wn[1] + wn[2] * wn[2]);
-                if (len > 0.0)
-                    n = v3(float(wn[0] / len), float(wn[1] / len), float(wn[2] / len));
+                // A zero normal stays zero: the shading takes the face's geometric normal (rt_shade).
+                n = len > 0.0 ? v3(float(wn[0] / len), float(wn[1] / len), float(wn[2] / len)) : v3(0.0f, 0.0f, 0.0f);
             }
             float u = has_uvs ? float(read_component(uv, i, 0)) : 0.0f;
             float t = has_uvs ? float(read_component(uv, i, 1)) : 0.0f;

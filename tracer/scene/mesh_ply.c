@@ -407,7 +407,9 @@ static int read_vertices(ply_reader *r, const ply_header *h, const ply_element *
             n = v3((float)val[P_NX], (float)val[P_NY], (float)val[P_NZ]);
             if (!isfinite(n.x) || !isfinite(n.y) || !isfinite(n.z))
                 return vx_fail(e, "%s: vertex %zu has a non-finite normal", h->path, i);
-            n = v3_normalize(n); /* scanners write unnormalised normals; zero becomes +z */
+            /* Scanners write unnormalised normals. A zero one stays zero: the shading then takes
+             * the face's geometric normal (rt_shade), as for an OBJ `vn 0 0 0`. */
+            n = v3_normalize_or(n, v3(0.0f, 0.0f, 0.0f));
         }
         float u = (float)val[P_U], v = (float)val[P_V];
         if (!isfinite(u) || !isfinite(v)) /* a NaN texel lookup would make NaN pixels */

@@ -51,7 +51,10 @@ void xform_normal(const xform_exact *x, const float n[3], float out[3])
 {
     double P[3] = {0, 0, 0}, N[3] = {n[0] / x->scale.x, n[1] / x->scale.y, n[2] / x->scale.z};
     rotate(x->cs, P, N);
-    vec3 nn = v3_normalize(v3((float)N[0], (float)N[1], (float)N[2]));
+    /* A zero normal (a file's `vn 0 0 0`, a PLY's or glTF's zero normal) stays zero, so that the
+     * shading falls back to the face's geometric normal (rt_shade) whether or not the object is
+     * transformed; made +z, it lit a surface as if tangent to it. */
+    vec3 nn = v3_normalize_or(v3((float)N[0], (float)N[1], (float)N[2]), v3(0.0f, 0.0f, 0.0f));
     out[0] = nn.x, out[1] = nn.y, out[2] = nn.z;
 }
 
