@@ -357,4 +357,32 @@ for name, cmd in [("truth", ["truth", "--spp", "4"])] + [(m, ["render", "--model
     report(f"{name}: a quad with zero normals (PLY, OBJ, glTF; transformed, instanced) renders as without normals "
            "(1e-6)",
            ok and max(d.values()) <= 1e-6, f"max differences {d}")
+
+# A scene small against its distance from the origin (or from its camera) is warned about: float
+# positions are coarse there, and the truth's shadow rays start a good part of the scene off its
+# surfaces (a 1e-3 scene at 1e3 lost its shadow without a word). The same scene at the origin, and a
+# unit scene, load silently.
+def tiny_scene(name, at):
+    s = {"name": name, "size": [8, 8], "background": [0.2, 0.3, 0.4], "effects": ["shadows"],
+         "camera": {"position": [at + 5e-4, at + 2.5e-3, at + 2e-3], "look_at": [at + 5e-4, at, at + 5e-4],
+                    "up": [0, 1, 0], "fov_deg": 40},
+         "lights": [{"type": "directional", "direction": [0.2, 1.0, 0.1], "irradiance": [3, 3, 3]}],
+         "materials": {"m": {"color": [0.5, 0.5, 0.5]}},
+         "objects": [{"ply": plain_ply, "material": "m", "transform": {"scale": 1e-3, "translate": [at, at, at]}}]}
+    path = os.path.join(TMP, name + ".json")
+    with open(path, "w") as f:
+        json.dump(s, f)
+    return path
+
+
+for name, at, warned in (("tiny_far", 1e3, True), ("tiny_near", 0.0, False)):
+    p = subprocess.run([VOXLAB, "truth", tiny_scene(name, at), "--dry-run", "-o", os.path.join(TMP, "t.exr")],
+                       capture_output=True, text=True)
+    said = "warning" in p.stderr and "float positions are coarse" in p.stderr and name + ".json" in p.stderr
+    report(f"a 1e-3 scene {at:g} from the origin: {'a warning' if warned else 'no warning'} about float precision",
+           p.returncode == 0 and said == warned, p.stderr.strip()[-400:])
+p = subprocess.run([VOXLAB, "truth", plate_scene("plate_unit", {"ply": plain_ply}), "--dry-run", "-o",
+                    os.path.join(TMP, "t.exr")], capture_output=True, text=True)
+report("a unit scene: no warning about float precision", p.returncode == 0 and "warning" not in p.stderr,
+       p.stderr.strip()[-400:])
 finish()
