@@ -112,6 +112,8 @@ expect_error wrong_type_effects "wrong_type2\.json.*effects.*expected an array" 
 
 good_scene "$T/unknown_effect.json" "$quad" '"effects": ["shadows", "caustics"],'
 expect_error unknown_effect "unknown_effect\.json.*effects\[1\].*caustics" "$T/unknown_effect.json"
+good_scene "$T/effect_twice.json" "$quad" '"effects": ["shadows", "dof", "shadows"],'
+expect_error effect_twice "effect_twice\.json: effects\[2\]: shadows is listed twice" "$T/effect_twice.json"
 
 good_scene "$T/unknown_field.json" "$quad" '"efects": ["shadows"],'
 expect_error unknown_field "unknown_field\.json.*unknown field \"efects\"" "$T/unknown_field.json"

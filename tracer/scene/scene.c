@@ -295,6 +295,9 @@ static int parse_effects(scene *s, const cJSON *root, vx_err *e)
         if (!bit)
             return vx_fail(e, "%s: effects[%d]: unknown effect %s (expected one of shadows, specular, dof, textures)",
                            s->path, i, cJSON_IsString(f) ? f->valuestring : "(not a string)");
+        /* Named twice is a slip (of a variant's list, say), refused as a key given twice is. */
+        if (s->effects & bit)
+            return vx_fail(e, "%s: effects[%d]: %s is listed twice", s->path, i, f->valuestring);
         s->effects |= bit;
         i++;
     }
