@@ -141,6 +141,28 @@ static void test_ply_big_endian(void)
     mesh_free(&m);
 }
 
+/* ASCII values are a stream: a line with a value too many shifts everything after it, which shows at
+ * the end as values left over. Refused, naming them; trailing blank lines are fine. */
+static void test_ply_values_left_over(void)
+{
+    const char *head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                       "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                       "0 0 0\n1 0 0\n0 0 1\n";
+    char text[512];
+    snprintf(text, sizeof text, "%s3 0 1 2 7\n", head);
+    const char *path = write_tmp("left_over.ply", text);
+    mesh m = {0};
+    vx_err e = {{0}};
+    int rc = mesh_load_ply(path, &m, 0, &e);
+    CHECK("ply values after the last element: refused, naming the first",
+          rc != 0 && strstr(e.msg, "values left after the last element (\"7\"") && m.triangle_count == 0);
+    snprintf(text, sizeof text, "%s3 0 1 2\n\n  \r\n", head);
+    path = write_tmp("blank_tail.ply", text);
+    rc = mesh_load_ply(path, &m, 0, &e);
+    CHECK("ply blank lines after the last element: loaded", rc == 0 && m.triangle_count == 1);
+    mesh_free(&m);
+}
+
 static void test_ply_degenerate(void)
 {
     /* Zero-area triangles (a repeated index, collinear corners) are kept for the scene loader to
@@ -597,6 +619,7 @@ int main(void)
     test_ply_ascii();
     test_ply_big_endian();
     test_ply_degenerate();
+    test_ply_values_left_over();
     test_ply_bunny();
     test_ply_errors();
     test_gltf_quad("tests/data/quad.gltf", false);

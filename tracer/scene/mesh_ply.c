@@ -491,6 +491,20 @@ static int read_body(ply_reader *r, const ply_header *h, const ply_element *vert
         if (rc)
             return rc;
     }
+    /* ASCII values are read as a stream of numbers, so a line with more values than its element's
+     * properties shifts every value after it; at the end that shows as values left over (the audit:
+     * a last face "3 0 1 2 7" was taken without a word). Binary data past the elements is left alone. */
+    if (r->format == FMT_ASCII) {
+        const unsigned char *q = r->p;
+        while (q < r->end && (*q == ' ' || *q == '\t' || *q == '\r' || *q == '\n'))
+            q++;
+        if (q < r->end) {
+            size_t len = strcspn((const char *)q, " \t\r\n");
+            return vx_fail(e, "%s: values left after the last element (\"%.*s\"...): the header's element counts or a "
+                              "line's values do not match its properties",
+                           h->path, (int)(len < 32 ? len : 32), (const char *)q);
+        }
+    }
     return 0;
 }
 
