@@ -183,6 +183,7 @@ def main():
         f.write("\n")
     k2 = scene_fingerprint(os.path.join(mesh_dir, "bunny.json"))
     report("scene key changes when a referenced mesh changes", k1 != k2, "")
+    referenced_file_keys()
 
     # The committed tolerances: a real accuracy regression fails, timing noise does not.
     tol = load_declaration(os.path.join(EXP, "regress.json"))["tolerances"]
@@ -194,6 +195,49 @@ def main():
     report("tolerances: MSE +10 % and SSIM -0.01 fail, 1.5x slower passes, 2.6x slower warns",
            got == [(m, v) for m, _, _, v in cases], str(got))
 
+
+
+def referenced_file_keys():
+    """Every kind of file a scene references keys its jobs: an OBJ mesh (was left out: an edited OBJ
+    reused the old images, and a variant kept its relative path and was refused), and a .glb's
+    texture beside it (only a .gltf's buffers and images were hashed)."""
+    import struct
+    d = os.path.join(TMP, "refscene")
+    os.makedirs(d, exist_ok=True)
+    shutil.copy(os.path.join(REPO, "tests", "data", "quad.obj"), d)
+    # textured_quad.glb with its PNG moved out of the binary chunk into tex.png beside it
+    with open(os.path.join(REPO, "tests", "data", "textured_quad.glb"), "rb") as f:
+        glb = f.read()
+    jlen = struct.unpack("<I", glb[12:16])[0]
+    doc = json.loads(glb[20:20 + jlen])
+    blob = glb[28 + jlen:]
+    view = doc["bufferViews"][doc["images"][0].pop("bufferView")]
+    doc["images"][0].pop("mimeType", None)
+    doc["images"][0]["uri"] = "tex.png"
+    with open(os.path.join(d, "tex.png"), "wb") as f:
+        f.write(blob[view.get("byteOffset", 0):view.get("byteOffset", 0) + view["byteLength"]])
+    js = json.dumps(doc).encode()
+    js += b" " * (-len(js) % 4)
+    body = struct.pack("<I4s", len(js), b"JSON") + js + glb[20 + jlen:]
+    with open(os.path.join(d, "quad_ext.glb"), "wb") as f:
+        f.write(struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body)
+    with open(os.path.join(REPO, "scenes", "spheres.json")) as f:
+        sc = json.load(f)
+    sc["objects"] += [{"obj": "quad.obj", "material": "red"}, {"gltf": "quad_ext.glb"}]
+    path = os.path.join(d, "ref.json")
+    with open(path, "w") as f:
+        json.dump(sc, f)
+    for name in ("quad.obj", "tex.png"):
+        before = scene_fingerprint(path), scene_fingerprint(path, True)
+        with open(os.path.join(d, name), "ab") as f:
+            f.write(b"\n")
+        after = scene_fingerprint(path), scene_fingerprint(path, True)
+        report(f"scene and bake keys change when the scene's {name} changes",
+               before[0] != after[0] and before[1] != after[1], "")
+    with open(write_variant(path, "refv", {"camera.fov_deg": 30}, os.path.join(TMP, "variants"))) as f:
+        v = json.load(f)
+    report("a variant names its OBJ mesh by an absolute path", v["objects"][1]["obj"] == os.path.join(d, "quad.obj"),
+           str(v["objects"][1]))
 
 
 def cone_model_rows():

@@ -28,11 +28,11 @@ def resolve_scene(arg, base_dir=None):
 
 
 def _scene_file_refs(scene):
-    """Yields (container, key) for every file path a scene references (PLY/glTF meshes, textures)."""
+    """Yields (container, key) for every file path a scene references (PLY/OBJ/glTF meshes, textures)."""
     objs = scene.get("objects") if isinstance(scene, dict) else None
     for o in objs if isinstance(objs, list) else []:
         if isinstance(o, dict):
-            for k in ("ply", "gltf"):
+            for k in ("ply", "obj", "gltf"):
                 if isinstance(o.get(k), str):
                     yield o, k
     mats = scene.get("materials") if isinstance(scene, dict) else None
@@ -41,15 +41,28 @@ def _scene_file_refs(scene):
             yield m, "texture"
 
 
+def _glb_json(path):
+    """The JSON chunk of a binary glTF (.glb): its buffers and images may name files beside it."""
+    with open(path, "rb") as f:
+        head = f.read(20)
+        if len(head) < 20 or head[:4] != b"glTF" or head[16:20] != b"JSON":
+            raise ValueError("not a binary glTF")
+        return json.loads(f.read(int.from_bytes(head[12:16], "little")))
+
+
 def _referenced_fingerprint(path):
-    """Content hash of a referenced file; for a .gltf also of the buffers and images it names."""
+    """Content hash of a referenced file; for a glTF (.gltf or .glb) also of the buffers and images it
+    names (a .glb's texture may lie beside it, as a .gltf's does)."""
     if not os.path.isfile(path):
         return "missing"
     h = file_sha256(path)
-    if path.lower().endswith(".gltf"):
+    if path.lower().endswith((".gltf", ".glb")):
         try:
-            with open(path) as f:
-                g = json.load(f)
+            if path.lower().endswith(".glb"):
+                g = _glb_json(path)
+            else:
+                with open(path) as f:
+                    g = json.load(f)
             extra = []
             for item in (g.get("buffers") or []) + (g.get("images") or []):
                 uri = item.get("uri") if isinstance(item, dict) else None
