@@ -13,7 +13,7 @@ from testlib import REPO, TMP, VOXLAB, finish, read_csv, report  # noqa: E402
 
 EXP = os.path.join(REPO, "experiments")
 sys.path.insert(0, EXP)
-from voxlab_exp.history import record_history  # noqa: E402
+from voxlab_exp.history import baseline_section, compare_to_baseline, record_history  # noqa: E402
 
 PY = "/usr/bin/python3"
 
@@ -44,6 +44,21 @@ def unit():
     report("duplicate lines of an old history are compacted", len(read_csv(path)) == 6, "")
 
 
+def shadow_skip_keys():
+    """Rows that differ only by shadow_skip are two configurations in the baseline (row_key): they were
+    one key, so the baseline kept the last and the regression check compared the shadow-skip row
+    against the no-skip row's numbers and called the other "new"."""
+    meta, rows = fake_run("3" * 40, 0.1)
+    rows = [dict(rows[0], kind="model", shadow_skip=True, shadows="march", truth_spp=16, seed=1),
+            dict(rows[0], kind="model", shadow_skip=False, shadows="march", truth_spp=16, seed=1, mse=0.2)]
+    meta.update(models=[{"name": "a"}], metrics=["mse"])
+    section = baseline_section(meta, rows)
+    res = compare_to_baseline(rows, section, {"mse": {"better": "lower", "rel": 0.05}})
+    report("shadow_skip true and false: two baseline entries, each compared with its own",
+           len(section["entries"]) == 2 and [x["status"] for x in res] == ["ok", "ok"] and
+           [x["metrics"]["mse"]["base"] for x in res] == [0.1, 0.2], str(section["entries"])[:400])
+
+
 def no_writers():
     results = os.path.join(TMP, "results")
     decl = os.path.join(TMP, "hist.json")
@@ -72,6 +87,7 @@ def no_writers():
 
 def main():
     unit()
+    shadow_skip_keys()
     no_writers()
 
 

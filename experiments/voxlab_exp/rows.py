@@ -41,9 +41,11 @@ def row_key(r):
     key = "/".join(str(x) for x in (r["scene"], r["model"], f"r{r['res']}", f"{r['width']}x{r['height']}",
                                     f"spp{r['spp']}", f"k{r['rays']}", "cache" if r["cache"] else "nocache",
                                     f"truth{r['truth_spp']}", f"seed{r['seed']}"))
-    # The default shadow method leaves the key as it was before there were methods.
+    # The defaults (march shadows, shadow skip on) leave the key as it was before they were options;
+    # the others are other configurations (a declaration may run "shadow_skip": [true, false]).
     sh = r.get("shadows") or "march"
-    return key if sh == "march" else f"{key}/shadows-{sh}"
+    key = key if sh == "march" else f"{key}/shadows-{sh}"
+    return f"{key}/noskip" if r.get("shadow_skip", True) in (False, "False", "false", 0, "0") else key
 
 
 def wanted_all(wanted):
