@@ -13,7 +13,7 @@ from testlib import REPO, TMP, VOXLAB, finish, read_csv, report  # noqa: E402
 
 EXP = os.path.join(REPO, "experiments")
 sys.path.insert(0, EXP)
-from voxlab_exp.history import baseline_section, compare_to_baseline, record_history  # noqa: E402
+from voxlab_exp.history import baseline_section, compare_to_baseline, gating, record_history  # noqa: E402
 
 PY = "/usr/bin/python3"
 
@@ -59,6 +59,20 @@ def shadow_skip_keys():
            [x["metrics"]["mse"]["base"] for x in res] == [0.1, 0.2], str(section["entries"])[:400])
 
 
+def failed_new_configuration():
+    """A configuration the baseline lacks that fails is a failure that gates the check, not "new"
+    (its blank metrics looked like a missing row's and regress passed)."""
+    meta, rows = fake_run("4" * 40, 0.1)
+    rows = [dict(rows[0], kind="model", shadow_skip=True, shadows="march", truth_spp=16, seed=1)]
+    meta.update(models=[{"name": "a"}], metrics=["mse"])
+    section = baseline_section(meta, rows)
+    failing = dict(rows[0], model="b", status="error", error="voxlab render: boom", mse=None)
+    res = compare_to_baseline(rows + [failing], section, {"mse": {"better": "lower", "rel": 0.05}})
+    report("a new configuration that fails: status failed, with its error, and it gates the check",
+           [x["status"] for x in res] == ["ok", "failed"] and res[1].get("error") == "voxlab render: boom" and
+           [x["model"] for x in gating(res)] == ["b"], str([(x["model"], x["status"]) for x in res]))
+
+
 def no_writers():
     results = os.path.join(TMP, "results")
     decl = os.path.join(TMP, "hist.json")
@@ -88,6 +102,7 @@ def no_writers():
 def main():
     unit()
     shadow_skip_keys()
+    failed_new_configuration()
     no_writers()
 
 

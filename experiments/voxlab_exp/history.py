@@ -115,8 +115,10 @@ def compare_to_baseline(rows, section, tolerances):
         base = entries.pop(k, None)
         item = {"key": k, "scene": r["scene"], "model": r["model"], "res": r["res"], "metrics": {}, "row": r}
         if r["status"] != "ok":
-            # Failing where the baseline worked is a regression; a new configuration that fails is news.
-            item["status"] = "failed" if base else "new"
+            # A configuration that fails fails the check, whether the baseline has it or not: a new
+            # one that failed was listed as "new", its metrics blank like a missing row's, and the
+            # check passed (the audit of issue 15's stop 45).
+            item["status"] = "failed"
             item["error"] = r["error"]
         elif base is None:
             item["status"] = "new"
