@@ -29,6 +29,7 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from voxlab_exp.cli import add_common_args, main_wrapper, sweep_args  # noqa: E402
 from voxlab_exp.config import REPO  # noqa: E402
+from voxlab_exp.errors import DeclarationError, VoxlabError  # noqa: E402
 from voxlab_exp.files import rel, write_csv, write_text  # noqa: E402
 from voxlab_exp.paper import compare as paper_compare, display_name, load_paper, markdown as paper_markdown  # noqa: E402
 from voxlab_exp.report import settings_text, size_text  # noqa: E402
@@ -77,12 +78,61 @@ def tex_escape(s):
         .replace("#", r"\#").replace("^", r"\^{}").replace("³", r"$^3$").replace("–", "--").replace("−", "-")
 
 
+# The settings a run may give several values of, which Table 1 cannot show: it has one cell per
+# scene, resolution and model.
+ONE_VALUE = ("spp", "rays", "cache", "shadow_skip", "shadows")
+
+
+def check_one_cell_each(decl):
+    """Refuses a declaration that gives one (scene, resolution, model) more than one setting: Table 1
+    showed one of them (the last row) and dropped the others without a word, under a settings line
+    that listed every value (the audit of issue 15's stop 45). A sweep is sweep.py's or pareto.py's."""
+    where = {}
+    for i, r in enumerate(decl["runs"]):
+        for k in ONE_VALUE:
+            if len(r[k]) > 1:
+                raise DeclarationError(f"{decl['shown']}: runs[{i}].{k}: table1 takes one value (Table 1 has one "
+                                       f"cell per scene, resolution and model), got {r[k]}: sweep.py or pareto.py "
+                                       f"run sweeps")
+        settings = tuple(r[k][0] for k in ONE_VALUE)
+        for sc in r["scenes"]:
+            for n in r["res"]:
+                for m in (["*"] if r["models"] == "all" else r["models"]):
+                    for (sc2, n2, m2), (j, other) in where.items():
+                        if (sc2, n2) == (sc, n) and "*" in (m, m2) or (sc2, n2, m2) == (sc, n, m):
+                            if other != settings:
+                                raise DeclarationError(
+                                    f"{decl['shown']}: runs[{i}]: {sc} at {n}^3 ({'every model' if m == '*' else m}) "
+                                    f"is also in runs[{j}] with other settings (table1 takes one cell per scene, "
+                                    f"resolution and model)")
+                    where.setdefault((sc, n, m), (i, settings))
+
+
+def setting_values(rows, key, show):
+    """A setting as the rows ran it: "4" when every model ran one value, else per model
+    ("binary 1, alpha 4"), so that the line never states what one run said for another's rows."""
+    per_model = {}
+    for r in rows:
+        per_model.setdefault(r["model"], []).append(show(r.get(key)))
+    values = list(dict.fromkeys(v for vs in per_model.values() for v in vs))
+    if len(values) <= 1:
+        return values[0] if values else "?"
+    return ", ".join(f"{m} {'/'.join(dict.fromkeys(vs))}" for m, vs in per_model.items())
+
+
 def build(meta, rows, decl, out):
     rows = [r for r in rows if r["kind"] == "model"]
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
     resolutions = list(dict.fromkeys(r["res"] for r in rows))
     models = list(dict.fromkeys(r["model"] for r in rows))
-    cell = {(r["scene"], r["res"], r["model"]): r for r in rows}
+    cell = {}
+    for r in rows:  # one cell each (check_one_cell_each refuses the declarations that would give more)
+        k = (r["scene"], r["res"], r["model"])
+        if k in cell:
+            raise VoxlabError(f"table1: two rows for {r['model']} on {r['scene']} at {r['res']}^3 (settings "
+                              f"{', '.join(f'{s} {cell[k].get(s)}/{r.get(s)}' for s in ONE_VALUE)}): Table 1 has "
+                              f"one cell each")
+        cell[k] = r
     notes = []  # failure footnotes, numbered in order of appearance
     paper = load_paper()
 
@@ -110,10 +160,13 @@ def build(meta, rows, decl, out):
     write_csv(os.path.join(out, "table1.csv"), t1, T1_FIELDS)
 
     head = settings_text(meta)
-    run = decl["runs"][0]
+    # From the rows, not from a run of the declaration: runs may give different models other settings.
     setting_line = (f"settings: truth {decl['truth_spp']} spp (seed {decl['seed']}); models rendered at "
-                    f"{', '.join(map(str, run['spp']))} spp with {', '.join(map(str, run['rays']))} bake rays per "
-                    f"voxel, shading cache {'on' if run['cache'] == [True] else run['cache']}; image size "
+                    f"{setting_values(rows, 'spp', str)} spp with {setting_values(rows, 'rays', str)} bake rays per "
+                    f"voxel, shading cache {setting_values(rows, 'cache', lambda v: 'on' if v else 'off')}, "
+                    f"shadows {setting_values(rows, 'shadows', lambda v: v or 'march')} (shadow skip "
+                    f"{setting_values(rows, 'shadow_skip', lambda v: 'on' if v in (None, True) else 'off')}); "
+                    "image size "
                     + "; ".join(f"{size_text([r for r in rows if r['res'] == n])} at {n}³" for n in resolutions)
                     + traced_per_pixel_note(rows))
 
@@ -296,6 +349,7 @@ def main(argv=None):
 
     def go():
         decl = load_declaration(a.experiment, a.voxlab)
+        check_one_cell_each(decl)
         meta, rows = run_experiment(decl, **sweep_args(a))
         out = os.path.join(os.path.abspath(a.results), decl["name"])
         build(meta, rows, decl, out)
