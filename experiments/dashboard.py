@@ -385,11 +385,16 @@ def trend_charts(history, experiment):
     commits = list(dict.fromkeys(h["commit"] for h in rows))
     dirty = {h["commit"] for h in rows if h.get("dirty") in ("1", "True")}
     labels = [c[:7] + ("*" if c in dirty else "") for c in commits]
-    multi = len({(h["res"], h.get("spp"), h.get("width")) for h in rows}) > 1
+    multi = len({(h["res"], h.get("spp"), h.get("width"), h.get("shadows") or "march",
+                  h.get("shadow_skip") or "True") for h in rows}) > 1
 
     def series(h):
+        # Shadows and shadow skip name a series too: history.csv keeps their lines apart (HISTORY_KEY).
+        shadows = h.get("shadows") or "march"
         return h["model"] if not multi else f"{h['model']} {h['res']}³" + ("" if h.get("spp") == "4" else
-                                                                          f" {h.get('spp')}spp")
+                                                                          f" {h.get('spp')}spp") + \
+            ("" if shadows == "march" else f" {shadows}") + ("" if (h.get("shadow_skip") or "True") == "True"
+                                                             else " no skip")
     scenes = list(dict.fromkeys(h["scene"] for h in rows))
     specs, out = [], [f"<h3 id='trends-{esc(experiment)}'>{esc(experiment)}: trends over commits "
                       f"({len(commits)} commit(s))</h3>"]

@@ -44,6 +44,21 @@ def unit():
     report("duplicate lines of an old history are compacted", len(read_csv(path)) == 6, "")
 
 
+def history_configurations():
+    """Rows differing only by shadows, shadow skip, seed or the truth's spp are lines of their own in
+    history.csv (they overwrote each other's)."""
+    path = os.path.join(TMP, "h_configs.csv")
+    meta, rows = fake_run("5" * 40, 0.1)
+    base = dict(rows[0], kind="model", shadows="march", shadow_skip=True, seed=1, truth_spp=16)
+    variants = [base, dict(base, shadows="slicemap", mse=0.2), dict(base, shadow_skip=False, mse=0.3),
+                dict(base, seed=2, mse=0.4), dict(base, truth_spp=64, mse=0.5)]
+    record_history(path, [(meta, variants)], TMP)
+    h = read_csv(path)
+    report("history: shadows, shadow skip, seed and truth spp are each a configuration of its own",
+           sorted(x["mse"] for x in h) == ["0.1", "0.2", "0.3", "0.4", "0.5"] and
+           {x["shadows"] for x in h} == {"march", "slicemap"}, str([(x["mse"], x.get("shadows")) for x in h]))
+
+
 def shadow_skip_keys():
     """Rows that differ only by shadow_skip are two configurations in the baseline (row_key): they were
     one key, so the baseline kept the last and the regression check compared the shadow-skip row
@@ -102,6 +117,7 @@ def no_writers():
 def main():
     unit()
     shadow_skip_keys()
+    history_configurations()
     failed_new_configuration()
     no_writers()
 

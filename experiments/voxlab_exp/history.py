@@ -14,11 +14,15 @@ from .rows import row_key
 
 
 HISTORY_FIELDS = ["run_id", "date", "commit", "dirty", "experiment", "scene", "model", "res", "width", "height", "spp",
-                  "rays", "cache", "status", "mse", "ssim", "psnr", "render_ms", "bake_s", "mb", "bytes_per_voxel",
-                  "host", "voxlab_sha256"]
+                  "rays", "cache", "shadows", "shadow_skip", "seed", "truth_spp", "status", "mse", "ssim", "psnr",
+                  "render_ms", "bake_s", "mb", "bytes_per_voxel", "host", "voxlab_sha256"]
 
 
-HISTORY_KEY = ["commit", "experiment", "scene", "model", "res", "width", "height", "spp", "rays", "cache"]
+# A job's configuration, as rows.row_key's: shadows, shadow skip, seed and the truth's spp were left
+# out, so configurations differing only by them overwrote each other's line (the audit of issue 15's
+# stop 45). Lines written before they were columns read them as "".
+HISTORY_KEY = ["commit", "experiment", "scene", "model", "res", "width", "height", "spp", "rays", "cache", "shadows",
+               "shadow_skip", "seed", "truth_spp"]
 
 
 def _history_cell(v):
