@@ -204,8 +204,6 @@ static int share_edge(const uint32_t *indices, size_t a, size_t b, uint32_t v)
 void mesh_crease_normals(mesh *m, size_t v0, size_t t0, float crease_deg)
 {
     size_t nv = m->vertex_count - v0, nt = m->triangle_count - t0;
-    if (nv == 0)
-        return; /* no vertices, no triangles (and a mesh's arrays may still be NULL) */
     if (nt == 0)
         return;
     const double radians = 3.14159265358979323846 / 180.0;
