@@ -259,14 +259,27 @@ static uint16_t bswap16(uint16_t v) { return (uint16_t)((v >> 8) | (v << 8)); }
 static uint32_t bswap32(uint32_t v) { return __builtin_bswap32(v); }
 static uint64_t bswap64(uint64_t v) { return __builtin_bswap64(v); }
 
+/* The first byte at or after s that is not ASCII whitespace (end when none is). */
+static const unsigned char *skip_ascii_space(const unsigned char *s, const unsigned char *end)
+{
+    while (s < end && (*s == ' ' || *s == '\t' || *s == '\r' || *s == '\n'))
+        s++;
+    return s;
+}
+
+/* How much of the ASCII token at s a message shows: up to its end, at most 32 bytes. */
+static int shown_token_length(const unsigned char *s)
+{
+    size_t len = strcspn((const char *)s, " \t\r\n");
+    return (int)(len < 32 ? len : 32);
+}
+
 /* Reads one value of type t as a double (exact for every PLY type, including uint and float).
  * Returns false at the end of the data or, for ASCII, on a token that is not a number. */
 static bool read_value(ply_reader *r, ply_type t, double *out)
 {
     if (r->format == FMT_ASCII) {
-        const unsigned char *s = r->p;
-        while (s < r->end && (*s == ' ' || *s == '\t' || *s == '\r' || *s == '\n'))
-            s++;
+        const unsigned char *s = skip_ascii_space(r->p, r->end);
         if (s >= r->end)
             return false;
         /* The buffer is NUL-terminated one past r->end, so strtod cannot run off it. */
@@ -364,14 +377,10 @@ static int body_error(const ply_reader *r, const ply_header *h, const char *what
                       size_t count, vx_err *e)
 {
     if (r->format == FMT_ASCII) {
-        const unsigned char *s = r->p;
-        while (s < r->end && (*s == ' ' || *s == '\t' || *s == '\r' || *s == '\n'))
-            s++;
-        if (s < r->end) {
-            size_t len = strcspn((const char *)s, " \t\r\n");
+        const unsigned char *s = skip_ascii_space(r->p, r->end);
+        if (s < r->end)
             return vx_fail(e, "%s: %s %zu: expected a number, found \"%.*s\"", h->path, what, index,
-                           (int)(len < 32 ? len : 32), (const char *)s);
-        }
+                           shown_token_length(s), (const char *)s);
     }
     return vx_fail(e, "%s: truncated: the file ends inside %s %zu of %zu", h->path, what, index, count);
 }
@@ -495,15 +504,11 @@ static int read_body(ply_reader *r, const ply_header *h, const ply_element *vert
      * properties shifts every value after it; at the end that shows as values left over (the audit:
      * a last face "3 0 1 2 7" was taken without a word). Binary data past the elements is left alone. */
     if (r->format == FMT_ASCII) {
-        const unsigned char *q = r->p;
-        while (q < r->end && (*q == ' ' || *q == '\t' || *q == '\r' || *q == '\n'))
-            q++;
-        if (q < r->end) {
-            size_t len = strcspn((const char *)q, " \t\r\n");
+        const unsigned char *q = skip_ascii_space(r->p, r->end);
+        if (q < r->end)
             return vx_fail(e, "%s: values left after the last element (\"%.*s\"...): the header's element counts or a "
                               "line's values do not match its properties",
-                           h->path, (int)(len < 32 ? len : 32), (const char *)q);
-        }
+                           h->path, shown_token_length(q), (const char *)q);
     }
     return 0;
 }
