@@ -804,9 +804,19 @@ int scene_set_frame(scene *s, int frame, vx_err *e)
     return 0;
 }
 
+float scene_surface_epsilon(const scene *s)
+{
+    vec3 ext = v3_sub(s->bounds_hi, s->bounds_lo);
+    float size = vx_fmaxf(ext.x, vx_fmaxf(ext.y, ext.z));
+    float far = vx_fmaxf(vx_fmaxf(fabsf(s->bounds_lo.x), fabsf(s->bounds_hi.x)),
+                         vx_fmaxf(vx_fmaxf(fabsf(s->bounds_lo.y), fabsf(s->bounds_hi.y)),
+                                  vx_fmaxf(fabsf(s->bounds_lo.z), fabsf(s->bounds_hi.z))));
+    return vx_fmaxf(1e-5f * size, 4e-7f * far);
+}
+
 /* Warns when float positions are coarse against the scene's size: a scene far from the origin (or
- * seen from far away) and small. The truth starts its shadow rays the larger of rt.c's epsilon and
- * about 17 ulps of the hit's distance from the origin off each surface (truth.c, shadow_offset); once
+ * seen from far away) and small. The truth starts its shadow rays the larger of the scene's epsilon
+ * and the hit point's rounding off each surface (scene_surface_epsilon, SCENE_HIT_ROUNDING); once
  * that is over 1 % of the scene, contact shadows and thin parts are lost (the audit of issue 15: a
  * scene 1e-3 across placed 1e3 from the origin lost its shadow and showed holes, without a word). */
 static void warn_float_precision(const scene *s)
@@ -819,7 +829,7 @@ static void warn_float_precision(const scene *s)
         cam = fmax(cam, fabs(c));
         dist2 += (c - 0.5 * (lo + hi)) * (c - 0.5 * (lo + hi));
     }
-    double offset = fmax(fmax(1e-5 * size, 4e-7 * far), 1e-6 * (cam + sqrt(dist2)));
+    double offset = fmax(scene_surface_epsilon(s), SCENE_HIT_ROUNDING * (cam + sqrt(dist2)));
     if (!(offset > 0.01 * size))
         return;
     fprintf(stderr, "voxlab: warning: %s: the scene is %.3g across, %.3g from the origin and seen from %.3g away: "

@@ -76,6 +76,14 @@ void scene_free(scene *s);
 /* Poses an animated scene's moving objects at `frame` (animation.h) and updates its bounds and
  * identity. The frame must lie in the scene's "frames" [A, B] ([0, 0] for a scene without them). */
 int scene_set_frame(scene *s, int frame, vx_err *e);
+/* How far the truth's shadow rays start off a surface (rt.c, truth.c), in one place so that loading
+ * a scene can tell when float positions are too coarse for it: at least the scene's epsilon, large
+ * enough to leave the surface at float precision far from the origin, small against the scene (from
+ * its bounds: its size and their largest coordinate)... */
+float scene_surface_epsilon(const scene *s);
+/* ...or, where larger, this fraction of |ray origin| + t |ray direction|, the hit point's own
+ * rounding (truth.c's shadow_offset). */
+#define SCENE_HIT_ROUNDING 1e-6f
 /* Parses "shadows", "specular", "dof", "textures"; returns 0 for an unknown name. */
 unsigned effect_from_name(const char *name);
 const char *effect_name(unsigned effect);

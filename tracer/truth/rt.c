@@ -35,13 +35,7 @@ static int shading_attributes(rt_scene *rt, const scene *s, vx_err *e)
 {
     if (rt_mesh_attributes(&s->mesh, &rt->vertices, &rt->face_normals))
         return vx_fail(e, "out of memory for %zu vertices' shading attributes", s->mesh.vertex_count);
-    vec3 ext = v3_sub(s->bounds_hi, s->bounds_lo);
-    float size = vx_fmaxf(ext.x, vx_fmaxf(ext.y, ext.z));
-    float far = vx_fmaxf(vx_fmaxf(fabsf(s->bounds_lo.x), fabsf(s->bounds_hi.x)),
-                      vx_fmaxf(vx_fmaxf(fabsf(s->bounds_lo.y), fabsf(s->bounds_hi.y)),
-                            vx_fmaxf(fabsf(s->bounds_lo.z), fabsf(s->bounds_hi.z))));
-    /* Large enough to leave the surface at float precision far from the origin, small against the scene. */
-    rt->epsilon = vx_fmaxf(1e-5f * size, 4e-7f * far);
+    rt->epsilon = scene_surface_epsilon(s);
     return 0;
 }
 

@@ -73,7 +73,7 @@ static float shadow_offset(float scene_eps, vec3 org, vec3 dir, float t)
 {
     float o = vx_fmaxf(fabsf(org.x), vx_fmaxf(fabsf(org.y), fabsf(org.z)));
     float d = vx_fmaxf(fabsf(dir.x), vx_fmaxf(fabsf(dir.y), fabsf(dir.z)));
-    return vx_fmaxf(scene_eps, 1e-6f * (o + t * d));
+    return vx_fmaxf(scene_eps, SCENE_HIT_ROUNDING * (o + t * d));
 }
 
 /* Each lane's hit (rt_surface, as the bake sampler sees it) laid out for the per-light loops; misses
