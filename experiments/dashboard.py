@@ -389,12 +389,16 @@ def trend_charts(history, experiment):
                   h.get("shadow_skip") or "True") for h in rows}) > 1
 
     def series(h):
+        if not multi:
+            return h["model"]
+        name = f"{h['model']} {h['res']}³" + ("" if h.get("spp") == "4" else f" {h.get('spp')}spp")
         # Shadows and shadow skip name a series too: history.csv keeps their lines apart (HISTORY_KEY).
         shadows = h.get("shadows") or "march"
-        return h["model"] if not multi else f"{h['model']} {h['res']}³" + ("" if h.get("spp") == "4" else
-                                                                          f" {h.get('spp')}spp") + \
-            ("" if shadows == "march" else f" {shadows}") + ("" if (h.get("shadow_skip") or "True") == "True"
-                                                             else " no skip")
+        if shadows != "march":
+            name += f" {shadows}"
+        if (h.get("shadow_skip") or "True") != "True":
+            name += " no skip"
+        return name
     scenes = list(dict.fromkeys(h["scene"] for h in rows))
     specs, out = [], [f"<h3 id='trends-{esc(experiment)}'>{esc(experiment)}: trends over commits "
                       f"({len(commits)} commit(s))</h3>"]

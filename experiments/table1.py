@@ -87,7 +87,7 @@ def check_one_cell_each(decl):
     """Refuses a declaration that gives one (scene, resolution, model) more than one setting: Table 1
     showed one of them (the last row) and dropped the others without a word, under a settings line
     that listed every value (the audit of issue 15's stop 45). A sweep is sweep.py's or pareto.py's."""
-    where = {}
+    cells = {}  # (scene, res) -> [(model, or "*" for every model, run index, settings)]
     for i, r in enumerate(decl["runs"]):
         for k in ONE_VALUE:
             if len(r[k]) > 1:
@@ -95,17 +95,15 @@ def check_one_cell_each(decl):
                                        f"cell per scene, resolution and model), got {r[k]}: sweep.py or pareto.py "
                                        f"run sweeps")
         settings = tuple(r[k][0] for k in ONE_VALUE)
-        for sc in r["scenes"]:
-            for n in r["res"]:
-                for m in (["*"] if r["models"] == "all" else r["models"]):
-                    for (sc2, n2, m2), (j, other) in where.items():
-                        if (sc2, n2) == (sc, n) and "*" in (m, m2) or (sc2, n2, m2) == (sc, n, m):
-                            if other != settings:
-                                raise DeclarationError(
-                                    f"{decl['shown']}: runs[{i}]: {sc} at {n}^3 ({'every model' if m == '*' else m}) "
-                                    f"is also in runs[{j}] with other settings (table1 takes one cell per scene, "
-                                    f"resolution and model)")
-                    where.setdefault((sc, n, m), (i, settings))
+        for sc, n in ((sc, n) for sc in r["scenes"] for n in r["res"]):
+            for m in (["*"] if r["models"] == "all" else r["models"]):
+                for m2, j, other in cells.setdefault((sc, n), []):
+                    if (m == m2 or "*" in (m, m2)) and other != settings:
+                        raise DeclarationError(
+                            f"{decl['shown']}: runs[{i}]: {sc} at {n}^3 ({'every model' if m == '*' else m}) "
+                            f"is also in runs[{j}] with other settings (table1 takes one cell per scene, "
+                            f"resolution and model)")
+                cells[(sc, n)].append((m, i, settings))
 
 
 def setting_values(rows, key, show):

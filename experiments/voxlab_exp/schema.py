@@ -210,6 +210,13 @@ def _declared_setting(field, variant):
     return None
 
 
+def _dry_runs(refusal, items):
+    """refusal(item) for each item, a few voxlab dry runs at a time (heightfield's generator takes
+    0.3 s per scene)."""
+    with concurrent.futures.ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:
+        return list(pool.map(refusal, items))
+
+
 def check_plain_scenes(plain, voxlab, fail):
     """Has voxlab's scene parser read each plain scene file ((where, path) in declaration order), as
     check_variants does a variant: a scene file voxlab refuses (a field it does not know, a mesh that
@@ -217,8 +224,7 @@ def check_plain_scenes(plain, voxlab, fail):
     if voxlab is None or not plain:
         return
     paths = list(dict.fromkeys(p for _, p in plain))
-    with concurrent.futures.ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:
-        refusals = dict(zip(paths, pool.map(lambda p: scene_file_refusal(voxlab, p), paths)))
+    refusals = dict(zip(paths, _dry_runs(lambda p: scene_file_refusal(voxlab, p), paths)))
     for where, path in plain:
         if refusals[path] is not None:
             shown = os.path.relpath(path, REPO) if path.startswith(REPO + os.sep) else path
@@ -228,8 +234,7 @@ def check_plain_scenes(plain, voxlab, fail):
 def check_variants(variants, voxlab, fail):
     """Applies each variant ((where, variant) in declaration order) to its scene and, with a voxlab
     binary, has voxlab's scene parser read the result: a setting the scene has no place for or a value
-    it refuses stops the declaration here, before any job, instead of failing every job of the variant.
-    The dry runs go a few at a time: heightfield's generator takes 0.3 s per variant."""
+    it refuses stops the declaration here, before any job, instead of failing every job of the variant."""
     texts = []
     for where, v in variants:
         try:
@@ -240,8 +245,7 @@ def check_variants(variants, voxlab, fail):
             fail(f"{where}.base", e.args[0])
     if voxlab is None or not texts:
         return
-    with concurrent.futures.ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:
-        refusals = list(pool.map(lambda t: scene_refusal(voxlab, t), texts))
+    refusals = _dry_runs(lambda t: scene_refusal(voxlab, t), texts)
     for (where, v), why in zip(variants, refusals):
         if why is not None:
             setting = _declared_setting(why.split(":")[0], v)
