@@ -35,7 +35,8 @@ int mesh_load_obj(const char *path, mesh *out, uint32_t material, vx_err *e);
  * normals, as the spec asks (mesh_flat_normals: three vertices of its own per triangle); here
  * (without the material callback of mesh_load_gltf_materials) a material's baseColorFactor (times
  * COLOR_0, if any) becomes the vertex colour and images are not decoded. A file with no triangle
- * primitive, an accessor outside its buffer, a non-finite position or compressed geometry (Draco, meshopt) is an error. */
+ * primitive, an accessor outside its buffer, a non-finite position or compressed geometry (Draco,
+ * meshopt) is an error. */
 int mesh_load_gltf(const char *path, mesh *out, uint32_t material, vx_err *e);
 /* The same; external files (buffer URIs) are read only from inside the glTF's own folder unless
  * uris_anywhere is set (the scene's "uris_outside_folder": true). */
