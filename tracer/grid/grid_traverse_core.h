@@ -116,9 +116,24 @@ VX_INLINE int gt_cell_at(const grid_iter *it, int a, double t, int lo, int hi)
     return c;
 }
 
-/* The iterator's set-up (see the top of this file). */
-GT_ITER_INLINE int gt_iter_init(grid_iter *it, const voxel_grid *g, int level, vec3 origin, vec3 dir, float t_min,
-                           float t_max)
+/* Lattice units of a level: the same t as in world space, because the origin and the direction
+ * are mapped by the same affine scale. voxel_size_d * 2^level is exact, as ldexp would be, without
+ * its library call. */
+VX_INLINE double gt_level_scale(const voxel_grid *g, int level) { return g->voxel_size_d * (double)(1 << level); }
+
+/* A world-space point in a level's lattice units, as the iterator maps a ray's origin. */
+VX_INLINE void gt_lattice_point(const voxel_grid *g, int level, vec3 p, double out[3])
+{
+    double scale = gt_level_scale(g, level);
+    out[0] = ((double)p.x - g->origin_d[0]) / scale;
+    out[1] = ((double)p.y - g->origin_d[1]) / scale;
+    out[2] = ((double)p.z - g->origin_d[2]) / scale;
+}
+
+/* gt_iter_init with the origin already mapped by gt_lattice_point: many rays from one point (a
+ * frame's primary rays, from the camera) map it once, not three divisions a ray. */
+GT_ITER_INLINE int gt_iter_init_lattice(grid_iter *it, const voxel_grid *g, int level, const double o[3], vec3 dir,
+                                        float t_min, float t_max)
 {
     /* Only the fields a walk reads before it writes them are set (not the whole struct zeroed:
      * this runs once per ray): gt_iter_next reads g, level, active, k and parent_ok first. */
@@ -131,12 +146,7 @@ GT_ITER_INLINE int gt_iter_init(grid_iter *it, const voxel_grid *g, int level, v
         return 0;
     int n = g->level[level].n;
     it->n = n;
-    /* Lattice units of this level: same t as in world space because origin and direction are
-     * mapped by the same affine scale. voxel_size_d * 2^level is exact, as ldexp would be, without
-     * its library call. */
-    double scale = g->voxel_size_d * (double)(1 << level);
-    double o[3] = {((double)origin.x - g->origin_d[0]) / scale, ((double)origin.y - g->origin_d[1]) / scale,
-                   ((double)origin.z - g->origin_d[2]) / scale};
+    double scale = gt_level_scale(g, level);
     double d[3] = {dir.x / scale, dir.y / scale, dir.z / scale};
     double t0 = t_min, t1 = t_max;
     if (!(t0 <= t1))
@@ -178,6 +188,16 @@ GT_ITER_INLINE int gt_iter_init(grid_iter *it, const voxel_grid *g, int level, v
     }
     it->active = 1;
     return 1;
+}
+
+/* The iterator's set-up (see the top of this file). */
+GT_ITER_INLINE int gt_iter_init(grid_iter *it, const voxel_grid *g, int level, vec3 origin, vec3 dir, float t_min,
+                           float t_max)
+{
+    double o[3] = {0.0, 0.0, 0.0};
+    if (g && level >= 0 && level < g->levels)
+        gt_lattice_point(g, level, origin, o);
+    return gt_iter_init_lattice(it, g, level, o, dir, t_min, t_max);
 }
 
 VX_INLINE double gt_min2(double a, double b) { return a < b ? a : b; }

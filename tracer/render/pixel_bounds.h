@@ -68,7 +68,9 @@ static inline void pixel_bounds_ray(const pixel_bounds *b, vec3 forward, int px,
         *t_min = INFINITY;
         return;
     }
-    float tn = (float)((double)b->near_t[i] / c * (1.0 - 1e-6)), tf = (float)((double)b->far_t[i] / c * (1.0 + 1e-6));
+    /* One division: the reciprocal's rounding (an ulp) is far inside the margin. */
+    double inv_c = 1.0 / c;
+    float tn = (float)((double)b->near_t[i] * inv_c * (1.0 - 1e-6)), tf = (float)((double)b->far_t[i] * inv_c * (1.0 + 1e-6));
     *t_min = tn > *t_min ? tn : *t_min;
     *t_max = tf < *t_max ? tf : *t_max;
 }

@@ -115,6 +115,7 @@ typedef struct voxel_ctx {
     int shadow_skip;
     int cache;
     int cam_cell[3];          /* the camera's level-0 cell (voxel_set_camera_cell): its neighbours are not cached */
+    double cam_lattice[3];    /* the camera's position in level-0 lattice units (gt_lattice_point), for the rays from it */
     int opacity_by_direction; /* the model's vx_voxel_eval.opacity_by_direction */
     float view_tile;          /* the cached opacities' direction lattice (view_tile.h); 0: the exact direction */
     shadow_maps shadows;      /* precomputed shadows (shadow_maps_core.h); p NULL: march */
@@ -248,13 +249,13 @@ VX_INLINE void voxel_cached_query(const voxel_ctx *x, const grid_hit *h, vec3 di
     q->footprint = dist * x->spread;
 }
 
-/* x->cam_cell: the level-0 cell holding the camera, its lattice coordinates clamped to two cells
- * around the grid first (a camera farther out is as far from every voxel as that, and its floor
- * stays an int). */
+/* x->cam_lattice, and x->cam_cell: the level-0 cell holding the camera, its lattice coordinates
+ * clamped to two cells around the grid first (a camera farther out is as far from every voxel as
+ * that, and its floor stays an int). */
 VX_INLINE void voxel_set_camera_cell(voxel_ctx *x)
 {
-    double lat[3];
-    grid_to_lattice(x->g, x->cam.position, lat);
+    double *lat = x->cam_lattice;
+    gt_lattice_point(x->g, 0, x->cam.position, lat);
     double hi = (double)x->g->n + 2.0;
     for (int a = 0; a < 3; a++) {
         double u = lat[a] > -2.0 ? (lat[a] < hi ? lat[a] : hi) : -2.0; /* NaN -> -2 */
@@ -333,7 +334,11 @@ VX_INLINE vec3 voxel_trace_ray(voxel_ctx *x, vec3 org, vec3 dir, float t_min, fl
     grid_iter it;
     grid_hit h;
     x->counts.rays++;
-    if (gt_iter_init(&it, x->g, 0, org, dir, t_min, t_max)) {
+    /* The rays from the camera (all of them without depth of field) start from its lattice point,
+     * mapped once; an equal float maps to the same doubles, so the walk is the same. */
+    int from_camera = org.x == x->cam.position.x && org.y == x->cam.position.y && org.z == x->cam.position.z;
+    if (from_camera ? gt_iter_init_lattice(&it, x->g, 0, x->cam_lattice, dir, t_min, t_max)
+                    : gt_iter_init(&it, x->g, 0, org, dir, t_min, t_max)) {
         while (!done && gt_iter_next(&it, &h)) {
             x->counts.visits++;
             vx_answer a;
