@@ -24,6 +24,7 @@
 typedef struct {
     int width, height; /* the image */
     int tile, map_w, map_h; /* the map's cells: tile x tile pixels, map_w x map_h of them */
+    int tile_shift;         /* log2(tile): a pixel's cell by shifts, not two integer divisions a ray */
     float *near_t, *far_t; /* width * height each, row-major: the depths along the camera's axis
                             * (not t) of the nearest and farthest voxel over the pixel; near
                             * INFINITY: nothing; NULL: no map */
@@ -60,7 +61,7 @@ static inline void pixel_bounds_ray(const pixel_bounds *b, vec3 forward, int px,
 {
     if (!pixel_bounds_active(b))
         return;
-    size_t i = (size_t)(py / b->tile) * (size_t)b->map_w + (size_t)(px / b->tile);
+    size_t i = (size_t)(py >> b->tile_shift) * (size_t)b->map_w + (size_t)(px >> b->tile_shift);
     double c = (double)dir.x * forward.x + (double)dir.y * forward.y + (double)dir.z * forward.z;
     if (!(c > 0.0))
         return;

@@ -337,8 +337,10 @@ VX_INLINE vec3 voxel_trace_ray(voxel_ctx *x, vec3 org, vec3 dir, float t_min, fl
     /* The rays from the camera (all of them without depth of field) start from its lattice point,
      * mapped once; an equal float maps to the same doubles, so the walk is the same. */
     int from_camera = org.x == x->cam.position.x && org.y == x->cam.position.y && org.z == x->cam.position.z;
-    if (from_camera ? gt_iter_init_lattice(&it, x->g, 0, x->cam_lattice, dir, t_min, t_max)
-                    : gt_iter_init(&it, x->g, 0, org, dir, t_min, t_max)) {
+    /* An empty [t_min, t_max] (a pixel whose bounds hold no voxel: t_min infinite) has no cells,
+     * as gt_iter_init would find after its divisions. */
+    if (t_min < t_max && (from_camera ? gt_iter_init_lattice(&it, x->g, 0, x->cam_lattice, dir, t_min, t_max)
+                                      : gt_iter_init(&it, x->g, 0, org, dir, t_min, t_max))) {
         while (!done && gt_iter_next(&it, &h)) {
             x->counts.visits++;
             vx_answer a;
