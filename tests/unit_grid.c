@@ -764,6 +764,27 @@ static int check_ray(const voxel_grid *g, int level, vec3 org, vec3 dir, float t
         printf("# DDA found %zu cells, brute force %zu\n", j, nb);
         return 0;
     }
+    /* The same walk from the origin mapped beforehand (the frame's primary rays, from the camera's
+     * lattice point): the same cells with the same [t0, t1], bit for bit. */
+    grid_iter from_world, from_lattice;
+    grid_hit a, b;
+    double lattice[3];
+    gt_lattice_point(g, level, org, lattice);
+    int na = gt_iter_init(&from_world, g, level, org, dir, tmin, tmax);
+    int nl = gt_iter_init_lattice(&from_lattice, g, level, lattice, dir, tmin, tmax);
+    for (steps = 0; na == nl && na && steps < 100000; steps++) {
+        na = gt_iter_next(&from_world, &a);
+        nl = gt_iter_next(&from_lattice, &b);
+        if (na && nl && (a.x != b.x || a.y != b.y || a.z != b.z || a.index != b.index || a.t0 != b.t0 || a.t1 != b.t1)) {
+            printf("# walk from the lattice point: cell %d %d %d [%.9g %.9g], from the world origin %d %d %d [%.9g %.9g]\n",
+                   b.x, b.y, b.z, (double)b.t0, (double)b.t1, a.x, a.y, a.z, (double)a.t0, (double)a.t1);
+            return 0;
+        }
+    }
+    if (na != nl) {
+        printf("# walk from the lattice point ends %s the walk from the world origin\n", nl ? "after" : "before");
+        return 0;
+    }
     return 1;
 }
 
