@@ -222,7 +222,12 @@ static void test_ply_bunny(void)
         mesh_free(&m);
     }
     printf("# bunny.ply loaded in %.1f ms (best of 3)\n", best);
+#ifdef __SANITIZE_ADDRESS__
+    /* Instrumented, the load takes about 50 ms here: half the limit, too near it on a loaded machine. */
+    printf("ok ply bunny loads in under 100 ms # skipped: AddressSanitizer build\n");
+#else
     CHECK("ply bunny loads in under 100 ms", best < 100.0);
+#endif
 }
 
 static void test_ply_errors(void)
