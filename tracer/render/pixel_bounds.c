@@ -17,8 +17,7 @@
  * pixels, for bounds a little looser (the rays start about a voxel earlier). Measured against 1, 3
  * and 4 (256^3, 256 x 256, medians of 5; binary / alpha): bunny 22.8 / 57.3 ms with 1, 19.4 / 54.9
  * with 2, 21.5 / 67.4 with 4; city and trees alike or within 2 %. */
-#define BOUNDS_TILE_SHIFT 1
-#define BOUNDS_TILE (1 << BOUNDS_TILE_SHIFT)
+#define BOUNDS_TILE (1 << PIXEL_BOUNDS_TILE_SHIFT)
 
 /* Margins, far above the float rounding of the camera's rays (relative 1e-7 of a direction: 1e-5 of
  * a pixel) and of the DDA's cells (1e-13 of a voxel), far below anything that changes how much a ray
@@ -52,8 +51,6 @@ int pixel_bounds_alloc(pixel_bounds *b, int width, int height, int threads)
     b->far_t = b->near_t + pixels;
     b->width = width;
     b->height = height;
-    b->tile = tile;
-    b->tile_shift = BOUNDS_TILE_SHIFT;
     b->map_w = mw;
     b->map_h = mh;
     b->parts = threads;
@@ -137,10 +134,10 @@ static void bounds_share(void *p, int64_t share, int thread)
             continue;
         int px0 = x0 > 0.0 ? (int)x0 : 0, py0 = y0 > 0.0 ? (int)y0 : 0;
         int px1 = x1 < b->width - 1 ? (int)x1 : b->width - 1, py1 = y1 < b->height - 1 ? (int)y1 : b->height - 1;
-        px0 >>= b->tile_shift; /* >= 0 */
-        py0 >>= b->tile_shift;
-        px1 >>= b->tile_shift;
-        py1 >>= b->tile_shift;
+        px0 >>= PIXEL_BOUNDS_TILE_SHIFT; /* >= 0 */
+        py0 >>= PIXEL_BOUNDS_TILE_SHIFT;
+        px1 >>= PIXEL_BOUNDS_TILE_SHIFT;
+        py1 >>= PIXEL_BOUNDS_TILE_SHIFT;
         /* Depths along the camera's axis (pixel_bounds_ray turns them into each ray's t); rounding
          * to float (relative 6e-8) stays inside pixel_bounds_ray's relative margin. */
         float tn = (float)(Z - hz), tf = (float)(Z + hz);

@@ -21,10 +21,13 @@
 #include "camera.h"
 #include "grid_core.h"
 
+/* A map cell is 2^PIXEL_BOUNDS_TILE_SHIFT pixels a side (why 2: pixel_bounds.c). A constant, so
+ * that a ray finds its cell by shifts, not two integer divisions. */
+#define PIXEL_BOUNDS_TILE_SHIFT 1
+
 typedef struct {
     int width, height; /* the image */
-    int tile, map_w, map_h; /* the map's cells: tile x tile pixels, map_w x map_h of them */
-    int tile_shift;         /* log2(tile): a pixel's cell by shifts, not two integer divisions a ray */
+    int map_w, map_h;  /* the map's cells (PIXEL_BOUNDS_TILE_SHIFT), map_w x map_h of them */
     float *near_t, *far_t; /* width * height each, row-major: the depths along the camera's axis
                             * (not t) of the nearest and farthest voxel over the pixel; near
                             * INFINITY: nothing; NULL: no map */
@@ -61,7 +64,7 @@ static inline void pixel_bounds_ray(const pixel_bounds *b, vec3 forward, int px,
 {
     if (!pixel_bounds_active(b))
         return;
-    size_t i = (size_t)(py >> b->tile_shift) * (size_t)b->map_w + (size_t)(px >> b->tile_shift);
+    size_t i = (size_t)(py >> PIXEL_BOUNDS_TILE_SHIFT) * (size_t)b->map_w + (size_t)(px >> PIXEL_BOUNDS_TILE_SHIFT);
     double c = (double)dir.x * forward.x + (double)dir.y * forward.y + (double)dir.z * forward.z;
     if (!(c > 0.0))
         return;
@@ -71,7 +74,8 @@ static inline void pixel_bounds_ray(const pixel_bounds *b, vec3 forward, int px,
     }
     /* One division: the reciprocal's rounding (an ulp) is far inside the margin. */
     double inv_c = 1.0 / c;
-    float tn = (float)((double)b->near_t[i] * inv_c * (1.0 - 1e-6)), tf = (float)((double)b->far_t[i] * inv_c * (1.0 + 1e-6));
+    float tn = (float)((double)b->near_t[i] * inv_c * (1.0 - 1e-6));
+    float tf = (float)((double)b->far_t[i] * inv_c * (1.0 + 1e-6));
     *t_min = tn > *t_min ? tn : *t_min;
     *t_max = tf < *t_max ? tf : *t_max;
 }

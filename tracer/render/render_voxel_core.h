@@ -115,7 +115,7 @@ typedef struct voxel_ctx {
     int shadow_skip;
     int cache;
     int cam_cell[3];          /* the camera's level-0 cell (voxel_set_camera_cell): its neighbours are not cached */
-    double cam_lattice[3];    /* the camera's position in level-0 lattice units (gt_lattice_point), for the rays from it */
+    double cam_lattice[3];    /* the camera in level-0 lattice units (gt_lattice_point), for the rays from it */
     int opacity_by_direction; /* the model's vx_voxel_eval.opacity_by_direction */
     float view_tile;          /* the cached opacities' direction lattice (view_tile.h); 0: the exact direction */
     shadow_maps shadows;      /* precomputed shadows (shadow_maps_core.h); p NULL: march */
