@@ -21,7 +21,8 @@ Runs the declared sweep (cached) and writes into <results>/<name>/:
   rows.csv, rows.json     the sweep's rows.
 
 Render time is one frame's render with the bake excluded (the bake is a one-off precomputation: see
-Table 2), at the voxlab thread count the sweep states. Memory is the model's records + sparse grid;
+Table 2), at the voxlab thread count the sweep states. Memory is what the frame reads: the model's
+records + sparse grid + its constant tables + the precomputed shadows of a method that has them;
 for the truth it is voxlab's mesh_bytes when its stats give them, else the truth process's peak RSS
 minus that of a voxlab process that loads no scene (mesh, BVH and framebuffer: an overestimate).
 """
@@ -35,16 +36,34 @@ from voxlab_exp.config import REPO  # noqa: E402
 from voxlab_exp.files import rel, write_csv, write_text  # noqa: E402
 from voxlab_exp.plots import TRUTH_COLOUR, model_colour, place_labels, save_plot  # noqa: E402
 from voxlab_exp.report import settings_text  # noqa: E402
-from voxlab_exp.rows import run_experiment, traced_per_pixel  # noqa: E402
+from voxlab_exp.rows import run_experiment, shadow_skip_off, traced_per_pixel  # noqa: E402
 from voxlab_exp.schema import load_declaration  # noqa: E402
 
 AXES = [("render_ms", "mse"), ("render_ms", "one_minus_ssim"), ("mb", "mse"), ("mb", "one_minus_ssim")]
 LABEL = {"render_ms": "render time per frame (ms)", "mb": "memory (MB)", "mse": "MSE",
          "one_minus_ssim": "1 − SSIM"}
-CSV_FIELDS = ["scene", "series", "model", "res", "spp", "rays", "cache", "width", "height", "render_ms", "render_ms_min",
+CSV_FIELDS = ["scene", "series", "model", "res", "spp", "rays", "cache", "shadows", "shadow_skip", "width", "height",
+              "render_ms", "render_ms_min",
               "render_ms_spread", "repeats", "loaded", "bake_s",
               "mb", "mse", "ssim", "one_minus_ssim", "psnr", "label", "status", "error"] + \
              [f"on_front_{x}_{y}" for x, y in AXES] + ["dominated_by_truth"]
+
+
+def default_shadows(r):
+    """Whether a row's shadows are the default ones (march with the shadow skip): a declaration may
+    sweep the method or the skip, and those points are other settings, neither on the resolution
+    line nor under its label."""
+    return (r.get("shadows") or "march") == "march" and not shadow_skip_off(r)
+
+
+def shadows_words(r):
+    """The label's words for a row's non-default shadows (none for the default)."""
+    words = []
+    if (r.get("shadows") or "march") != "march":
+        words.append(f"{r['shadows']} shadows")
+    if shadow_skip_off(r):
+        words.append("no shadow skip")
+    return words
 
 
 def point_label(r):
@@ -60,6 +79,7 @@ def point_label(r):
         parts.append(f"{r['rays']} rays")
     if not r["cache"]:
         parts.append("no cache")
+    parts += shadows_words(r)
     return f"{r['model']} " + ", ".join(parts)
 
 
@@ -120,7 +140,8 @@ def plot_scene(scene, pts, models, out_stem, meta, decl):
             mp = [p for p in usable if p["series"] == m]
             # The resolution sweep (default spp, rays, cache) as a connected line, the other
             # parameters as separate markers, so each model's curve reads at a glance.
-            line = sorted((p for p in mp if p["spp"] == 4 and p["rays"] == 150 and p["cache"]), key=lambda p: p["res"])
+            line = sorted((p for p in mp if p["spp"] == 4 and p["rays"] == 150 and p["cache"] and default_shadows(p)),
+                          key=lambda p: p["res"])
             if line:
                 ax.plot([p[x] for p in line], [p[y] for p in line], "-o", color=colours[m], ms=5, lw=1.3, label=m)
                 time_bars(ax, line, x, y, colours[m])
@@ -136,7 +157,7 @@ def plot_scene(scene, pts, models, out_stem, meta, decl):
                 time_bars(ax, [p], x, y, colours[m])
                 short = " ".join(t for t in (f"{p['spp']}spp" if p["spp"] != 4 else "",
                                              f"{p['rays']}rays" if p["rays"] != 150 else "",
-                                             "nocache" if not p["cache"] else "") if t)
+                                             "nocache" if not p["cache"] else "", *shadows_words(p)) if t)
                 labels.append(ax.annotate(short, (p[x], p[y]), textcoords="offset points", xytext=(4, -8),
                                           fontsize=6, color=colours[m]))
         tr = sorted((p for p in usable if p["series"] == "truth"), key=lambda p: p["spp"])
@@ -187,7 +208,8 @@ def build(meta, rows, decl, out):
     csv_rows, md = [], [f"# Error against cost ({meta['experiment']})", ""]
     md += [f"- {x}" for x in settings_text(meta)]
     md += ["", "Time = render ms per frame (bake excluded; the median of the timed repeats, bars from the fastest "
-               "to the slowest); memory = records + sparse grid (truth: see pareto.py). "
+               "to the slowest); memory = records + sparse grid + the model's tables + precomputed shadows "
+               "(truth: see pareto.py). "
                "A point is on a front when no other point is both cheaper and more accurate.", ""]
     for sc in scenes:
         pts = []
@@ -195,7 +217,8 @@ def build(meta, rows, decl, out):
             if r["scene"] != sc:
                 continue
             p = {"scene": sc, "series": "truth" if r["kind"] == "truth" else r["model"], "model": r["model"],
-                 "res": r["res"], "spp": r["spp"], "rays": r["rays"], "cache": r["cache"], "width": r["width"],
+                 "res": r["res"], "spp": r["spp"], "rays": r["rays"], "cache": r["cache"],
+                 "shadows": r.get("shadows") or "march", "shadow_skip": r.get("shadow_skip", True), "width": r["width"],
                  "height": r["height"], "render_ms": r.get("render_ms"), "render_ms_min": r.get("render_ms_min"),
                  "render_ms_spread": r.get("render_ms_spread"), "repeats": r.get("repeats"), "loaded": r.get("loaded"),
                  "bake_s": r.get("bake_s"), "mb": r.get("mb"),

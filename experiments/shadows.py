@@ -138,7 +138,11 @@ def build(decl, sw, meta, rows, results, out):
             row["max_diff_march"] = float(np.max(np.abs(a - b))) if a.shape == b.shape else math.inf
         row.update(shadow_build_ms=r["shadow_build_s"] * 1e3 if r.get("shadow_build_s") is not None else None,
                    shadow_mb=r["shadow_bytes"] / 1e6 if r.get("shadow_bytes") is not None else None)
-        row["total_mb"] = (row["mb"] or 0) + (row["shadow_mb"] or 0) if row.get("mb") is not None else None
+        # The rows' mb is everything the frame reads, the shadows included: here the model's part
+        # (records, grid, tables) and the maps' apart.
+        row["total_mb"] = row.get("mb")
+        row["mb"] = ((r["model_bytes"] + r["grid_bytes"] + (r.get("table_bytes") or 0)) / 1e6
+                     if r.get("model_bytes") is not None and r.get("grid_bytes") is not None else None)
         m = masks.get(key)
         if r["status"] == "ok" and m is not None:
             row["mse_shadow"] = mse_over(img(os.path.join(results, r["image"])), img(os.path.join(results,

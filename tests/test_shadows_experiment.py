@@ -3,7 +3,8 @@ every model x the four shadow methods, a 16-spp truth, one timed run each.
 
 1. It exits 0 and writes shadows.csv/.md and the crop figure (PNG, PDF, SVG); one row per model and
    method plus the truth's slicemap, every one ok, with the MSE over the truth's shadowed pixels;
-   precomputation time and map memory only where a method precomputes. `voxel` has a row for each
+   precomputation time and map memory only where a method precomputes, the total MB the model's
+   plus the maps'. `voxel` has a row for each
    model the binary renders with it (asked of `voxlab render --dry-run`, not of the experiment's
    own rule), none for the others; its image is march's (read back from the EXRs here), which
    its rows' max_diff_march says too, and a wrong image would show there.
@@ -77,6 +78,12 @@ report("precomputation time and map memory where a method precomputes, none for 
        all(float(r["shadow_build_ms"] or 0) == 0 and float(r["shadow_mb"] or 0) == 0 for r in rows
            if r["shadows"] == "march"), str([(r["model"], r["shadows"], r["shadow_build_ms"], r["shadow_mb"])
                                              for r in rows]))
+# The sweep's rows charge the precomputed shadows to mb (all the frame reads); the table splits it.
+report("total MB = the model's MB + the shadows' MB on every model row, the model's MB the same for every method",
+       rows and all(abs(float(r["total_mb"]) - float(r["mb"]) - float(r["shadow_mb"] or 0)) < 1e-9 and
+                    len({r2["mb"] for r2 in rows if r2["model"] == r["model"]}) == 1
+                    for r in rows if r["model"] != "truth"),
+       str([(r["model"], r["shadows"], r["mb"], r["shadow_mb"], r["total_mb"]) for r in rows]))
 # voxel's image against march's, read here (testlib's reader, not the experiment's); and the
 # experiment's own max_diff_march.
 sweep_rows = []

@@ -16,6 +16,8 @@
 - The truth's render time is monotone in spp within the spread on a small case (spheres, 64x64,
   4/16/64 spp, 3 repeats), checked from pareto.csv's numbers here and stated in pareto.md; the
   check itself (truth_time_violations) against hand-made points.
+- A sweep over the shadow method and the shadow skip: pareto.csv's columns and labels tell the
+  points apart, and the memory axis charges the `voxel` method its per-voxel transmittances.
 """
 import json
 import os
@@ -156,6 +158,53 @@ def pareto_small():
            f"(mb, mesh, bvh, triangles) per row: {seen}")
 
 
+def pareto_shadow_settings():
+    """A declaration that sweeps the shadow method and the shadow skip: pareto.csv says which point is
+    which (columns and labels), and the memory axis charges the `voxel` method its transmittances
+    (one float per voxel and light, counted here from the row's voxels and the scene's lights)."""
+    decl = os.path.join(TMP, "pareto_shadows.json")
+    with open(decl, "w") as f:
+        json.dump({"name": "pareto_shadows", "truth_spp": 16, "scenes": ["spheres"], "repeats": 1,
+                   "runs": [{"models": ["alpha"], "res": [16], "size": 32, "spp": [4], "shadows": ["march", "voxel"],
+                             "shadow_skip": [True, False]}]}, f)
+    results = os.path.join(TMP, "results")
+    p = subprocess.run([PY, os.path.join(EXP, "pareto.py"), "--experiment", decl, "--results", results,
+                        "--voxlab", VOXLAB], capture_output=True, text=True)
+    report("pareto sweep over shadow settings exits 0", p.returncode == 0, p.stderr[-1500:])
+    if p.returncode != 0:
+        return
+    out = os.path.join(results, "pareto_shadows")
+    rows = [r for r in read_csv(os.path.join(out, "pareto.csv")) if r["series"] == "alpha"]
+    by = {(r["shadows"], r["shadow_skip"]): r for r in rows}
+    report("pareto.csv: one alpha point per shadow method and skip, with both columns",
+           len(rows) == 4 and set(by) == {(m, k) for m in ("march", "voxel") for k in ("True", "False")},
+           str(sorted(by)))
+    labels = {k: r["label"] for k, r in by.items()}
+    report("the labels name the shadow method and the skip where they are not the default",
+           len(labels) == 4 and "shadow" not in labels[("march", "True")] and
+           "voxel shadows" in labels[("voxel", "True")] and "no shadow skip" not in labels[("voxel", "True")] and
+           "no shadow skip" in labels[("march", "False")] and "voxel shadows" not in labels[("march", "False")] and
+           "voxel shadows" in labels[("voxel", "False")] and "no shadow skip" in labels[("voxel", "False")],
+           str(labels))
+    with open(os.path.join(out, "rows.json")) as f:
+        jrows = [r for r in json.load(f)["rows"] if r["kind"] == "model"]
+    with open(os.path.join(REPO, "scenes", "spheres.json")) as f:
+        lights = len(json.load(f)["lights"])
+    ok, seen = len(jrows) == 4, []
+    for skip in (True, False):
+        m = [r for r in jrows if r["shadows"] == "march" and r["shadow_skip"] == skip]
+        v = [r for r in jrows if r["shadows"] == "voxel" and r["shadow_skip"] == skip]
+        if len(m) != 1 or len(v) != 1:
+            ok = False
+            continue
+        m, v = m[0], v[0]
+        transmittances = 4 * v["voxels"] * lights / 1e6
+        seen.append((m["mb"], v["mb"], transmittances))
+        ok &= v["voxels"] > 0 and abs(v["mb"] - m["mb"] - transmittances) < 1e-9
+    report("memory: a voxel-shadowed point costs its march twin + 4 bytes per voxel and light", ok,
+           f"(march mb, voxel mb, transmittances MB): {seen}")
+
+
 def flagged_in_tables():
     """A sweep whose machine looks overloaded: rows loaded = 1, Table 2 marks the times, the
     settings line flags the jobs."""
@@ -239,6 +288,7 @@ def main():
     violations_logic()
     flagged_in_tables()
     pareto_small()
+    pareto_shadow_settings()
 
 
 if __name__ == "__main__":

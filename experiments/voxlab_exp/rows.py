@@ -36,6 +36,12 @@ def row_fields(metrics):
     return ROW_FIELDS_HEAD + list(metrics) + ROW_FIELDS_TAIL
 
 
+def shadow_skip_off(r):
+    """Whether a row's shadow rays were marched without the shadow skip (a row read back from a CSV
+    holds the word)."""
+    return r.get("shadow_skip", True) in (False, "False", "false", 0, "0")
+
+
 def row_key(r):
     """What identifies a configuration across runs (baseline, history)."""
     key = "/".join(str(x) for x in (r["scene"], r["model"], f"r{r['res']}", f"{r['width']}x{r['height']}",
@@ -45,7 +51,7 @@ def row_key(r):
     # the others are other configurations (a declaration may run "shadow_skip": [true, false]).
     sh = r.get("shadows") or "march"
     key = key if sh == "march" else f"{key}/shadows-{sh}"
-    return f"{key}/noskip" if r.get("shadow_skip", True) in (False, "False", "false", 0, "0") else key
+    return f"{key}/noskip" if shadow_skip_off(r) else key
 
 
 def wanted_all(wanted):
@@ -251,8 +257,11 @@ def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
             bytes_per_voxel=rs.get("bytes_per_voxel"),
             voxels=rs.get("voxels"),
             model_bytes=rs.get("model_bytes"), grid_bytes=rs.get("grid_bytes"), table_bytes=rs.get("table_bytes"),
-            # records + grid + the model's constant table (heitz-neyret's masks), all it reads
-            mb=((rs["model_bytes"] + rs["grid_bytes"] + rs.get("table_bytes", 0)) / 1e6
+            # records + grid + the model's constant table (heitz-neyret's masks) + the precomputed
+            # shadows (the slicemap's maps, the `voxel` method's transmittance per voxel and light):
+            # all the frame reads. Without the last, a model rendered with precomputed shadows was
+            # charged less memory than the same model marching its shadow rays.
+            mb=((rs["model_bytes"] + rs["grid_bytes"] + rs.get("table_bytes", 0) + (rs.get("shadow_bytes") or 0)) / 1e6
                 if "model_bytes" in rs and "grid_bytes" in rs else None),
             shadow_build_s=rs.get("shadow_build_seconds"), shadow_bytes=rs.get("shadow_bytes"),
             shadow_queries=rs.get("shadow_queries"),
