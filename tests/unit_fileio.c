@@ -1,6 +1,6 @@
 /* tracer/core/fileio.c and tracer/core/readfile.c: a signal that ends the run removes the temporary file
  * being written (checked in a child that is killed by the signal, as a user's Ctrl-C would), and
- * input files are read only when they are regular files. */
+ * input files are read only when they are regular files; an output's extension. */
 #include <dirent.h>
 #include <fcntl.h>
 #include <signal.h>
@@ -106,6 +106,17 @@ int main(void)
     CHECK("readfile: a regular file is read whole, NUL-terminated", buf && size == 101 && buf[100] == '\n' && buf[101] == 0);
     free(buf);
     unlink(out);
+    /* Extensions: the last component's last '.', but a leading '.' names a hidden file. */
+    CHECK("extension of a plain name", strcmp(fileio_extension("out/image.EXR"), ".EXR") == 0 &&
+                                           strcmp(fileio_extension("a.b/c"), "") == 0 &&
+                                           strcmp(fileio_extension("x.tar.gz"), ".gz") == 0);
+    CHECK("a hidden file's leading dot is no extension",
+          strcmp(fileio_extension(".exr"), "") == 0 && strcmp(fileio_extension("dir/.png"), "") == 0 &&
+              strcmp(fileio_extension("..exr"), "") == 0 && strcmp(fileio_extension(".hidden.png"), ".png") == 0);
+    snprintf(out, sizeof out, "%s/.exr", dir);
+    CHECK("an output named only an extension is refused before anything is written",
+          fileio_check_output("--out", out, ".exr", &e) != 0 && strstr(e.msg, "unsupported extension") &&
+              access(out, F_OK) != 0);
     rmdir(dir);
     return unit_exit();
 }

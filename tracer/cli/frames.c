@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "animation.h"
+#include "fileio.h"
 #include "cli.h"
 
 int frames_parse(const char *cmd, const char *option, const char *text, frame_range *r)
@@ -41,8 +42,8 @@ int frames_parse(const char *cmd, const char *option, const char *text, frame_ra
 
 void frames_path(const char *path, int frame, char *out, size_t size)
 {
-    const char *dot = strrchr(path, '.'), *slash = strrchr(path, '/');
-    if (!dot || (slash && dot < slash))
+    const char *dot = fileio_extension(path);
+    if (!*dot)
         dot = path + strlen(path);
     snprintf(out, size, "%.*s_%04d%s", (int)(dot - path), path, frame, dot);
 }

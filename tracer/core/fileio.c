@@ -176,7 +176,11 @@ int fileio_check_writable(const char *path, vx_err *e)
 const char *fileio_extension(const char *path)
 {
     const char *slash = strrchr(path, '/');
-    const char *dot = strrchr(slash ? slash + 1 : path, '.');
+    const char *name = slash ? slash + 1 : path;
+    /* A name's leading dots are not an extension: "-o .exr" would write a hidden file with no name. */
+    while (*name == '.')
+        name++;
+    const char *dot = strrchr(name, '.');
     return dot ? dot : "";
 }
 

@@ -28,7 +28,8 @@ int fileio_write_text(const char *path, const char *text, vx_err *e);
 /* Fails early, before long work, when `path` cannot be created (creates and removes a temp file)
  * or is a directory. */
 int fileio_check_writable(const char *path, vx_err *e);
-/* path's extension: from the last '.' of its last component ("" when it has none). */
+/* path's extension: from the last '.' of its last component ("" when it has none; a leading '.',
+ * as in ".exr", starts a hidden file's name, not an extension). */
 const char *fileio_extension(const char *path);
 /* fileio_check_writable, then the extension: ext, in any case (as images take .EXR), so that a
  * file that a later run or a script would read as the wrong kind is not written under that name.

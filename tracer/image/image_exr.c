@@ -148,8 +148,7 @@ int image_write_exr(const image *img, const char *path, vx_err *e)
 int image_read_meta(const char *path, image_meta *out, vx_err *e)
 {
     memset(out, 0, sizeof *out);
-    const char *dot = strrchr(path, '.');
-    if (!dot || strcasecmp(dot, ".exr") != 0)
+    if (strcasecmp(fileio_extension(path), ".exr") != 0)
         return 0;
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
     init.error_handler_fn = capture_error;

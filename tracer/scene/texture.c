@@ -5,6 +5,7 @@
 #include <string.h>
 #include <strings.h>
 
+#include "fileio.h"
 #include "image.h"
 
 static float wrap01(float x) { return x - floorf(x); }
@@ -39,8 +40,8 @@ static int stores_srgb(const char *path, const image *img)
 {
     if (img->stored_8bit)
         return 1;
-    const char *dot = strrchr(path, '.');
-    return dot && (strcasecmp(dot, ".png") == 0 || strcasecmp(dot, ".jpg") == 0 || strcasecmp(dot, ".jpeg") == 0);
+    const char *dot = fileio_extension(path);
+    return strcasecmp(dot, ".png") == 0 || strcasecmp(dot, ".jpg") == 0 || strcasecmp(dot, ".jpeg") == 0;
 }
 
 static float srgb_to_linear(float x) { return x <= 0.04045f ? x / 12.92f : powf((x + 0.055f) / 1.055f, 2.4f); }
