@@ -142,7 +142,8 @@ static void test_ply_big_endian(void)
 }
 
 /* ASCII values are a stream: a line with a value too many shifts everything after it, which shows at
- * the end as values left over. Refused, naming them; trailing blank lines are fine. */
+ * the end as values left over, or as a read failing later on another element (out of values:
+ * "truncated"). Refused, naming the line at fault wherever it is; trailing blank lines are fine. */
 static void test_ply_values_left_over(void)
 {
     const char *head = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
@@ -154,8 +155,35 @@ static void test_ply_values_left_over(void)
     mesh m = {0};
     vx_err e = {{0}};
     int rc = mesh_load_ply(path, &m, 0, &e);
-    CHECK("ply values after the last element: refused, naming the first",
-          rc != 0 && strstr(e.msg, "values left after the last element (\"7\"") && m.triangle_count == 0);
+    CHECK("ply a value too many on the last line: refused, naming the line",
+          rc != 0 && strstr(e.msg, "line 13 (face 0): 5 values where its properties take 4") && m.triangle_count == 0);
+    /* Mid-file: vertex 1 has a fourth value; the stream then ran out inside the face ("truncated"). */
+    path = write_tmp("mid_extra.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                      "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                                      "end_header\n0 0 0\n1 0 0 5\n0 0 1\n3 0 1 2\n");
+    rc = mesh_load_ply(path, &m, 0, &e);
+    CHECK("ply a value too many mid-file: the line is named, not \"truncated\"",
+          rc != 0 && strstr(e.msg, "line 11 (vertex 1): 4 values where its properties take 3") &&
+              !strstr(e.msg, "truncated") && m.triangle_count == 0);
+    /* A value too few, with blank lines before it (they hold no element, but count as lines). */
+    path = write_tmp("mid_short.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                      "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                                      "end_header\n0 0 0\n\n1 0 0\n0 1\n3 0 1 2\n");
+    rc = mesh_load_ply(path, &m, 0, &e);
+    CHECK("ply a value too few: the line is named", rc != 0 && strstr(e.msg, "line 13 (vertex 2): 2 values, too few"));
+    /* A list shorter than its count. */
+    path = write_tmp("short_list.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                       "property float z\nelement face 2\nproperty list uchar int vertex_indices\n"
+                                       "end_header\n0 0 0\n1 0 0\n0 0 1\n3 0 1\n3 0 1 2\n");
+    rc = mesh_load_ply(path, &m, 0, &e);
+    CHECK("ply a list shorter than its count: the line is named",
+          rc != 0 && strstr(e.msg, "line 13 (face 0): 3 values where its properties take 4"));
+    /* A file that ends early is still "truncated". */
+    path = write_tmp("ends_early.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                       "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                                       "end_header\n0 0 0\n1 0 0\n0 0 1\n  \n");
+    rc = mesh_load_ply(path, &m, 0, &e);
+    CHECK("ply ending before its last element: truncated", rc != 0 && strstr(e.msg, "truncated"));
     snprintf(text, sizeof text, "%s3 0 1 2\n\n  \r\n", head);
     path = write_tmp("blank_tail.ply", text);
     rc = mesh_load_ply(path, &m, 0, &e);

@@ -41,6 +41,7 @@ typedef struct {
     ply_format format;
     ply_element *elems;
     size_t elem_count, elem_capacity;
+    int body_line; /* the file's line number of the body's first line (the header's are tokenised away) */
 } ply_header;
 
 static void header_free(ply_header *h)
@@ -156,6 +157,9 @@ static int parse_header(ply_header *h, char *buf, size_t size, size_t *body, vx_
     if (!body_start)
         return vx_fail(e, "%s: PLY header has no line break after end_header", path);
     *body = (size_t)(body_start + 1 - buf);
+    h->body_line = 1;
+    for (size_t i = 0; i < *body; i++)
+        h->body_line += buf[i] == '\n';
 
     char *cursor = buf, *end = end_header;
     char *tok[8];
@@ -513,6 +517,84 @@ static int read_body(ply_reader *r, const ply_header *h, const ply_element *vert
     return 0;
 }
 
+/* Values on [p, line_end) from the first, counted; *need: how many the element's properties take,
+ * reading a list's count where the line has it (SIZE_MAX when a count is missing or no count). */
+static size_t ascii_line_values(const ply_element *el, const char *p, const char *line_end, size_t *need)
+{
+    size_t have = 0, next_prop_at = 0, prop = 0;
+    *need = 0;
+    for (const char *s = p;;) {
+        while (s < line_end && (*s == ' ' || *s == '\t' || *s == '\r'))
+            s++;
+        if (s >= line_end)
+            break;
+        const char *tok = s;
+        while (s < line_end && *s != ' ' && *s != '\t' && *s != '\r')
+            s++;
+        if (have == next_prop_at && prop < el->prop_count) {
+            /* The first value of property `prop`: a scalar takes one, a list 1 + its count. */
+            size_t take = 1;
+            if (el->props[prop].count_type != T_NONE) {
+                char *num_end;
+                double count = strtod(tok, &num_end);
+                if (num_end == tok || !(count >= 0 && count < 1e9) || count != floor(count)) {
+                    *need = SIZE_MAX;
+                    return have + 1;
+                }
+                take += (size_t)count;
+            }
+            next_prop_at += take;
+            prop++;
+        }
+        have++;
+    }
+    *need = prop < el->prop_count ? SIZE_MAX : next_prop_at;
+    return have;
+}
+
+/* After a failed ASCII body: the first line whose values do not fit its element's properties, if
+ * there is one, replaces the reader's message (into *e, returning 1; else 0). Why: values are read as
+ * a stream, so a line with a value too many or too few shifts everything after it, and the read
+ * failed later, on another element, or on the file's end ("truncated"), far from the line at fault.
+ * An ASCII PLY holds one element a line. */
+static int ascii_bad_line(const ply_header *h, const char *buf, size_t body, size_t size, vx_err *e)
+{
+    int line = h->body_line;
+    const char *p = buf + body, *end = buf + size;
+    for (size_t k = 0; k < h->elem_count; k++) {
+        const ply_element *el = &h->elems[k];
+        if (el->prop_count == 0)
+            continue; /* its elements hold no values, and no line */
+        for (size_t n = 0; n < el->count; n++, line++) {
+            const char *line_end;
+            for (;; line++) { /* blank lines carry no element */
+                line_end = p < end ? memchr(p, '\n', (size_t)(end - p)) : NULL;
+                line_end = line_end ? line_end : end;
+                const char *s = p;
+                while (s < line_end && (*s == ' ' || *s == '\t' || *s == '\r'))
+                    s++;
+                if (s < line_end)
+                    break;
+                if (line_end >= end)
+                    return 0; /* the file ends first: the reader's "truncated" says so */
+                p = line_end + 1;
+            }
+            size_t need, have = ascii_line_values(el, p, line_end, &need);
+            if (have != need) {
+                if (need == SIZE_MAX)
+                    return vx_fail(e, "%s: line %d (%s %zu): %zu values, too few for its element's %zu properties "
+                                      "(an ASCII PLY holds one element a line)",
+                                   h->path, line, el->name, n, have, el->prop_count);
+                return vx_fail(e, "%s: line %d (%s %zu): %zu values where its properties take %zu (an ASCII PLY "
+                                  "holds one element a line)",
+                               h->path, line, el->name, n, have, need);
+            }
+            p = line_end < end ? line_end + 1 : end;
+        }
+    }
+    return 0;
+}
+
 /* Reads the whole file at once (the bunny is 1.3 MB; parsing from memory is what keeps loads far
  * below a frame), NUL-terminated so ASCII numbers can be parsed with strtod. */
 static char *read_file(const char *path, size_t *size, vx_err *e)
@@ -566,6 +648,9 @@ int mesh_load_ply(const char *path, mesh *out, uint32_t material, vx_err *e)
             .swap = h.format != FMT_ASCII && (h.format == FMT_BE) != host_big,
         };
         rc = read_body(&r, &h, verts, faces, has_normals, has_colors, (uint32_t)v0, material, out, e);
+        vx_err at_line;
+        if (rc != 0 && h.format == FMT_ASCII && ascii_bad_line(&h, buf, body, size, &at_line))
+            *e = at_line;
         if (rc == 0 && !has_normals)
             mesh_smooth_normals(out, v0, t0);
     }
