@@ -130,10 +130,37 @@ VX_INLINE void gt_lattice_point(const voxel_grid *g, int level, vec3 p, double o
     out[2] = ((double)p.z - g->origin_d[2]) / scale;
 }
 
-/* gt_iter_init with the origin already mapped by gt_lattice_point: many rays from one point (a
- * frame's primary rays, from the camera) map it once, not three divisions a ray. */
-GT_ITER_INLINE int gt_iter_init_lattice(grid_iter *it, const voxel_grid *g, int level, const double o[3], vec3 dir,
-                                        float t_min, float t_max)
+/* A ray's direction in a level's lattice units, with what the iterator derives from it: many rays
+ * of one direction (the shadow rays toward a directional light) prepare it once, not six divisions
+ * a ray. ok 0: the level is invalid or the direction is not finite (such a ray has no cells). */
+typedef struct {
+    double d[3], inv[3]; /* the direction over the level's scale; 1 / d (0 where d = 0) */
+    int dir[3];          /* step per axis (-1, 0, +1) */
+    int ok;
+} gt_direction;
+
+VX_INLINE void gt_direction_prepare(const voxel_grid *g, int level, vec3 dir, gt_direction *pd)
+{
+    pd->ok = 0;
+    if (!g || level < 0 || level >= g->levels)
+        return;
+    double scale = gt_level_scale(g, level);
+    pd->d[0] = dir.x / scale;
+    pd->d[1] = dir.y / scale;
+    pd->d[2] = dir.z / scale;
+    pd->ok = 1;
+    VX_UNROLL for (int a = 0; a < 3; a++) {
+        pd->ok &= isfinite(pd->d[a]) != 0;
+        pd->dir[a] = pd->d[a] > 0.0 ? 1 : (pd->d[a] < 0.0 ? -1 : 0);
+        pd->inv[a] = pd->d[a] != 0.0 ? 1.0 / pd->d[a] : 0.0;
+    }
+}
+
+/* gt_iter_init with the origin already mapped by gt_lattice_point (many rays from one point, a
+ * frame's primary rays from the camera, map it once, not three divisions a ray) and the direction
+ * prepared by gt_direction_prepare for the same level. */
+GT_ITER_INLINE int gt_iter_init_prepared(grid_iter *it, const voxel_grid *g, int level, const double o[3],
+                                         const gt_direction *pd, float t_min, float t_max)
 {
     /* Only the fields a walk reads before it writes them are set (not the whole struct zeroed:
      * this runs once per ray): gt_iter_next reads g, level, active, k and parent_ok first. */
@@ -142,32 +169,28 @@ GT_ITER_INLINE int gt_iter_init_lattice(grid_iter *it, const voxel_grid *g, int 
     it->active = 0;
     it->k = 0;
     it->parent_ok = 0;
-    if (!g || level < 0 || level >= g->levels)
+    if (!g || level < 0 || level >= g->levels || !pd->ok)
         return 0;
     int n = g->level[level].n;
     it->n = n;
-    double scale = gt_level_scale(g, level);
-    double d[3] = {dir.x / scale, dir.y / scale, dir.z / scale};
     double t0 = t_min, t1 = t_max;
     if (!(t0 <= t1))
         return 0; /* also NaN */
     int moving = 0;
     VX_UNROLL for (int a = 0; a < 3; a++) {
-        if (!isfinite(o[a]) || !isfinite(d[a]))
+        if (!isfinite(o[a]))
             return 0;
         it->o[a] = o[a];
-        it->d[a] = d[a];
-        if (d[a] == 0.0) {
+        it->d[a] = pd->d[a];
+        it->dir[a] = pd->dir[a];
+        it->inv[a] = pd->inv[a];
+        if (pd->dir[a] == 0) {
             /* Parallel to this axis' planes: inside the half-open slab [0, n) or missing. */
             if (!(o[a] >= 0.0 && o[a] < n))
                 return 0;
-            it->dir[a] = 0;
-            it->inv[a] = 0.0;
             continue;
         }
         moving = 1;
-        it->dir[a] = d[a] > 0.0 ? 1 : -1;
-        it->inv[a] = 1.0 / d[a];
         double ta = gt_plane_t(it, a, 0), tb = gt_plane_t(it, a, n);
         if (ta > tb) {
             double tmp = ta;
@@ -188,6 +211,15 @@ GT_ITER_INLINE int gt_iter_init_lattice(grid_iter *it, const voxel_grid *g, int 
     }
     it->active = 1;
     return 1;
+}
+
+/* gt_iter_init with the origin already mapped by gt_lattice_point. */
+GT_ITER_INLINE int gt_iter_init_lattice(grid_iter *it, const voxel_grid *g, int level, const double o[3], vec3 dir,
+                                        float t_min, float t_max)
+{
+    gt_direction pd;
+    gt_direction_prepare(g, level, dir, &pd);
+    return gt_iter_init_prepared(it, g, level, o, &pd, t_min, t_max);
 }
 
 /* The iterator's set-up (see the top of this file). */

@@ -40,7 +40,8 @@ static void cache_put(struct voxel_ctx *x, int64_t index, const vx_answer *a);
 #define VOXEL_HAS_TRANSMIT(x) ((x)->eval->transmit.fn != NULL)
 #define VOXEL_TRANSMIT(x, rec, a, T) call_transmit(x, rec, a, T)
 #define VOXEL_PIXEL_SKIP(x, org, dirs, n) pixel_skip_t((x)->skip, org, dirs, n)
-#define VOXEL_SHADOW_END(x, light, p, dir, t_max) shadow_clip_end(&(x)->clips[light], p, dir, t_max)
+#define VOXEL_SHADOW_END(x, light, o, dir, t_max) shadow_clip_end_lattice(&(x)->clips[light], o, dir, t_max)
+#define VOXEL_SHADOW_DIRECTION(x, light, dir) voxel_light_direction(x, light, dir)
 #define VOXEL_BOUNDS_ACTIVE(x) pixel_bounds_active((x)->bounds)
 #define VOXEL_RAY_BOUNDS(x, px, py, dir, t_min, t_max) \
     pixel_bounds_ray((x)->bounds, (x)->cam.forward, px, py, dir, t_min, t_max)
@@ -66,12 +67,32 @@ static void cache_put(struct voxel_ctx *x, int64_t index, const vx_answer *a);
     const shadow_clip *clips;    \
     const pixel_bounds *bounds;  \
     const float *shadow_T;       \
+    gt_direction light_dir[VX_MAX_LIGHTS]; /* each directional light's, prepared (voxel_prepare_light_directions) */ \
     uint64_t model_cycles;       \
     int timed; /* the model's calls are timed in this row (render_internal.h) */
 static float memo_opacity(struct voxel_ctx *x, int64_t index, int light, const vx_query *q);
 static float call_transmit(struct voxel_ctx *x, const void *rec, float a, float T);
 static void voxel_prefetch_record(const struct voxel_ctx *x, int64_t index);
+#include "grid_traverse_core.h" /* gt_direction, for the declaration below (after GT_ITER_INLINE) */
+static const gt_direction *voxel_light_direction(const struct voxel_ctx *x, int li, vec3 dir);
 #include "render_voxel_core.h"
+
+/* The shadow rays' prepared direction toward light li when dir is that directional light's
+ * (voxel_prepare_light_directions), else NULL. */
+static const gt_direction *voxel_light_direction(const voxel_ctx *x, int li, vec3 dir)
+{
+    const light *L = &x->lights[li];
+    if (L->type != LIGHT_DIRECTIONAL || dir.x != L->direction.x || dir.y != L->direction.y || dir.z != L->direction.z)
+        return NULL;
+    return &x->light_dir[li];
+}
+
+/* Every directional light's direction, prepared for the shadow rays' walks. */
+static void voxel_prepare_light_directions(voxel_ctx *x)
+{
+    for (int li = 0; li < x->light_count && li < VX_MAX_LIGHTS; li++)
+        gt_direction_prepare(x->g, 0, x->lights[li].direction, &x->light_dir[li]);
+}
 
 /* Every cache line of voxel `index`'s record (records are packed, so one may straddle a line more
  * than its size suggests: the last byte's line too). */
@@ -217,6 +238,7 @@ static void voxel_ctx_init(const render_job *j, voxel_ctx *x, int timed)
     x->shadow_skip = o->shadow_skip;
     x->cache = o->cache;
     voxel_set_camera_cell(x);
+    voxel_prepare_light_directions(x);
     const voxel_state *st = j->state;
     x->eval = j->m->voxel;
     x->compositing = j->m->voxel->compositing;

@@ -36,10 +36,13 @@
  * (without them, the exponential rule T (1 - a), written as it always was),
  * and may add its own fields to voxel_ctx through VOXEL_CTX_BACKEND_FIELDS (the cache's memory, the
  * C backend's model timer). It may define
- *   VOXEL_SHADOW_END(x, light, p, dir, t_max)  a t at or before t_max past which the shadow ray
- *                                 p + t dir toward light `light` meets no non-empty voxel (the C
- *                                 backend's shadow_clip.h; exact: the walk to there reports the same
- *                                 cells with the same [t0, t1]);
+ *   VOXEL_SHADOW_END(x, light, o, dir, t_max)  a t at or before t_max past which the shadow ray
+ *                                 from o (level-0 lattice units) along dir toward light `light` meets
+ *                                 no non-empty voxel (the C backend's shadow_clip.h; exact: the walk
+ *                                 to there reports the same cells with the same [t0, t1]);
+ * and VOXEL_SHADOW_DIRECTION(x, light, dir): light `light`'s direction dir prepared for the walk
+ *                                 (gt_direction_prepare at level 0) once for all its shadow rays, or
+ *                                 NULL (prepared per ray);
  * and VOXEL_PREFETCH_RECORD(x, index): a hint that voxel `index`'s record is about to be read
  * (the C backend's prefetch; nothing else may depend on it);
  * and VOXEL_SHADOW_PRECOMPUTED(x, index, light): voxel `index`'s transmittance toward light `light`
@@ -80,8 +83,11 @@
 #define VOXEL_BOUNDS_ACTIVE(x) 0
 #define VOXEL_RAY_BOUNDS(x, px, py, dir, t_min, t_max)
 #endif
+#ifndef VOXEL_SHADOW_DIRECTION
+#define VOXEL_SHADOW_DIRECTION(x, light, dir) ((const gt_direction *)0)
+#endif
 #ifndef VOXEL_SHADOW_END
-#define VOXEL_SHADOW_END(x, light, p, dir, t_max) (t_max)
+#define VOXEL_SHADOW_END(x, light, o, dir, t_max) (t_max)
 #endif
 #ifndef VOXEL_SHADOW_PRECOMPUTED
 #define VOXEL_SHADOW_PRECOMPUTED(x, index, light) (-1.0f)
@@ -140,7 +146,17 @@ VX_INLINE float voxel_shadow_transmittance(voxel_ctx *x, const vx_query *q, int6
     grid_hit h;
     float T = 1.0f;
     x->counts.shadow_rays++;
-    if (!gt_iter_init(&it, g, 0, p, to_light, t_min, VOXEL_SHADOW_END(x, li, p, to_light, distance)))
+    /* p mapped once, for the walk and its end; the direction prepared once a light where the
+     * backend keeps it. The same numbers as gt_iter_init's, so the same walk. */
+    double o[3];
+    gt_lattice_point(g, 0, p, o);
+    gt_direction own;
+    const gt_direction *pd = VOXEL_SHADOW_DIRECTION(x, li, to_light);
+    if (!pd) {
+        gt_direction_prepare(g, 0, to_light, &own);
+        pd = &own;
+    }
+    if (!gt_iter_init_prepared(&it, g, 0, o, pd, t_min, VOXEL_SHADOW_END(x, li, o, to_light, distance)))
         return 1.0f;
     vx_query sq = *q;
     sq.ray_origin = p;

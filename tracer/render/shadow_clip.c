@@ -14,6 +14,18 @@
  * stops. */
 #define CLIP_MARGIN 1e-2
 
+/* How fast the ray along to_light climbs toward the light, in lattice units per unit of its t; 0
+ * when to_light is not the map's direction (the map's columns then say nothing about the ray). */
+static double clip_speed(const shadow_clip *c, vec3 to_light)
+{
+    double s = c->g->voxel_size_d;
+    double d[3] = {to_light.x / s, to_light.y / s, to_light.z / s}; /* the DDA's (gt_direction_prepare) */
+    double speed = vx_dot3d(d, c->w);
+    if (!(speed > 0.0) || !(fabs(vx_dot3d(d, c->u)) <= 1e-9 * speed) || !(fabs(vx_dot3d(d, c->v)) <= 1e-9 * speed))
+        return 0.0;
+    return speed;
+}
+
 /* A float at or above x (the reach is an upper bound, so it is rounded up). */
 static float float_up(double x)
 {
@@ -50,8 +62,11 @@ int shadow_clip_build(shadow_clip *c, const voxel_grid *g, vec3 to_light)
         vmin = pv < vmin ? pv : vmin;
         vmax = pv > vmax ? pv : vmax;
     }
-    /* One voxel a column up to 512^3, then wider: at most about 890 columns a side (3 MB). */
-    double column = n > 512 ? (double)(n / 512) : 1.0;
+    /* One voxel a column up to 512^3, then wider: at most about 890 columns a side (3 MB). A power of
+     * two, so that a position's column is found by a multiplication as exact as the division. */
+    double column = 1.0;
+    while ((double)n / column > 512.0)
+        column *= 2.0;
     double u0 = umin - 2.0 * CLIP_MARGIN, v0 = vmin - 2.0 * CLIP_MARGIN;
     int nu = (int)((umax - u0 + 2.0 * CLIP_MARGIN) / column) + 2;
     int nv = (int)((vmax - v0 + 2.0 * CLIP_MARGIN) / column) + 2;
@@ -86,10 +101,13 @@ int shadow_clip_build(shadow_clip *c, const voxel_grid *g, vec3 to_light)
     c->u0 = u0;
     c->v0 = v0;
     c->column = column;
+    c->per_column = 1.0 / column;
+    c->built_for = to_light;
     c->nu = nu;
     c->nv = nv;
     c->reach = reach;
     c->g = g;
+    c->speed = clip_speed(c, to_light);
     return 0;
 }
 
@@ -108,17 +126,23 @@ float shadow_clip_end(const shadow_clip *c, vec3 p, vec3 to_light, float t_max)
 {
     if (!c->g)
         return t_max;
-    const voxel_grid *g = c->g;
-    /* The DDA's mapping into lattice units (gt_iter_init at level 0). */
-    double s = g->voxel_size_d;
-    double o[3] = {((double)p.x - g->origin_d[0]) / s, ((double)p.y - g->origin_d[1]) / s,
-                   ((double)p.z - g->origin_d[2]) / s};
-    double d[3] = {to_light.x / s, to_light.y / s, to_light.z / s};
-    double speed = vx_dot3d(d, c->w); /* how fast the ray climbs toward the light, per unit of t */
-    double fu = floor((vx_dot3d(o, c->u) - c->u0) / c->column), fv = floor((vx_dot3d(o, c->v) - c->v0) / c->column);
+    double o[3];
+    grid_to_lattice(c->g, p, o);
+    return shadow_clip_end_lattice(c, o, to_light, t_max);
+}
+
+float shadow_clip_end_lattice(const shadow_clip *c, const double o[3], vec3 to_light, float t_max)
+{
+    if (!c->g)
+        return t_max;
+    /* The map's own direction (every shadow ray toward its light) has its speed at hand. */
+    double speed = to_light.x == c->built_for.x && to_light.y == c->built_for.y && to_light.z == c->built_for.z
+                       ? c->speed
+                       : clip_speed(c, to_light);
+    double fu = floor((vx_dot3d(o, c->u) - c->u0) * c->per_column);
+    double fv = floor((vx_dot3d(o, c->v) - c->v0) * c->per_column);
     /* Not the map's direction, or a point it cannot place: walk as usual. */
-    if (!(speed > 0.0) || !(fabs(vx_dot3d(d, c->u)) <= 1e-9 * speed) || !(fabs(vx_dot3d(d, c->v)) <= 1e-9 * speed) ||
-        !isfinite(fu) || !isfinite(fv) || !isfinite(vx_dot3d(o, c->w)))
+    if (!(speed > 0.0) || !isfinite(fu) || !isfinite(fv) || !isfinite(vx_dot3d(o, c->w)))
         return t_max;
     if (fu < 0.0 || fv < 0.0 || fu >= c->nu || fv >= c->nv)
         return 0.0f; /* outside every voxel's footprint */

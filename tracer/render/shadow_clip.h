@@ -25,7 +25,10 @@ typedef struct {
     const voxel_grid *g; /* NULL: no map (shadow_clip_end leaves the ray's end alone) */
     double u[3], v[3], w[3]; /* orthonormal; w along the direction toward the light */
     double u0, v0;           /* the map's corner, along u and v */
-    double column;           /* a column's width (lattice units) */
+    double column;           /* a column's width (lattice units): a power of two */
+    double per_column;       /* 1 / column (exact) */
+    vec3 built_for;          /* the direction the map was built for, and its lattice speed along w */
+    double speed;
     int nu, nv;
     float *reach; /* nu * nv, index iu * nv + iv: the largest w over the column's voxels; -INFINITY: none */
 } shadow_clip;
@@ -40,5 +43,8 @@ size_t shadow_clip_bytes(const shadow_clip *c);
  * would otherwise end at t_max: no non-empty voxel lies on the ray beyond the returned t. A value
  * not above the ray's start means that nothing lies on it at all. */
 float shadow_clip_end(const shadow_clip *c, vec3 p, vec3 to_light, float t_max);
+/* The same with p already in level-0 lattice units (gt_lattice_point), as the shadow ray's walk
+ * maps it: one mapping for both. */
+float shadow_clip_end_lattice(const shadow_clip *c, const double o[3], vec3 to_light, float t_max);
 
 #endif
