@@ -102,19 +102,25 @@ def violations_logic():
            [(a["spp"], b["spp"]) for a, b in pareto.truth_time_violations(bad)] == [(1, 4)], "")
 
 
-def pareto_small():
-    decl = os.path.join(TMP, "pareto_small.json")
+def run_pareto(declaration, what):
+    """Writes the declaration, runs pareto.py on it: its results folder and output folder, or None
+    (reported) when it failed."""
+    decl = os.path.join(TMP, declaration["name"] + ".json")
     with open(decl, "w") as f:
-        json.dump({"name": "pareto_small", "truth_spp": 256, "scenes": ["spheres"], "repeats": 3,
-                   "runs": [{"models": ["alpha"], "res": [16], "size": 64, "spp": [4]}],
-                   "truth_curve": {"spp": [4, 16, 64], "seed": 2, "size": 64}}, f)
+        json.dump(declaration, f)
     results = os.path.join(TMP, "results")
     p = subprocess.run([PY, os.path.join(EXP, "pareto.py"), "--experiment", decl, "--results", results,
                         "--voxlab", VOXLAB], capture_output=True, text=True)
-    report("small pareto sweep exits 0", p.returncode == 0, p.stderr[-1500:])
-    if p.returncode != 0:
+    report(f"{what} exits 0", p.returncode == 0, p.stderr[-1500:])
+    return (results, os.path.join(results, declaration["name"])) if p.returncode == 0 else (None, None)
+
+
+def pareto_small():
+    results, out = run_pareto({"name": "pareto_small", "truth_spp": 256, "scenes": ["spheres"], "repeats": 3,
+                               "runs": [{"models": ["alpha"], "res": [16], "size": 64, "spp": [4]}],
+                               "truth_curve": {"spp": [4, 16, 64], "seed": 2, "size": 64}}, "small pareto sweep")
+    if out is None:
         return
-    out = os.path.join(results, "pareto_small")
     rows = read_csv(os.path.join(out, "pareto.csv"))
     truth = sorted((r for r in rows if r["series"] == "truth"), key=lambda r: int(r["spp"]))
     with open(os.path.join(out, "rows.json")) as f:
@@ -162,18 +168,12 @@ def pareto_shadow_settings():
     """A declaration that sweeps the shadow method and the shadow skip: pareto.csv says which point is
     which (columns and labels), and the memory axis charges the `voxel` method its transmittances
     (one float per voxel and light, counted here from the row's voxels and the scene's lights)."""
-    decl = os.path.join(TMP, "pareto_shadows.json")
-    with open(decl, "w") as f:
-        json.dump({"name": "pareto_shadows", "truth_spp": 16, "scenes": ["spheres"], "repeats": 1,
-                   "runs": [{"models": ["alpha"], "res": [16], "size": 32, "spp": [4], "shadows": ["march", "voxel"],
-                             "shadow_skip": [True, False]}]}, f)
-    results = os.path.join(TMP, "results")
-    p = subprocess.run([PY, os.path.join(EXP, "pareto.py"), "--experiment", decl, "--results", results,
-                        "--voxlab", VOXLAB], capture_output=True, text=True)
-    report("pareto sweep over shadow settings exits 0", p.returncode == 0, p.stderr[-1500:])
-    if p.returncode != 0:
+    _, out = run_pareto({"name": "pareto_shadows", "truth_spp": 16, "scenes": ["spheres"], "repeats": 1,
+                         "runs": [{"models": ["alpha"], "res": [16], "size": 32, "spp": [4],
+                                   "shadows": ["march", "voxel"], "shadow_skip": [True, False]}]},
+                        "pareto sweep over shadow settings")
+    if out is None:
         return
-    out = os.path.join(results, "pareto_shadows")
     rows = [r for r in read_csv(os.path.join(out, "pareto.csv")) if r["series"] == "alpha"]
     by = {(r["shadows"], r["shadow_skip"]): r for r in rows}
     report("pareto.csv: one alpha point per shadow method and skip, with both columns",
