@@ -114,6 +114,9 @@ static ply_role scalar_role(const char *name)
     return P_OTHER;
 }
 
+/* Whitespace within a line (a token's separator; '\r' of a CRLF line end too). */
+static bool is_line_space(int c) { return c == ' ' || c == '\t' || c == '\r'; }
+
 /* Splits the next header line (NUL-terminated in place) into at most `max` whitespace-separated
  * tokens; returns the token count and advances *cursor past the line. */
 static int header_tokens(char **cursor, char *end, char **tok, int max)
@@ -124,12 +127,12 @@ static int header_tokens(char **cursor, char *end, char **tok, int max)
     *stop = '\0';
     int n = 0;
     for (char *s = line; n < max;) {
-        while (*s == ' ' || *s == '\t' || *s == '\r')
+        while (is_line_space(*s))
             s++;
         if (!*s)
             break;
         tok[n++] = s;
-        while (*s && *s != ' ' && *s != '\t' && *s != '\r')
+        while (*s && !is_line_space(*s))
             s++;
         if (*s)
             *s++ = '\0';
@@ -266,7 +269,7 @@ static uint64_t bswap64(uint64_t v) { return __builtin_bswap64(v); }
 /* The first byte at or after s that is not ASCII whitespace (end when none is). */
 static const unsigned char *skip_ascii_space(const unsigned char *s, const unsigned char *end)
 {
-    while (s < end && (*s == ' ' || *s == '\t' || *s == '\r' || *s == '\n'))
+    while (s < end && (is_line_space(*s) || *s == '\n'))
         s++;
     return s;
 }
@@ -524,12 +527,12 @@ static size_t ascii_line_values(const ply_element *el, const char *p, const char
     size_t have = 0, next_prop_at = 0, prop = 0;
     *need = 0;
     for (const char *s = p;;) {
-        while (s < line_end && (*s == ' ' || *s == '\t' || *s == '\r'))
+        while (s < line_end && is_line_space(*s))
             s++;
         if (s >= line_end)
             break;
         const char *tok = s;
-        while (s < line_end && *s != ' ' && *s != '\t' && *s != '\r')
+        while (s < line_end && !is_line_space(*s))
             s++;
         if (have == next_prop_at && prop < el->prop_count) {
             /* The first value of property `prop`: a scalar takes one, a list 1 + its count. */
@@ -571,7 +574,7 @@ static int ascii_bad_line(const ply_header *h, const char *buf, size_t body, siz
                 line_end = p < end ? memchr(p, '\n', (size_t)(end - p)) : NULL;
                 line_end = line_end ? line_end : end;
                 const char *s = p;
-                while (s < line_end && (*s == ' ' || *s == '\t' || *s == '\r'))
+                while (s < line_end && is_line_space(*s))
                     s++;
                 if (s < line_end)
                     break;
