@@ -60,7 +60,7 @@ from voxlab_exp.plots import model_colour  # noqa: E402
 from voxlab_exp.jobs import models_info  # noqa: E402
 from voxlab_exp.provenance import git_info, now_iso  # noqa: E402
 from voxlab_exp.report import settings_text, size_text  # noqa: E402
-from voxlab_exp.rows import row_key  # noqa: E402
+from voxlab_exp.rows import row_key, shadow_method, shadow_skip_off  # noqa: E402
 from voxlab_exp.schema import load_declaration  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -385,18 +385,16 @@ def trend_charts(history, experiment):
     commits = list(dict.fromkeys(h["commit"] for h in rows))
     dirty = {h["commit"] for h in rows if h.get("dirty") in ("1", "True")}
     labels = [c[:7] + ("*" if c in dirty else "") for c in commits]
-    multi = len({(h["res"], h.get("spp"), h.get("width"), h.get("shadows") or "march",
-                  h.get("shadow_skip") or "True") for h in rows}) > 1
+    multi = len({(h["res"], h.get("spp"), h.get("width"), shadow_method(h), shadow_skip_off(h)) for h in rows}) > 1
 
     def series(h):
         if not multi:
             return h["model"]
         name = f"{h['model']} {h['res']}³" + ("" if h.get("spp") == "4" else f" {h.get('spp')}spp")
         # Shadows and shadow skip name a series too: history.csv keeps their lines apart (HISTORY_KEY).
-        shadows = h.get("shadows") or "march"
-        if shadows != "march":
-            name += f" {shadows}"
-        if (h.get("shadow_skip") or "True") != "True":
+        if shadow_method(h) != "march":
+            name += f" {shadow_method(h)}"
+        if shadow_skip_off(h):
             name += " no skip"
         return name
     scenes = list(dict.fromkeys(h["scene"] for h in rows))

@@ -36,7 +36,7 @@ from voxlab_exp.config import REPO  # noqa: E402
 from voxlab_exp.files import rel, write_csv, write_text  # noqa: E402
 from voxlab_exp.plots import TRUTH_COLOUR, model_colour, place_labels, save_plot  # noqa: E402
 from voxlab_exp.report import settings_text  # noqa: E402
-from voxlab_exp.rows import run_experiment, shadow_skip_off, traced_per_pixel  # noqa: E402
+from voxlab_exp.rows import run_experiment, shadow_method, shadow_skip_off, traced_per_pixel  # noqa: E402
 from voxlab_exp.schema import load_declaration  # noqa: E402
 
 AXES = [("render_ms", "mse"), ("render_ms", "one_minus_ssim"), ("mb", "mse"), ("mb", "one_minus_ssim")]
@@ -53,14 +53,14 @@ def default_shadows(r):
     """Whether a row's shadows are the default ones (march with the shadow skip): a declaration may
     sweep the method or the skip, and those points are other settings, neither on the resolution
     line nor under its label."""
-    return (r.get("shadows") or "march") == "march" and not shadow_skip_off(r)
+    return shadow_method(r) == "march" and not shadow_skip_off(r)
 
 
 def shadows_words(r):
     """The label's words for a row's non-default shadows (none for the default)."""
     words = []
-    if (r.get("shadows") or "march") != "march":
-        words.append(f"{r['shadows']} shadows")
+    if shadow_method(r) != "march":
+        words.append(f"{shadow_method(r)} shadows")
     if shadow_skip_off(r):
         words.append("no shadow skip")
     return words
@@ -218,7 +218,7 @@ def build(meta, rows, decl, out):
                 continue
             p = {"scene": sc, "series": "truth" if r["kind"] == "truth" else r["model"], "model": r["model"],
                  "res": r["res"], "spp": r["spp"], "rays": r["rays"], "cache": r["cache"],
-                 "shadows": r.get("shadows") or "march", "shadow_skip": r.get("shadow_skip", True), "width": r["width"],
+                 "shadows": shadow_method(r), "shadow_skip": r.get("shadow_skip", True), "width": r["width"],
                  "height": r["height"], "render_ms": r.get("render_ms"), "render_ms_min": r.get("render_ms_min"),
                  "render_ms_spread": r.get("render_ms_spread"), "repeats": r.get("repeats"), "loaded": r.get("loaded"),
                  "bake_s": r.get("bake_s"), "mb": r.get("mb"),

@@ -35,7 +35,7 @@ from voxlab_exp.files import load_json, rel, write_csv, write_text  # noqa: E402
 from voxlab_exp.images import read_exr, srgb8  # noqa: E402
 from voxlab_exp.plots import save_plot  # noqa: E402
 from voxlab_exp.report import settings_text  # noqa: E402
-from voxlab_exp.rows import run_experiment  # noqa: E402
+from voxlab_exp.rows import model_mb, run_experiment  # noqa: E402
 from voxlab_exp.scheduler import Sweep  # noqa: E402
 from voxlab_exp.schema import load_declaration  # noqa: E402
 from voxlab_exp.scenes import write_variant  # noqa: E402
@@ -141,8 +141,7 @@ def build(decl, sw, meta, rows, results, out):
         # The rows' mb is everything the frame reads, the shadows included: here the model's part
         # (records, grid, tables) and the maps' apart.
         row["total_mb"] = row.get("mb")
-        row["mb"] = ((r["model_bytes"] + r["grid_bytes"] + (r.get("table_bytes") or 0)) / 1e6
-                     if r.get("model_bytes") is not None and r.get("grid_bytes") is not None else None)
+        row["mb"] = model_mb(r)
         m = masks.get(key)
         if r["status"] == "ok" and m is not None:
             row["mse_shadow"] = mse_over(img(os.path.join(results, r["image"])), img(os.path.join(results,

@@ -36,6 +36,11 @@ def row_fields(metrics):
     return ROW_FIELDS_HEAD + list(metrics) + ROW_FIELDS_TAIL
 
 
+def shadow_method(r):
+    """A row's shadow method (march where the row predates the option or leaves it out)."""
+    return r.get("shadows") or "march"
+
+
 def shadow_skip_off(r):
     """Whether a row's shadow rays were marched without the shadow skip (a row read back from a CSV
     holds the word)."""
@@ -49,7 +54,7 @@ def row_key(r):
                                     f"truth{r['truth_spp']}", f"seed{r['seed']}"))
     # The defaults (march shadows, shadow skip on) leave the key as it was before they were options;
     # the others are other configurations (a declaration may run "shadow_skip": [true, false]).
-    sh = r.get("shadows") or "march"
+    sh = shadow_method(r)
     key = key if sh == "march" else f"{key}/shadows-{sh}"
     return f"{key}/noskip" if shadow_skip_off(r) else key
 
@@ -109,6 +114,14 @@ def load_columns(*jobs):
     loads = [max(r.get("load_average") or 0, r.get("load_after") or 0) for r in recs if "load_average" in r]
     return {"load": max(loads) if loads else None,
             "loaded": int(any(r.get("loaded") for r in recs)) if recs else None}
+
+
+def model_mb(d):
+    """A model's own memory in MB: its records + grid + constant table (heitz-neyret's masks), from
+    its render's stats or a row (the same keys); None where they are not known."""
+    if d.get("model_bytes") is None or d.get("grid_bytes") is None:
+        return None
+    return (d["model_bytes"] + d["grid_bytes"] + (d.get("table_bytes") or 0)) / 1e6
 
 
 def traced_per_pixel(row):
@@ -257,12 +270,11 @@ def _run_experiment(decl, sw, results, cache_dir, out_dir, started, date):
             bytes_per_voxel=rs.get("bytes_per_voxel"),
             voxels=rs.get("voxels"),
             model_bytes=rs.get("model_bytes"), grid_bytes=rs.get("grid_bytes"), table_bytes=rs.get("table_bytes"),
-            # records + grid + the model's constant table (heitz-neyret's masks) + the precomputed
-            # shadows (the slicemap's maps, the `voxel` method's transmittance per voxel and light):
-            # all the frame reads. Without the last, a model rendered with precomputed shadows was
-            # charged less memory than the same model marching its shadow rays.
-            mb=((rs["model_bytes"] + rs["grid_bytes"] + rs.get("table_bytes", 0) + (rs.get("shadow_bytes") or 0)) / 1e6
-                if "model_bytes" in rs and "grid_bytes" in rs else None),
+            # the model's own memory + the precomputed shadows (the slicemap's maps, the `voxel`
+            # method's transmittance per voxel and light): all the frame reads. Without the last, a
+            # model rendered with precomputed shadows was charged less memory than the same model
+            # marching its shadow rays.
+            mb=(model_mb(rs) + (rs.get("shadow_bytes") or 0) / 1e6 if model_mb(rs) is not None else None),
             shadow_build_s=rs.get("shadow_build_seconds"), shadow_bytes=rs.get("shadow_bytes"),
             shadow_queries=rs.get("shadow_queries"),
             peak_rss_bytes=rs.get("peak_rss_bytes"), cache_hits=rs.get("cache_hits"),
