@@ -9,7 +9,13 @@
  *    (under 5 on average, and under half the way to the grid's edge);
  *  - a direction the map was not built for leaves the ray's end alone;
  *  - render_image gives the same image, word for word, with and without the ends (binary, alpha,
- *    vicini and vmesh, bunny and trees, shadows declared). */
+ *    vicini and vmesh, bunny and trees, shadows declared);
+ *  - the light cones' maps (MIP levels 1 to 3, each cell grown to its 3x3x3 neighbourhood, with the
+ *    cones' rounding slack): along light cones of each level's width from non-empty voxels and from
+ *    random points, every element centre past the end, computed in float as the marcher computes it
+ *    and sampled every tenth of a cell, has an empty neighbourhood by the marcher's own test
+ *    (cone_neighbourhood_empty on the sparse grid), and the ends come before the grid's edge; and
+ *    heitz-neyret's images are the same with and without them (bunny and trees). */
 #include <stdio.h>
 #include <stdlib.h>
 
@@ -19,6 +25,10 @@
 #include "rng.h"
 #include "shadow_clip.h"
 #include "unit.h"
+
+/* The cone marcher's own tests (its element level and neighbourhood test); no element is called. */
+#define CONE_ELEMENT(x, q, a) ((void)(x), (void)(q), (void)(a))
+#include "render_cone_core.h"
 
 typedef struct {
     int rays, differ, beyond; /* walks compared, walks that differ, voxels touched past the end */
@@ -102,6 +112,77 @@ static void grid_checks(const char *label, const voxel_grid *g, vec3 dir, uint64
     shadow_clip_free(&c);
 }
 
+/* Light cones toward dir of the width whose proof level is K (as cone_cached_transmittance casts
+ * them from a cell of level K - 1): past the map's end no element centre has a non-empty
+ * neighbourhood on K. */
+static void cone_level_checks(const char *label, const voxel_grid *g, vec3 dir, int K, uint64_t seed)
+{
+    shadow_clip c;
+    char name[300];
+    if (shadow_clip_build_cells(&c, g, K, SHADOW_CLIP_CONE_SIDE, SHADOW_CLIP_CONE_SLACK, dir) || !c.g) {
+        printf("not ok %s, level %d: no map\n", label, K);
+        unit_failures++;
+        return;
+    }
+    float r = CONE_LIGHT_MIN_RADIUS * g->voxel_size * (float)(1u << (K - 1));
+    int top = g->levels - 1;
+    int proof = cone_proof_level(cone_element_level(r, 2.0f / g->voxel_size, top), top);
+    cone_ctx x;
+    memset(&x, 0, sizeof x);
+    x.g = g; /* x.skip NULL: the sparse grid's columns */
+    rng rr = rng_seed(seed, 1);
+    const grid_level *L = &g->level[0];
+    size_t step = L->count / 150 + 1;
+    float size = g->n * g->voxel_size, cell = g->voxel_size * (float)(1u << K);
+    int cones = 0, nonempty = 0, ended = 0;
+    double samples = 0;
+    for (size_t i = 0; i < L->count + 150; i += i < L->count ? step : 1) {
+        vec3 org;
+        if (i < L->count) {
+            uint32_t pc = L->coords[i];
+            vec3 lo, hi;
+            grid_cell_corners(g, 0, (int)(pc >> 20), (int)((pc >> 10) & 1023u), (int)(pc & 1023u), &lo, &hi);
+            org = v3_scale(v3_add(lo, hi), 0.5f);
+        } else {
+            org = v3_add(g->origin, v3(size * rng_float(&rr), size * rng_float(&rr), size * rng_float(&rr)));
+        }
+        cone cn = {org, dir, r, 0.0f, 0.0f, 1.0f, 1.0f, 0.125f * g->voxel_size};
+        float t0, t1;
+        if (!cone_clip_reach(g, &cn, &t0, &t1))
+            continue;
+        double o[3];
+        grid_to_lattice(g, org, o);
+        float end = shadow_clip_end_lattice(&c, o, dir, t1);
+        cones++;
+        ended += end < t1;
+        if (!(end < t1))
+            continue; /* nothing skipped */
+        /* The elements the end skips start at or past it, before t1: their centres lie in
+         * [end + r, t1 + r); sampled from the end on. */
+        cone_walk w;
+        cone_walk_start(&w, g, dir, 0.0f, t1);
+        for (float tc = end > 0.0f ? end : 0.0f; tc < t1 + r; tc += 0.1f * cell) {
+            vec3 p = v3_madd(org, dir, tc); /* as cone_next_element places a centre */
+            double lat[3];
+            cone_to_lattice(g, w.inv_voxel_size, p, lat);
+            int cl[3];
+            for (int a = 0; a < 3; a++)
+                cl[a] = vx_floor_int(lat[a] * vx_inv_pow2(K));
+            nonempty += !cone_neighbourhood_empty(&x, K, cl);
+            samples++;
+        }
+    }
+    snprintf(name, sizeof name,
+             "%s, light cones of proof level %d (%d): no element centre past the end has a non-empty "
+             "neighbourhood (%d cones, %.0f centres, %d non-empty)",
+             label, K, proof, cones, samples, nonempty);
+    CHECK(name, proof == K && cones > 0 && nonempty == 0);
+    snprintf(name, sizeof name, "%s, light cones of proof level %d: the ends end (%d of %d before the grid's edge)",
+             label, K, ended, cones);
+    CHECK(name, ended > cones / 4);
+    shadow_clip_free(&c);
+}
+
 static void scene_checks(const char *path, const int *resolutions, int nres)
 {
     scene s;
@@ -126,6 +207,8 @@ static void scene_checks(const char *path, const int *resolutions, int nres)
             snprintf(label, sizeof label, "%s %d^3, light (%.3g %.3g %.3g)", path, resolutions[k], dirs[d].x, dirs[d].y,
                      dirs[d].z);
             grid_checks(label, &g, dirs[d], 7 + (uint64_t)d);
+            for (int K = 1; K <= 3 && K < g.levels; K++)
+                cone_level_checks(label, &g, dirs[d], K, 70 + (uint64_t)(d * 4 + K));
         }
         grid_free(&g);
     }
@@ -145,5 +228,7 @@ int main(void)
         render_toggle_checks("scenes/bunny.json", models[k], 48, clip_switch, "the shadow rays' ends");
         render_toggle_checks("scenes/trees.json", models[k], 48, clip_switch, "the shadow rays' ends");
     }
+    render_toggle_checks("scenes/bunny.json", "heitz-neyret", 48, clip_switch, "the light cones' ends");
+    render_toggle_checks("scenes/trees.json", "heitz-neyret", 48, clip_switch, "the light cones' ends");
     return unit_exit();
 }

@@ -30,7 +30,8 @@ typedef struct {
                           * by the grid's distance field (pixel_skip.h); exact: the image is the
                           * same without it */
     int shadow_clip;     /* C backend: shadow rays toward a directional light end past the last voxel in
-                          * their way (shadow_clip.h); exact: the image is the same without it */
+                          * their way, and light cones past the last cells they could ask about
+                          * (shadow_clip.h); exact: the image is the same without it */
     int pixel_bounds;    /* C backend: primary rays walk only between their pixel's depth bounds
                           * (pixel_bounds.h), built per frame inside its clock; exact */
     int view_tiles;      /* the cached answers asked along their view tile's direction when the model

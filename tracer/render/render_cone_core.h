@@ -12,7 +12,10 @@
  * occupancy (cone_skip.h's dilated bitmaps where a level has one).
  *
  * The includer defines CONE_ELEMENT(ctx, q, a): the model's cone element (a function pointer call
- * in C, the model's portable function by name in OpenCL C, which has no function pointers).
+ * in C, the model's portable function by name in OpenCL C, which has no function pointers). It may
+ * define CONE_LIGHT_END(ctx, c, t_end): a t at or before t_end past which light cone c has no
+ * element that the model is asked about (the C backend's maps, render_cone.c; exact: the cone's
+ * answer is the same bits; without it the light cones march to the grid's edge).
  * No recursion either: the shaded march calls the light cones' march, which shades nothing. */
 #ifndef VX_RENDER_CONE_CORE_H
 #define VX_RENDER_CONE_CORE_H
@@ -28,6 +31,10 @@
 
 #ifndef CONE_ELEMENT
 #error "define CONE_ELEMENT(ctx, q, a) before including render_cone_core.h"
+#endif
+
+#ifndef CONE_LIGHT_END
+#define CONE_LIGHT_END(x, c, t_end) (t_end)
 #endif
 
 #define CONE_MAX_ELEMENTS (1 << 20) /* a runaway guard; real cones use a few hundred at most */
@@ -59,6 +66,7 @@ typedef struct cone_ctx {
     cone_counts counts;
 #ifndef __OPENCL_VERSION__
     const struct vx_model *m;       /* for CONE_ELEMENT in C */
+    const struct cone_light_clips *clips; /* for CONE_LIGHT_END in C (render_cone.c); NULL: none */
     uint64_t model_cycles;
     int timed; /* the element calls are timed in this row (render_internal.h) */
 #endif
@@ -213,6 +221,18 @@ VX_INLINE float cone_fast_log2(float x)
     return e + (-0.34484843f * m + 2.02466578f) * m - 0.67487759f;
 }
 
+/* An element's fractional MIP level from its radius r (level_scale: 2 / the voxel size), within
+ * [0, top]: log2(2 r / vs), by a multiply rather than a division. */
+VX_INLINE float cone_element_level(float r, float level_scale, int top)
+{
+    float level = cone_fast_log2(r * level_scale);
+    return level > 0.0f ? (level < (float)top ? level : (float)top) : 0.0f;
+}
+
+/* K_min: the finest level whose emptiness proves the stencil of an element of `level` empty
+ * (floor(level) + 1, at most the top): the element's cell on it with its 26 neighbours. */
+VX_INLINE int cone_proof_level(float level, int top) { return (int)level + 1 <= top ? (int)level + 1 : top; }
+
 /* Distance along the ray from the lattice point u (units of `level`) to the exit of its cell;
  * per_cell[a] is the distance along the ray per level-0 cell along axis a (cone_walk_start; 0 for
  * an axis the ray does not move along). A multiply where a division per axis was: the divisions'
@@ -317,13 +337,13 @@ VX_HOT_INLINE int cone_next_element(const cone_ctx *x, const cone *c, cone_walk 
         float r = cone_radius(c, t + cone_radius(c, t));
         float tc_ = t + r;
         vec3 p = v3_madd(c->org, c->dir, tc_);
-        float level = cone_fast_log2(r * w->level_scale); /* log2(2 r / vs): a multiply, not a division */
-        level = level > 0.0f ? (level < (float)top ? level : (float)top) : 0.0f;
+        float level = cone_element_level(r, w->level_scale, top);
         /* Empty-space skipping over the coarse levels with hysteresis (as grid_traverse's DDA):
          * start at the level the last jump used, descend while the neighbourhood is occupied,
-         * climb while the coarser one is empty, jump out of the cell. K_min = the finest level
-         * whose emptiness proves the element's stencil (floor(level) + 1) empty. */
-        int K_min = (int)level + 1 <= top ? (int)level + 1 : top;
+         * climb while the coarser one is empty, jump out of the cell. The element is asked about
+         * exactly when its cell's neighbourhood on K_min is non-empty (a coarser level's empty
+         * neighbourhood holds the finer one's). */
+        int K_min = cone_proof_level(level, top);
         int K = w->K_skip > K_min ? w->K_skip : K_min;
         double lat[3], u[3];
         cone_to_lattice(g, w->inv_voxel_size, p, lat);
@@ -443,7 +463,7 @@ VX_INLINE float cone_light_transmittance(cone_ctx *x, vec3 p, float r, float sta
         return 1.0f;
     cone_composite comp = {{0, 0, 0, 0}, 0, {0.0f, 0.0f, 0.0f}};
     cone_walk w;
-    cone_walk_start(&w, x->g, to_light, vx_fmaxf(t0, start), vx_fminf(t1, distance));
+    cone_walk_start(&w, x->g, to_light, vx_fmaxf(t0, start), CONE_LIGHT_END(x, &c, vx_fminf(t1, distance)));
     int steps = 0;
     vec3 p_e;
     float r_e, tc_e, level_e;

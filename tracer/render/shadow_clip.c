@@ -18,7 +18,7 @@
  * when to_light is not the map's direction (the map's columns then say nothing about the ray). */
 static double clip_speed(const shadow_clip *c, vec3 to_light)
 {
-    double s = c->g->voxel_size_d;
+    double s = c->g->voxel_size_d * (double)(1u << c->level); /* the level's cell, exact */
     double d[3] = {to_light.x / s, to_light.y / s, to_light.z / s}; /* the DDA's (gt_direction_prepare) */
     double speed = vx_dot3d(d, c->w);
     if (!(speed > 0.0) || !(fabs(vx_dot3d(d, c->u)) <= 1e-9 * speed) || !(fabs(vx_dot3d(d, c->v)) <= 1e-9 * speed))
@@ -35,10 +35,15 @@ static float float_up(double x)
 
 int shadow_clip_build(shadow_clip *c, const voxel_grid *g, vec3 to_light)
 {
+    return shadow_clip_build_cells(c, g, 0, 1.0, 0.0, to_light);
+}
+
+int shadow_clip_build_cells(shadow_clip *c, const voxel_grid *g, int level, double side, double slack, vec3 to_light)
+{
     memset(c, 0, sizeof *c);
     double w[3] = {to_light.x, to_light.y, to_light.z};
     double len = sqrt(vx_dot3d(w, w));
-    if (!g || g->levels < 1 || !(len > 0.0) || !isfinite(len))
+    if (!g || level < 0 || level >= g->levels || !(len > 0.0) || !isfinite(len) || !(side >= 1.0) || !(slack >= 0.0))
         return 0; /* no map: the rays walk to the grid's edge */
     for (int a = 0; a < 3; a++)
         w[a] /= len;
@@ -51,11 +56,13 @@ int shadow_clip_build(shadow_clip *c, const voxel_grid *g, vec3 to_light)
     for (int a = 0; a < 3; a++)
         u[a] /= ul;
     double v[3] = {w[1] * u[2] - w[2] * u[1], w[2] * u[0] - w[0] * u[2], w[0] * u[1] - w[1] * u[0]};
-    /* The map spans the projection of the grid's cube [0, n]^3, which holds every voxel's. */
-    int n = g->n;
+    /* The map spans the projection of the level's cube [0, n]^3 grown as much as a cell is (and the
+     * widening below): it holds every grown cell's. */
+    int n = g->level[level].n;
+    double grow = 0.5 * (side - 1.0);
     double umin = INFINITY, umax = -INFINITY, vmin = INFINITY, vmax = -INFINITY;
     for (int k = 0; k < 8; k++) {
-        double p[3] = {(k & 1) ? n : 0, (k & 2) ? n : 0, (k & 4) ? n : 0};
+        double p[3] = {(k & 1) ? n + grow : -grow, (k & 2) ? n + grow : -grow, (k & 4) ? n + grow : -grow};
         double pu = vx_dot3d(p, u), pv = vx_dot3d(p, v);
         umin = pu < umin ? pu : umin;
         umax = pu > umax ? pu : umax;
@@ -67,21 +74,23 @@ int shadow_clip_build(shadow_clip *c, const voxel_grid *g, vec3 to_light)
     double column = 1.0;
     while ((double)n / column > 512.0)
         column *= 2.0;
-    double u0 = umin - 2.0 * CLIP_MARGIN, v0 = vmin - 2.0 * CLIP_MARGIN;
-    int nu = (int)((umax - u0 + 2.0 * CLIP_MARGIN) / column) + 2;
-    int nv = (int)((vmax - v0 + 2.0 * CLIP_MARGIN) / column) + 2;
+    /* A (grown) cell's half-extents along the map's axes, widened: a cube of edge `side` reaches
+     * side * vx_cube_half_extent along an axis, and `slack` more per face at most sqrt(3) slack. */
+    double widen = CLIP_MARGIN + 1.7320508075688772 * slack;
+    double u0 = umin - 2.0 * widen, v0 = vmin - 2.0 * widen;
+    int nu = (int)((umax - u0 + 2.0 * widen) / column) + 2;
+    int nv = (int)((vmax - v0 + 2.0 * widen) / column) + 2;
     float *reach = malloc((size_t)nu * (size_t)nv * sizeof *reach);
     if (!reach)
         return -1;
     for (size_t i = 0; i < (size_t)nu * (size_t)nv; i++)
         reach[i] = -INFINITY;
-    /* A voxel's half-extents along the map's axes, widened. */
-    double hu = vx_cube_half_extent(u) + CLIP_MARGIN, hv = vx_cube_half_extent(v) + CLIP_MARGIN;
-    double hw = vx_cube_half_extent(w) + CLIP_MARGIN;
-    const grid_level *L = &g->level[0];
+    double hu = side * vx_cube_half_extent(u) + widen, hv = side * vx_cube_half_extent(v) + widen;
+    double hw = side * vx_cube_half_extent(w) + widen;
+    const grid_level *L = &g->level[level];
     for (size_t i = 0; i < L->count; i++) {
         int c[3];
-        grid_coords(g, 0, i, &c[0], &c[1], &c[2]);
+        grid_coords(g, level, i, &c[0], &c[1], &c[2]);
         double centre[3] = {(double)c[0] + 0.5, (double)c[1] + 0.5, (double)c[2] + 0.5};
         double cu = vx_dot3d(centre, u) - u0, cv = vx_dot3d(centre, v) - v0;
         int iu0 = (int)((cu - hu) / column), iu1 = (int)((cu + hu) / column); /* >= 0: floor */
@@ -106,6 +115,7 @@ int shadow_clip_build(shadow_clip *c, const voxel_grid *g, vec3 to_light)
     c->nu = nu;
     c->nv = nv;
     c->reach = reach;
+    c->level = level;
     c->g = g;
     c->speed = clip_speed(c, to_light);
     return 0;
@@ -139,17 +149,19 @@ float shadow_clip_end_lattice(const shadow_clip *c, const double o[3], vec3 to_l
     double speed = to_light.x == c->built_for.x && to_light.y == c->built_for.y && to_light.z == c->built_for.z
                        ? c->speed
                        : clip_speed(c, to_light);
-    double fu = floor((vx_dot3d(o, c->u) - c->u0) * c->per_column);
-    double fv = floor((vx_dot3d(o, c->v) - c->v0) * c->per_column);
+    /* o in the map's level's units: a power of two apart, so exactly */
+    double scale = 1.0 / (double)(1u << c->level), ol[3] = {o[0] * scale, o[1] * scale, o[2] * scale};
+    double fu = floor((vx_dot3d(ol, c->u) - c->u0) * c->per_column);
+    double fv = floor((vx_dot3d(ol, c->v) - c->v0) * c->per_column);
     /* Not the map's direction, or a point it cannot place: walk as usual. */
-    if (!(speed > 0.0) || !isfinite(fu) || !isfinite(fv) || !isfinite(vx_dot3d(o, c->w)))
+    if (!(speed > 0.0) || !isfinite(fu) || !isfinite(fv) || !isfinite(vx_dot3d(ol, c->w)))
         return t_max;
     if (fu < 0.0 || fv < 0.0 || fu >= c->nu || fv >= c->nv)
         return 0.0f; /* outside every voxel's footprint */
     float r = c->reach[(size_t)fu * (size_t)c->nv + (size_t)fv];
     if (r == -INFINITY)
         return 0.0f;
-    double end = ((double)r - vx_dot3d(o, c->w)) / speed;
+    double end = ((double)r - vx_dot3d(ol, c->w)) / speed;
     if (!(end < (double)t_max))
         return t_max;
     return end > 0.0 ? float_up(end) : 0.0f;

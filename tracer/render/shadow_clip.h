@@ -14,7 +14,13 @@
  * Built per directional light by the C backend's render set-up (outside the frame's clock, like the
  * primary rays' distance field) in one pass over the non-empty voxels; the OpenCL kernels walk to the
  * grid's edge, with the same result. Everything is in the grid's lattice units (one voxel = 1), in
- * double, as the DDA's own mapping (grid_traverse_core.h). */
+ * double, as the DDA's own mapping (grid_traverse_core.h).
+ *
+ * The same map over the cells of a coarser MIP level, each grown into a larger cube about its centre
+ * (shadow_clip_build_cells), ends the cone marcher's light cones: a cone element is asked of the
+ * model only where a non-empty cell lies in the 3x3x3 cells around the element's centre on one
+ * level (render_cone_core.h), that is where the centre lies in the cube of 3 cells about a
+ * non-empty cell's centre (render_cone.c, cone_light_end). */
 #ifndef VX_SHADOW_CLIP_H
 #define VX_SHADOW_CLIP_H
 
@@ -23,6 +29,7 @@
 
 typedef struct {
     const voxel_grid *g; /* NULL: no map (shadow_clip_end leaves the ray's end alone) */
+    int level;               /* the MIP level whose cells the map holds; its lattice units below */
     double u[3], v[3], w[3]; /* orthonormal; w along the direction toward the light */
     double u0, v0;           /* the map's corner, along u and v */
     double column;           /* a column's width (lattice units): a power of two */
@@ -36,6 +43,16 @@ typedef struct {
 /* The map of grid g for shadow rays along to_light (a directional light's unit direction toward
  * it). Returns 0, or -1 when out of memory (c->g NULL then). */
 int shadow_clip_build(shadow_clip *c, const voxel_grid *g, vec3 to_light);
+/* The map of the non-empty cells of `level`, each taken as the cube of edge `side` (in the level's
+ * cells; 1: the cell itself) about its centre, every face pushed out by `slack` more (cells; 0 for
+ * walks from the same lattice point as the map's queries; more for positions rounded apart from it).
+ * shadow_clip_build is level 0, side 1, slack 0. */
+int shadow_clip_build_cells(shadow_clip *c, const voxel_grid *g, int level, double side, double slack, vec3 to_light);
+
+/* The light cones' maps: every cell's 3x3x3 neighbourhood (edge 3), and this slack (cells of the
+ * map's level) for the rounding of the cones' float positions (render_cone.c). */
+#define SHADOW_CLIP_CONE_SIDE 3.0
+#define SHADOW_CLIP_CONE_SLACK 0.125
 void shadow_clip_free(shadow_clip *c);
 size_t shadow_clip_bytes(const shadow_clip *c);
 
@@ -44,7 +61,7 @@ size_t shadow_clip_bytes(const shadow_clip *c);
  * not above the ray's start means that nothing lies on it at all. */
 float shadow_clip_end(const shadow_clip *c, vec3 p, vec3 to_light, float t_max);
 /* The same with p already in level-0 lattice units (gt_lattice_point), as the shadow ray's walk
- * maps it: one mapping for both. */
+ * maps it: one mapping for both (whatever level the map is of). */
 float shadow_clip_end_lattice(const shadow_clip *c, const double o[3], vec3 to_light, float t_max);
 
 #endif
