@@ -138,11 +138,10 @@ static void cone_level_checks(const char *label, const voxel_grid *g, vec3 dir, 
     double samples = 0;
     for (size_t i = 0; i < L->count + 150; i += i < L->count ? step : 1) {
         vec3 org;
-        if (i < L->count) {
-            uint32_t pc = L->coords[i];
-            vec3 lo, hi;
-            grid_cell_corners(g, 0, (int)(pc >> 20), (int)((pc >> 10) & 1023u), (int)(pc & 1023u), &lo, &hi);
-            org = v3_scale(v3_add(lo, hi), 0.5f);
+        if (i < L->count) { /* a voxel's centre, as the light cache casts its cones from cells' centres */
+            int cx, cy, cz;
+            grid_coords(g, 0, i, &cx, &cy, &cz);
+            org = grid_cell_center(g, 0, cx, cy, cz);
         } else {
             org = v3_add(g->origin, v3(size * rng_float(&rr), size * rng_float(&rr), size * rng_float(&rr)));
         }
