@@ -80,8 +80,11 @@ typedef struct {
     const voxel_grid *g;
     double pos[3], right[3], up[3], fwd[3];
     double x_scale, y_scale; /* image pixels per unit of the camera's image plane (at distance 1) */
-    double half[3];          /* a voxel's half-extents along right, up and forward, with the margin */
-    int level;
+    int level_lo, level_hi;  /* the levels whose blocks go in */
+    double grow;             /* a block's edge in its own cells (1, or 3 for its neighbourhood) */
+    double margin;           /* world units added to every block's half-extents */
+    pixel_bounds_keep keep;  /* NULL: every block */
+    const void *keep_ctx;
     int failed[64];          /* per thread (parallel_for's threads are fewer) */
 } bounds_job;
 
@@ -99,54 +102,74 @@ static inline void block_from_camera(const voxel_grid *g, int level, size_t i, d
         q[a] = g->origin_d[a] + ((double)c[a] + 0.5) * vs - pos[a];
 }
 
+/* One block: its box in the camera's axes (centre q from the camera, half-extents hx, hy, hz) into
+ * the thread's map, or the thread's failure when it straddles the camera's plane. */
+static inline void bounds_block(bounds_job *J, float *pairs, const double q[3], double hx, double hy, double hz,
+                                double vs, int level, int thread)
+{
+    pixel_bounds *b = J->b;
+    double Z = vx_dot3d(q, J->fwd);
+    if (Z + hz <= 0.0)
+        return; /* wholly behind the camera: its rays (forward of it) cannot meet it */
+    if (J->keep && !J->keep(J->keep_ctx, level, Z - hz, Z + hz))
+        return;
+    if (Z - hz <= 1e-3 * vs) {
+        J->failed[thread] = 1; /* its image is not bounded */
+        return;
+    }
+    double X = vx_dot3d(q, J->right), Y = vx_dot3d(q, J->up);
+    /* The cube lies in [X - hx, X + hx] x [Y - hy, Y + hy] x [Z - hz, Z + hz] (camera axes); X / Z
+     * over that box is extreme at its corners. */
+    double inv = 1.0 / ((Z - hz) * (Z + hz)), zn = (Z + hz) * inv, zf = (Z - hz) * inv; /* 1 / (Z -+ hz) */
+    double sx0 = min2((X - hx) * zn, (X - hx) * zf), sx1 = max2((X + hx) * zn, (X + hx) * zf);
+    double sy0 = min2((Y - hy) * zn, (Y - hy) * zf), sy1 = max2((Y + hy) * zn, (Y + hy) * zf);
+    /* camera_ray: x = (sx / (tan * aspect) + 1) w / 2, y = (1 - sy / tan) h / 2. */
+    double x0 = (sx0 * J->x_scale + 1.0) * 0.5 * b->width - BOUNDS_PIXEL_MARGIN;
+    double x1 = (sx1 * J->x_scale + 1.0) * 0.5 * b->width + BOUNDS_PIXEL_MARGIN;
+    double y0 = (1.0 - sy1 * J->y_scale) * 0.5 * b->height - BOUNDS_PIXEL_MARGIN;
+    double y1 = (1.0 - sy0 * J->y_scale) * 0.5 * b->height + BOUNDS_PIXEL_MARGIN;
+    if (x1 < 0.0 || y1 < 0.0 || x0 >= b->width || y0 >= b->height)
+        return;
+    int px0 = x0 > 0.0 ? (int)x0 : 0, py0 = y0 > 0.0 ? (int)y0 : 0;
+    int px1 = x1 < b->width - 1 ? (int)x1 : b->width - 1, py1 = y1 < b->height - 1 ? (int)y1 : b->height - 1;
+    px0 >>= PIXEL_BOUNDS_TILE_SHIFT; /* >= 0 */
+    py0 >>= PIXEL_BOUNDS_TILE_SHIFT;
+    px1 >>= PIXEL_BOUNDS_TILE_SHIFT;
+    py1 >>= PIXEL_BOUNDS_TILE_SHIFT;
+    /* Depths along the camera's axis (pixel_bounds_ray turns them into each ray's t); rounding
+     * to float (relative 6e-8) stays inside pixel_bounds_ray's relative margin. */
+    float tn = (float)(Z - hz), tf = (float)(Z + hz);
+    for (int py = py0; py <= py1; py++)
+        for (int px = px0; px <= px1; px++) {
+            float *pair = pairs + 2 * ((size_t)py * (size_t)b->map_w + (size_t)px);
+            pair[0] = tn < pair[0] ? tn : pair[0];
+            pair[1] = tf > pair[1] ? tf : pair[1];
+        }
+}
+
 static void bounds_share(void *p, int64_t share, int thread)
 {
     bounds_job *J = p;
     pixel_bounds *b = J->b;
     const voxel_grid *g = J->g;
-    const grid_level *L = &g->level[J->level];
     size_t pixels = (size_t)b->map_w * (size_t)b->map_h;
     float *pairs = b->part + 2 * pixels * (size_t)thread;
-    size_t first = L->count * (size_t)share / BOUNDS_SHARES, last = L->count * (size_t)(share + 1) / BOUNDS_SHARES;
-    const double vs = g->voxel_size_d * (double)(1 << J->level), hx = J->half[0], hy = J->half[1], hz = J->half[2];
-    for (size_t i = first; i < last && !J->failed[thread]; i++) {
-        double q[3];
-        block_from_camera(g, J->level, i, vs, J->pos, q);
-        double Z = vx_dot3d(q, J->fwd);
-        if (Z + hz <= 0.0)
-            continue; /* wholly behind the camera: its rays (forward of it) cannot meet it */
-        if (Z - hz <= 1e-3 * vs) {
-            J->failed[thread] = 1; /* its image is not bounded */
-            break;
+    for (int level = J->level_lo; level <= J->level_hi && !J->failed[thread]; level++) {
+        const grid_level *L = &g->level[level];
+        size_t first = L->count * (size_t)share / BOUNDS_SHARES, last = L->count * (size_t)(share + 1) / BOUNDS_SHARES;
+        const double vs = g->voxel_size_d * (double)(1 << level);
+        /* A block's half-extents along the camera's axes, widened. */
+        double half[3];
+        for (int k = 0; k < 3; k++) {
+            const double *a = k == 0 ? J->right : (k == 1 ? J->up : J->fwd);
+            half[k] = (vx_cube_half_extent(a) * (double)(1 << level) * J->grow + BOUNDS_RADIUS_MARGIN) * g->voxel_size_d +
+                      J->margin;
         }
-        double X = vx_dot3d(q, J->right), Y = vx_dot3d(q, J->up);
-        /* The cube lies in [X - hx, X + hx] x [Y - hy, Y + hy] x [Z - hz, Z + hz] (camera axes); X / Z
-         * over that box is extreme at its corners. */
-        double inv = 1.0 / ((Z - hz) * (Z + hz)), zn = (Z + hz) * inv, zf = (Z - hz) * inv; /* 1 / (Z -+ hz) */
-        double sx0 = min2((X - hx) * zn, (X - hx) * zf), sx1 = max2((X + hx) * zn, (X + hx) * zf);
-        double sy0 = min2((Y - hy) * zn, (Y - hy) * zf), sy1 = max2((Y + hy) * zn, (Y + hy) * zf);
-        /* camera_ray: x = (sx / (tan * aspect) + 1) w / 2, y = (1 - sy / tan) h / 2. */
-        double x0 = (sx0 * J->x_scale + 1.0) * 0.5 * b->width - BOUNDS_PIXEL_MARGIN;
-        double x1 = (sx1 * J->x_scale + 1.0) * 0.5 * b->width + BOUNDS_PIXEL_MARGIN;
-        double y0 = (1.0 - sy1 * J->y_scale) * 0.5 * b->height - BOUNDS_PIXEL_MARGIN;
-        double y1 = (1.0 - sy0 * J->y_scale) * 0.5 * b->height + BOUNDS_PIXEL_MARGIN;
-        if (x1 < 0.0 || y1 < 0.0 || x0 >= b->width || y0 >= b->height)
-            continue;
-        int px0 = x0 > 0.0 ? (int)x0 : 0, py0 = y0 > 0.0 ? (int)y0 : 0;
-        int px1 = x1 < b->width - 1 ? (int)x1 : b->width - 1, py1 = y1 < b->height - 1 ? (int)y1 : b->height - 1;
-        px0 >>= PIXEL_BOUNDS_TILE_SHIFT; /* >= 0 */
-        py0 >>= PIXEL_BOUNDS_TILE_SHIFT;
-        px1 >>= PIXEL_BOUNDS_TILE_SHIFT;
-        py1 >>= PIXEL_BOUNDS_TILE_SHIFT;
-        /* Depths along the camera's axis (pixel_bounds_ray turns them into each ray's t); rounding
-         * to float (relative 6e-8) stays inside pixel_bounds_ray's relative margin. */
-        float tn = (float)(Z - hz), tf = (float)(Z + hz);
-        for (int py = py0; py <= py1; py++)
-            for (int px = px0; px <= px1; px++) {
-                float *pair = pairs + 2 * ((size_t)py * (size_t)b->map_w + (size_t)px);
-                pair[0] = tn < pair[0] ? tn : pair[0];
-                pair[1] = tf > pair[1] ? tf : pair[1];
-            }
+        for (size_t i = first; i < last && !J->failed[thread]; i++) {
+            double q[3];
+            block_from_camera(g, level, i, vs, J->pos, q);
+            bounds_block(J, pairs, q, half[0], half[1], half[2], vs, level, thread);
+        }
     }
 }
 
@@ -188,7 +211,8 @@ static int bounds_level(const pixel_bounds *b, const voxel_grid *g)
     return level;
 }
 
-void pixel_bounds_build(pixel_bounds *b, const voxel_grid *g, const camera *cam, int threads)
+void pixel_bounds_build_cells(pixel_bounds *b, const voxel_grid *g, const camera *cam, int threads, int level_lo,
+                              int level_hi, double grow, double margin, pixel_bounds_keep keep, const void *keep_ctx)
 {
     if (!b->near_t)
         return;
@@ -208,15 +232,12 @@ void pixel_bounds_build(pixel_bounds *b, const voxel_grid *g, const camera *cam,
     double tan_y = cam->tan_half_fov_y, aspect = (double)b->width / (double)b->height;
     J.x_scale = 1.0 / (tan_y * aspect);
     J.y_scale = 1.0 / tan_y;
-    /* The blocks of the finest level with at most BOUNDS_ITEMS_PER_PIXEL a pixel: the map's cost is
-     * then about the image's, not the grid's, and a block stays about a pixel's size or smaller
-     * (bunny 256^3, 256 x 256: voxels; city, with 337k voxels: blocks of 2^3). */
-    J.level = bounds_level(b, g);
-    /* A block's half-extents along the camera's axes, widened. */
-    for (int k = 0; k < 3; k++) {
-        const double *a = k == 0 ? J.right : (k == 1 ? J.up : J.fwd);
-        J.half[k] = (vx_cube_half_extent(a) * (double)(1 << J.level) + BOUNDS_RADIUS_MARGIN) * g->voxel_size_d;
-    }
+    J.level_lo = level_lo < 0 ? 0 : level_lo;
+    J.level_hi = level_hi < g->levels ? level_hi : g->levels - 1;
+    J.grow = grow;
+    J.margin = margin;
+    J.keep = keep;
+    J.keep_ctx = keep_ctx;
     b->failed = 0;
     parallel_for(BOUNDS_SHARES, threads, bounds_share, &J, NULL);
     for (int t = 0; t < threads; t++)
@@ -225,6 +246,15 @@ void pixel_bounds_build(pixel_bounds *b, const voxel_grid *g, const camera *cam,
         parallel_for(b->map_h, threads, bounds_merge, &J, NULL);
     else
         parallel_for(b->parts, threads, bounds_reset, &J, NULL); /* no map: empty the parts again */
+}
+
+void pixel_bounds_build(pixel_bounds *b, const voxel_grid *g, const camera *cam, int threads)
+{
+    /* The blocks of the finest level with at most BOUNDS_ITEMS_PER_PIXEL a pixel: the map's cost is
+     * then about the image's, not the grid's, and a block stays about a pixel's size or smaller
+     * (bunny 256^3, 256 x 256: voxels; city, with 337k voxels: blocks of 2^3). */
+    int level = b->near_t ? bounds_level(b, g) : 0;
+    pixel_bounds_build_cells(b, g, cam, threads, level, level, 1.0, 0.0, NULL, NULL);
 }
 
 /* Blocks the coarse test looks at, at most: well under a millisecond. */

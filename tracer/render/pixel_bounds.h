@@ -45,6 +45,17 @@ size_t pixel_bounds_bytes(const pixel_bounds *b);
 /* Builds the map of grid g for camera cam with the given threads (at most the allocated parts). */
 void pixel_bounds_build(pixel_bounds *b, const voxel_grid *g, const camera *cam, int threads);
 
+/* Whether a block of `level` whose depths along the camera's axis span [z_near, z_far] goes in. */
+typedef int (*pixel_bounds_keep)(const void *ctx, int level, double z_near, double z_far);
+
+/* The general build, of which pixel_bounds_build is one case: the non-empty blocks of levels
+ * level_lo .. level_hi, each taken as the cube of `grow` of its own cells about its centre (1: the
+ * block; 3: its 3x3x3 neighbourhood) widened by `margin` (world units) more on every side, those that
+ * keep accepts (NULL: all; a block it refuses cannot fail the map). The camera cones' ends
+ * (render_cone.c) are built so. */
+void pixel_bounds_build_cells(pixel_bounds *b, const voxel_grid *g, const camera *cam, int threads, int level_lo,
+                              int level_hi, double grow, double margin, pixel_bounds_keep keep, const void *keep_ctx);
+
 /* Whether pixel_bounds_build(b, g, cam) may make no map (a block straddling the camera's plane),
  * asked before the frame's clock: the frames that have a map never ask for the distance-field skip,
  * so it is built only for those that may not. The test runs over the build's blocks or coarser

@@ -33,7 +33,8 @@ typedef struct {
                           * their way, and light cones past the last cells they could ask about
                           * (shadow_clip.h); exact: the image is the same without it */
     int pixel_bounds;    /* C backend: primary rays walk only between their pixel's depth bounds
-                          * (pixel_bounds.h), built per frame inside its clock; exact */
+                          * (pixel_bounds.h), and camera cones end past the last cells they could
+                          * ask about (cone_camera_ends.h), built per frame inside its clock; exact */
     int view_tiles;      /* the cached answers asked along their view tile's direction when the model
                           * asks for it (vx_voxel_eval.view_tile_pixels; default 1); 0: along the exact
                           * direction voxel -> camera (`render --exact-view`). Not exact: the
@@ -56,8 +57,9 @@ typedef struct {
                                * first touched by the render threads (issue 15; tests/unit_render.c) */
     size_t cache_bytes;       /* the marcher's caches: the shading cache and the shadow opacity memo,
                                * or the cone marcher's light cache */
-    size_t map_bytes;         /* the C voxel marcher's maps: the pixels' depth bounds (pixel_bounds.h)
-                               * and the shadow rays' ends (shadow_clip.h) */
+    size_t map_bytes;         /* the C backend's maps: the pixels' depth bounds (pixel_bounds.h), the
+                               * shadow rays' and light cones' ends (shadow_clip.h) and the camera
+                               * cones' ends (cone_camera_ends.h) */
 } render_counts;
 
 void render_default_options(render_options *o);

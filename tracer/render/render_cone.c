@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "camera.h"
+#include "cone_camera_ends.h"
 #include "cone_light_cache.h"
 #include "cone_skip.h"
 #include "render_internal.h"
@@ -17,6 +18,7 @@ static float cone_light_end(const struct cone_ctx *x, vec3 org, vec3 dir, float 
 #define CONE_ELEMENT(x, q, a) call_cone_element(x, q, a)
 #define CONE_LIGHT_END(x, c, t_end)                                                                                 \
     cone_light_end(x, (c)->org, (c)->dir, cone_radius((c), 0.0f), (c)->spread == 0.0f && (c)->aperture == 0.0f, t_end)
+#define CONE_CAMERA_END(x, t_end) vx_fminf((t_end), (x)->camera_end)
 #include "render_cone_core.h"
 
 static void call_cone_element(cone_ctx *x, const vx_query *q, vx_answer *a)
@@ -104,6 +106,7 @@ typedef struct {
     int use_lc;
     struct cone_light_clips clips;
     int use_clips;
+    pixel_bounds ends; /* the camera cones' ends (cone_camera_ends.h); near_t NULL: none */
 } cone_state;
 
 static int cone_prepare(render_job *j, vx_err *e)
@@ -135,7 +138,20 @@ static int cone_prepare(render_job *j, vx_err *e)
     st->use_clips = j->o->shadow_clip && (s->effects & EFFECT_SHADOWS) && !j->shadows;
     if (st->use_clips && cone_clips_build(j, &st->clips))
         return vx_fail(e, "out of memory for the light cones' ends"); /* the caller releases st */
+    if (j->o->pixel_bounds && !((s->effects & EFFECT_DOF) && s->camera.aperture_radius > 0.0f)) {
+        if (pixel_bounds_alloc(&st->ends, j->o->width, j->o->height, parallel_threads(j->o->threads)))
+            return vx_fail(e, "out of memory for the camera cones' ends");
+        j->map_bytes += pixel_bounds_bytes(&st->ends);
+    }
     return 0;
+}
+
+/* The frame's own set-up, inside its clock: the camera cones' ends (they depend on the camera). */
+static void cone_begin(render_job *j, int threads)
+{
+    cone_state *st = j->state;
+    if (st->ends.near_t)
+        cone_camera_ends_build(&st->ends, j->g, &j->s->camera, j->spread, threads);
 }
 
 /* One cone per pixel, through the pixel's centre and the lens centre, whatever --spp says: a cone
@@ -170,6 +186,7 @@ static void cone_row(void *p, int64_t row, int thread)
         x.m = j->m;
         x.timed = timed;
         shadow_set_view(j->shadows, &x.shadows);
+        x.camera_end = cone_camera_end(&st->ends, s->camera.forward, px, py, dir);
         vec3 c = cone_trace(&x, org, dir, j->spread, dof ? s->camera.aperture_radius : 0.0f, s->camera.focus_distance,
                             s->camera.forward, s->background);
         tc->voxel_visits += x.counts.elements;
@@ -193,9 +210,10 @@ static void cone_release(render_job *j)
     if (st->use_lc)
         cone_light_cache_free(&st->lc);
     cone_clips_free(&st->clips);
+    pixel_bounds_free(&st->ends);
     dilated_free(&st->skip);
     free(st);
     j->state = NULL;
 }
 
-const render_marcher render_cone_marcher = {cone_prepare, NULL, cone_row, cone_release};
+const render_marcher render_cone_marcher = {cone_prepare, cone_begin, cone_row, cone_release};

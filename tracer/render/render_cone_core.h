@@ -15,11 +15,16 @@
  * in C, the model's portable function by name in OpenCL C, which has no function pointers). It may
  * define CONE_LIGHT_END(ctx, c, t_end): a t at or before t_end past which light cone c has no
  * element that the model is asked about (the C backend's maps, render_cone.c; exact: the cone's
- * answer is the same bits; without it the light cones march to the grid's edge).
+ * answer is the same bits; without it the light cones march to the grid's edge), and
+ * CONE_CAMERA_END(ctx, t_end): a t at or before t_end past which the camera cone being traced has no
+ * element that the model is asked about, or below its start when it has none (the C backend's
+ * per-pixel map, render_cone.c; exact as the light cones' ends; without it camera cones march to
+ * the grid's edge).
  * No recursion either: the shaded march calls the light cones' march, which shades nothing. */
 #ifndef VX_RENDER_CONE_CORE_H
 #define VX_RENDER_CONE_CORE_H
 
+#include "cone_levels.h"
 #include "cone_light_cache.h"
 #include "cone_skip.h"
 #include "floor_int.h"
@@ -35,6 +40,9 @@
 
 #ifndef CONE_LIGHT_END
 #define CONE_LIGHT_END(x, c, t_end) (t_end)
+#endif
+#ifndef CONE_CAMERA_END
+#define CONE_CAMERA_END(x, t_end) (t_end)
 #endif
 
 #define CONE_MAX_ELEMENTS (1 << 20) /* a runaway guard; real cones use a few hundred at most */
@@ -67,6 +75,7 @@ typedef struct cone_ctx {
 #ifndef __OPENCL_VERSION__
     const struct vx_model *m;       /* for CONE_ELEMENT in C */
     const struct cone_light_clips *clips; /* for CONE_LIGHT_END in C (render_cone.c); NULL: none */
+    float camera_end; /* for CONE_CAMERA_END in C: the traced camera cone's (render_cone.c) */
     uint64_t model_cycles;
     int timed; /* the element calls are timed in this row (render_internal.h) */
 #endif
@@ -208,30 +217,6 @@ VX_HOT_INLINE int cone_neighbourhood_empty(const cone_ctx *x, int level, const i
         return !dilated_any(x->skip, level, c[0], c[1], c[2]);
     return cone_neighbourhood_empty_sparse(x, level, c);
 }
-
-/* log2 to within 5e-3 (the level only picks cells and a blend weight): the float's exponent plus a
- * quadratic in its mantissa. libm's log2f was 5 % of a render. */
-VX_INLINE float cone_fast_log2(float x)
-{
-    if (!(x > 1e-30f))
-        return -100.0f;
-    uint32_t i = VX_FLOAT_BITS(x);
-    float e = (float)((int)((i >> 23) & 255u) - 128); /* the quadratic below is log2(m) + 1 */
-    float m = VX_BITS_FLOAT((i & 0x007fffffu) | 0x3f800000u); /* in [1, 2) */
-    return e + (-0.34484843f * m + 2.02466578f) * m - 0.67487759f;
-}
-
-/* An element's fractional MIP level from its radius r (level_scale: 2 / the voxel size), within
- * [0, top]: log2(2 r / vs), by a multiply rather than a division. */
-VX_INLINE float cone_element_level(float r, float level_scale, int top)
-{
-    float level = cone_fast_log2(r * level_scale);
-    return level > 0.0f ? (level < (float)top ? level : (float)top) : 0.0f;
-}
-
-/* K_min: the finest level whose emptiness proves the stencil of an element of `level` empty
- * (floor(level) + 1, at most the top): the element's cell on it with its 26 neighbours. */
-VX_INLINE int cone_proof_level(float level, int top) { return (int)level + 1 <= top ? (int)level + 1 : top; }
 
 /* Distance along the ray from the lattice point u (units of `level`) to the exit of its cell;
  * per_cell[a] is the distance along the ray per level-0 cell along axis a (cone_walk_start; 0 for
@@ -612,7 +597,7 @@ VX_INLINE vec3 cone_trace(cone_ctx *x, vec3 org, vec3 dir, float spread, float a
     cone_composite comp = {{0, 0, 0, 0}, 0, {0.0f, 0.0f, 0.0f}};
     float t0, t1;
     if (cone_clip_reach(x->g, &c, &t0, &t1))
-        cone_march_shaded(x, &c, t0, t1, &comp);
+        cone_march_shaded(x, &c, t0, CONE_CAMERA_END(x, t1), &comp);
     return v3_madd(comp.color, background, 1.0f - (float)comp.count / (float)CONE_FULL_MASK);
 }
 
