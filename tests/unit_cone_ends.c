@@ -8,7 +8,9 @@
  *    the same bits of centre, radius, level and [t0, t1] in the same order, when its walk ends
  *    where the map says as when it walks to the grid's edge; a pixel the map empties asks about
  *    none;
- *  - the map is the same whatever the thread count, and a build keeps nothing of the one before;
+ *  - the map is the same whatever the thread count, and a build keeps nothing of the one before; and
+ *    the same when every level's blocks are looked at (the build looks only at the levels that the
+ *    grid's depths allow);
  *  - the map ends something: on the scenes' own cameras most of the cones that ask about nothing
  *    are not walked at all;
  *  - render_image gives heitz-neyret the same image, word for word, with and without the ends
@@ -65,12 +67,12 @@ typedef struct {
 
 /* Every pixel of a w x h image of camera cam over grid g (with its dilated bitmaps d): the walk to
  * the map's end against the walk to the grid's edge. */
-static void camera_checks(const char *label, const voxel_grid *g, const dilated_grid *d, const camera *cam, int w, int h,
-                          ends_tally *T)
+static void camera_checks(const char *label, const voxel_grid *g, const dilated_grid *d, const camera *cam, int w,
+                          int h, ends_tally *T)
 {
     char name[300];
-    pixel_bounds b, b1;
-    if (pixel_bounds_alloc(&b, w, h, 2) || pixel_bounds_alloc(&b1, w, h, 3)) {
+    pixel_bounds b, b1, every;
+    if (pixel_bounds_alloc(&b, w, h, 2) || pixel_bounds_alloc(&b1, w, h, 3) || pixel_bounds_alloc(&every, w, h, 2)) {
         printf("not ok %s: out of memory\n", label);
         unit_failures++;
         return;
@@ -82,8 +84,14 @@ static void camera_checks(const char *label, const voxel_grid *g, const dilated_
     cone_camera_ends_build(&b, g, &other, spread, 2);
     cone_camera_ends_build(&b, g, cam, spread, 2);
     cone_camera_ends_build(&b1, g, cam, spread, 1);
+    cone_camera_ends_build_every_level(&every, g, cam, spread, 2);
     size_t bytes = (size_t)b.map_w * (size_t)b.map_h * sizeof(float);
-    snprintf(name, sizeof name, "%s: the map is the same with 1 and 2 threads, and after a build for another camera", label);
+    snprintf(name, sizeof name, "%s: the map is the same as with every level's blocks looked at", label);
+    CHECK(name, pixel_bounds_active(&b) == pixel_bounds_active(&every) &&
+                    (!pixel_bounds_active(&b) ||
+                     (memcmp(b.near_t, every.near_t, bytes) == 0 && memcmp(b.far_t, every.far_t, bytes) == 0)));
+    snprintf(name, sizeof name, "%s: the map is the same with 1 and 2 threads, and after a build for another camera",
+             label);
     CHECK(name, pixel_bounds_active(&b) == pixel_bounds_active(&b1) &&
                     (!pixel_bounds_active(&b) ||
                      (memcmp(b.near_t, b1.near_t, bytes) == 0 && memcmp(b.far_t, b1.far_t, bytes) == 0)));
@@ -121,12 +129,13 @@ static void camera_checks(const char *label, const voxel_grid *g, const dilated_
                 T->walk += t1 - whole.last_t;
             }
         }
-    snprintf(name, sizeof name, "%s: every cone asks about the same elements with its end as without (%d differ)", label,
-             differ);
+    snprintf(name, sizeof name, "%s: every cone asks about the same elements with its end as without (%d differ)",
+             label, differ);
     CHECK(name, differ == 0);
     T->differ += differ;
     pixel_bounds_free(&b);
     pixel_bounds_free(&b1);
+    pixel_bounds_free(&every);
 }
 
 /* A pinhole camera at p looking along f (its up the world's y, or x when f is near y). */
@@ -191,7 +200,8 @@ static void scene_checks(const char *path, int res, int cameras, int w, int h)
     }
     printf("# %s %d^3, %d other cameras: %d cones, %d ask about nothing, the map empties %d; %.0f %% of the walk past "
            "the last elements is cut\n",
-           path, res, cameras, all.cones, all.asks_nothing, all.emptied, all.walk > 0.0 ? 100.0 * all.cut / all.walk : 0.0);
+           path, res, cameras, all.cones, all.asks_nothing, all.emptied,
+           all.walk > 0.0 ? 100.0 * all.cut / all.walk : 0.0);
     snprintf(label, sizeof label, "%s %d^3, %d other cameras: no cone the map empties asks about an element", path, res,
              cameras);
     CHECK(label, all.emptied_asking == 0);
@@ -234,8 +244,8 @@ static void map_bytes_check(const char *path)
         }
     }
     char name[300];
-    snprintf(name, sizeof name, "%s heitz-neyret: the ends' map counts in map_bytes (%zu bytes with, %zu without)", path,
-             bytes[1], bytes[0]);
+    snprintf(name, sizeof name, "%s heitz-neyret: the ends' map counts in map_bytes (%zu bytes with, %zu without)",
+             path, bytes[1], bytes[0]);
     CHECK(name, bytes[1] >= bytes[0] + 2 * 20 * 15 * sizeof(float));
     free(rec);
     grid_free(&g);

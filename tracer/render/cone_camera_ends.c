@@ -38,7 +38,7 @@ static int reach_keep(const void *ctx, int level, double z_near, double z_far)
     return reach_level(R, r_lo) <= level && level <= reach_level(R, r_hi);
 }
 
-void cone_camera_ends_build(pixel_bounds *b, const voxel_grid *g, const camera *cam, float spread, int threads)
+static void build(pixel_bounds *b, const voxel_grid *g, const camera *cam, float spread, int threads, int every_level)
 {
     if (!b->near_t)
         return;
@@ -82,21 +82,33 @@ void cone_camera_ends_build(pixel_bounds *b, const voxel_grid *g, const camera *
         b->failed = 1;
         return;
     }
-    /* The levels whose blocks may be kept, by the depths their grown blocks can reach (a block sticks
-     * out of the grid by up to a cell of its level, its cube by up to sqrt(3) / 2 of its edge more);
-     * the blocks of the others are not looked at. */
+    /* The levels whose blocks may be kept, by the depths their grown blocks can reach: a block's
+     * centre lies up to half a block past the grid's box on an axis (a last, partial block), so up to
+     * sqrt(3) / 2 of a block in depth, and its grown cube's depths up to sqrt(3) / 2 of 3 blocks from
+     * its centre: 2 sqrt(3) < 3.5 blocks past the box's depths. The others' blocks are not looked at. */
     int lo = 1, hi = R.top;
-    for (;;) {
-        double reach = (2.6 * (double)(1 << lo) + 0.01) * g->voxel_size_d + margin;
+    for (; !every_level;) {
+        double reach = (3.5 * (double)(1 << lo) + 0.01) * g->voxel_size_d + margin;
         if (lo > hi || reach_keep(&R, lo, zg0 - reach, zg1 + reach))
             break;
         lo++;
     }
-    for (;;) {
-        double reach = (2.6 * (double)(1 << hi) + 0.01) * g->voxel_size_d + margin;
+    for (; !every_level;) {
+        double reach = (3.5 * (double)(1 << hi) + 0.01) * g->voxel_size_d + margin;
         if (hi < lo || reach_keep(&R, hi, zg0 - reach, zg1 + reach))
             break;
         hi--;
     }
     pixel_bounds_build_cells(b, g, cam, threads, lo, hi, 3.0, margin, reach_keep, &R);
+}
+
+void cone_camera_ends_build(pixel_bounds *b, const voxel_grid *g, const camera *cam, float spread, int threads)
+{
+    build(b, g, cam, spread, threads, 0);
+}
+
+void cone_camera_ends_build_every_level(pixel_bounds *b, const voxel_grid *g, const camera *cam, float spread,
+                                        int threads)
+{
+    build(b, g, cam, spread, threads, 1);
 }

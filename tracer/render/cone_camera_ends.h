@@ -26,6 +26,11 @@
  * spread per unit distance being `spread` (camera_pixel_spread), with the given threads. */
 void cone_camera_ends_build(pixel_bounds *b, const voxel_grid *g, const camera *cam, float spread, int threads);
 
+/* The same map with every level's blocks looked at, not only those of the levels that the grid's
+ * depths allow (the check of that choice, tests/unit_cone_ends.c): the same map, slower. */
+void cone_camera_ends_build_every_level(pixel_bounds *b, const voxel_grid *g, const camera *cam, float spread,
+                                        int threads);
+
 /* The t past which the cone of pixel (px, py), along its centre ray's unit direction dir from the
  * camera, asks about no element: INFINITY without a map, -INFINITY when it asks about none. */
 static inline float cone_camera_end(const pixel_bounds *b, vec3 forward, int px, int py, vec3 dir)

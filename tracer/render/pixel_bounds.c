@@ -162,8 +162,8 @@ static void bounds_share(void *p, int64_t share, int thread)
         double half[3];
         for (int k = 0; k < 3; k++) {
             const double *a = k == 0 ? J->right : (k == 1 ? J->up : J->fwd);
-            half[k] = (vx_cube_half_extent(a) * (double)(1 << level) * J->grow + BOUNDS_RADIUS_MARGIN) * g->voxel_size_d +
-                      J->margin;
+            double cells = vx_cube_half_extent(a) * (double)(1 << level) * J->grow;
+            half[k] = (cells + BOUNDS_RADIUS_MARGIN) * g->voxel_size_d + J->margin;
         }
         for (size_t i = first; i < last && !J->failed[thread]; i++) {
             double q[3];
