@@ -4,9 +4,10 @@
  * cube of its 3x3x3 neighbourhood, as the light cones' ends are (shadow_clip.h). The marcher asks
  * the model about an element exactly when the element's centre lies in such a cube of its own proof
  * level; a pixel's cone runs along the pixel's centre ray, so past the farthest cube over the pixel
- * it asks about nothing more, and a pixel that no cube covers asks about nothing at all (bunny
- * 256^3, 256 x 256: 27 thousand of the 65 thousand cones, which climbed through empty space to the
- * grid's edge). Exact: a cone's elements, and so its pixel, are the same bits. The walk's jumps
+ * it asks about nothing more, and a pixel that no cube covers asks about nothing at all and is not
+ * marched (bunny 256^3, 256 x 256: 25 thousand of the 65 thousand cones, of the 27 thousand that ask
+ * about nothing and climbed through empty space to the grid's edge; city 30 thousand, trees 23).
+ * Exact: a cone's elements, and so its pixel, are the same bits. The walk's jumps
  * before the first element cannot be cut so (where they land places every element after them).
  *
  * A cell counts only on the proof levels the cones can have at its depths (bounded with the pixels'

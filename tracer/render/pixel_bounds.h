@@ -52,7 +52,7 @@ typedef int (*pixel_bounds_keep)(const void *ctx, int level, double z_near, doub
  * level_lo .. level_hi, each taken as the cube of `grow` of its own cells about its centre (1: the
  * block; 3: its 3x3x3 neighbourhood) widened by `margin` (world units) more on every side, those that
  * keep accepts (NULL: all; a block it refuses cannot fail the map). The camera cones' ends
- * (render_cone.c) are built so. */
+ * (cone_camera_ends.c) are built so. */
 void pixel_bounds_build_cells(pixel_bounds *b, const voxel_grid *g, const camera *cam, int threads, int level_lo,
                               int level_hi, double grow, double margin, pixel_bounds_keep keep, const void *keep_ctx);
 
