@@ -38,6 +38,16 @@ static int reach_keep(const void *ctx, int level, double z_near, double z_far)
     return reach_level(R, r_lo) <= level && level <= reach_level(R, r_hi);
 }
 
+/* Whether reach_keep may keep a block of `level` of grid g, whose box spans the depths [zg0, zg1]:
+ * a block's centre lies up to half a block past the box on an axis (a last, partial block), so up
+ * to sqrt(3) / 2 of a block in depth, and its grown cube's depths up to sqrt(3) / 2 of 3 blocks from
+ * its centre: 2 sqrt(3) < 3.5 blocks past the box's depths (with the build's margins). */
+static int level_reaches(const cone_reach *R, const voxel_grid *g, int level, double zg0, double zg1, double margin)
+{
+    double reach = (3.5 * (double)(1 << level) + 0.01) * g->voxel_size_d + margin;
+    return reach_keep(R, level, zg0 - reach, zg1 + reach);
+}
+
 static void build(pixel_bounds *b, const voxel_grid *g, const camera *cam, float spread, int threads, int every_level)
 {
     if (!b->near_t)
@@ -82,22 +92,13 @@ static void build(pixel_bounds *b, const voxel_grid *g, const camera *cam, float
         b->failed = 1;
         return;
     }
-    /* The levels whose blocks may be kept, by the depths their grown blocks can reach: a block's
-     * centre lies up to half a block past the grid's box on an axis (a last, partial block), so up to
-     * sqrt(3) / 2 of a block in depth, and its grown cube's depths up to sqrt(3) / 2 of 3 blocks from
-     * its centre: 2 sqrt(3) < 3.5 blocks past the box's depths. The others' blocks are not looked at. */
+    /* The levels whose blocks may be kept; the others' blocks are not looked at. */
     int lo = 1, hi = R.top;
-    for (; !every_level;) {
-        double reach = (3.5 * (double)(1 << lo) + 0.01) * g->voxel_size_d + margin;
-        if (lo > hi || reach_keep(&R, lo, zg0 - reach, zg1 + reach))
-            break;
-        lo++;
-    }
-    for (; !every_level;) {
-        double reach = (3.5 * (double)(1 << hi) + 0.01) * g->voxel_size_d + margin;
-        if (hi < lo || reach_keep(&R, hi, zg0 - reach, zg1 + reach))
-            break;
-        hi--;
+    if (!every_level) {
+        while (lo <= hi && !level_reaches(&R, g, lo, zg0, zg1, margin))
+            lo++;
+        while (hi >= lo && !level_reaches(&R, g, hi, zg0, zg1, margin))
+            hi--;
     }
     pixel_bounds_build_cells(b, g, cam, threads, lo, hi, 3.0, margin, reach_keep, &R);
 }
