@@ -1,12 +1,14 @@
 /* Test helpers for the exact ray-interval optimisations (pixel_skip.h, pixel_bounds.h,
- * shadow_clip.h): random directions, a DDA walk recorded cell by cell, compared bit for bit, and a
- * brute-force check of an interval against every non-empty voxel's box. */
+ * shadow_clip.h, cone_camera_ends.h): random directions, cameras facing them, a DDA walk recorded
+ * cell by cell, compared bit for bit, and a brute-force check of an interval against every
+ * non-empty voxel's box. */
 #ifndef VX_TEST_GRID_WALK_H
 #define VX_TEST_GRID_WALK_H
 
 #include <math.h>
 #include <string.h>
 
+#include "camera.h"
 #include "grid_traverse_core.h"
 #include "rng.h"
 #include "vec_d.h"
@@ -22,6 +24,15 @@ static inline vec3 random_unit(rng *r)
         if (l > 0.1f && l <= 1.0f)
             return v3_scale(v, 1.0f / l);
     }
+}
+
+/* Turns camera c to face along unit vector f (its up the world's y, or x when f is near y). */
+static inline void camera_face(camera *c, vec3 f)
+{
+    c->forward = f;
+    vec3 helper = fabsf(f.y) < 0.9f ? v3(0.0f, 1.0f, 0.0f) : v3(1.0f, 0.0f, 0.0f);
+    c->right = v3_normalize(v3_cross(f, helper));
+    c->up = v3_cross(c->right, f);
 }
 
 typedef struct {

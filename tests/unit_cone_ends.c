@@ -65,6 +65,16 @@ typedef struct {
     double cut, walk;                                          /* t cut past the last element, t walked */
 } ends_tally;
 
+/* Whether two built maps are the same: both without a map, or both with the same bits. */
+static int maps_equal(const pixel_bounds *a, const pixel_bounds *b)
+{
+    size_t bytes = (size_t)a->map_w * (size_t)a->map_h * sizeof(float);
+    if (pixel_bounds_active(a) != pixel_bounds_active(b))
+        return 0;
+    return !pixel_bounds_active(a) ||
+           (memcmp(a->near_t, b->near_t, bytes) == 0 && memcmp(a->far_t, b->far_t, bytes) == 0);
+}
+
 /* Every pixel of a w x h image of camera cam over grid g (with its dilated bitmaps d): the walk to
  * the map's end against the walk to the grid's edge. */
 static void camera_checks(const char *label, const voxel_grid *g, const dilated_grid *d, const camera *cam, int w,
@@ -85,16 +95,11 @@ static void camera_checks(const char *label, const voxel_grid *g, const dilated_
     cone_camera_ends_build(&b, g, cam, spread, 2);
     cone_camera_ends_build(&b1, g, cam, spread, 1);
     cone_camera_ends_build_every_level(&every, g, cam, spread, 2);
-    size_t bytes = (size_t)b.map_w * (size_t)b.map_h * sizeof(float);
     snprintf(name, sizeof name, "%s: the map is the same as with every level's blocks looked at", label);
-    CHECK(name, pixel_bounds_active(&b) == pixel_bounds_active(&every) &&
-                    (!pixel_bounds_active(&b) ||
-                     (memcmp(b.near_t, every.near_t, bytes) == 0 && memcmp(b.far_t, every.far_t, bytes) == 0)));
+    CHECK(name, maps_equal(&b, &every));
     snprintf(name, sizeof name, "%s: the map is the same with 1 and 2 threads, and after a build for another camera",
              label);
-    CHECK(name, pixel_bounds_active(&b) == pixel_bounds_active(&b1) &&
-                    (!pixel_bounds_active(&b) ||
-                     (memcmp(b.near_t, b1.near_t, bytes) == 0 && memcmp(b.far_t, b1.far_t, bytes) == 0)));
+    CHECK(name, maps_equal(&b, &b1));
     cone_ctx x;
     memset(&x, 0, sizeof x);
     x.g = g;
@@ -138,15 +143,12 @@ static void camera_checks(const char *label, const voxel_grid *g, const dilated_
     pixel_bounds_free(&every);
 }
 
-/* A pinhole camera at p looking along f (its up the world's y, or x when f is near y). */
+/* A pinhole camera at p looking along f (camera_face's frame). */
 static camera look(const camera *base, vec3 p, vec3 f, float fov_deg)
 {
     camera c = *base;
     c.position = p;
-    c.forward = v3_normalize(f);
-    vec3 helper = fabsf(c.forward.y) < 0.9f ? v3(0.0f, 1.0f, 0.0f) : v3(1.0f, 0.0f, 0.0f);
-    c.right = v3_normalize(v3_cross(c.forward, helper));
-    c.up = v3_cross(c.right, c.forward);
+    camera_face(&c, v3_normalize(f));
     c.tan_half_fov_y = tanf(0.5f * fov_deg * 3.14159265f / 180.0f);
     c.aperture_radius = 0.0f;
     return c;

@@ -116,9 +116,11 @@ static void may_fail_checks(const char *label, const voxel_grid *g, const camera
     for (int k = 0; k < 600; k++) {
         camera c = *scene_cam;
         if (k % 3 == 2) { /* a corner of a non-empty voxel, looking along an axis */
-            uint32_t pc = g->level[0].coords[(size_t)(rng_float(&r) * (float)g->level[0].count) % g->level[0].count];
+            size_t i = (size_t)(rng_float(&r) * (float)g->level[0].count) % g->level[0].count;
+            int cx, cy, cz;
+            grid_coords(g, 0, i, &cx, &cy, &cz);
             vec3 vlo, vhi;
-            grid_cell_corners(g, 0, (int)(pc >> 20), (int)((pc >> 10) & 1023u), (int)(pc & 1023u), &vlo, &vhi);
+            grid_cell_corners(g, 0, cx, cy, cz, &vlo, &vhi);
             c.position = vlo;
             int a = k / 3 % 3; /* the axis */
             c.forward = v3(a == 0 ? 1.0f : 0.0f, a == 1 ? 1.0f : 0.0f, a == 2 ? 1.0f : 0.0f);
@@ -129,9 +131,7 @@ static void may_fail_checks(const char *label, const voxel_grid *g, const camera
                                        side * (2.5f * rng_float(&r) - 0.75f)));
             c.forward = random_unit(&r);
         }
-        vec3 helper = fabsf(c.forward.y) < 0.9f ? v3(0.0f, 1.0f, 0.0f) : v3(1.0f, 0.0f, 0.0f);
-        c.right = v3_normalize(v3_cross(c.forward, helper));
-        c.up = v3_cross(c.right, c.forward);
+        camera_face(&c, c.forward);
         int may_fail = pixel_bounds_may_fail(&b, g, &c);
         pixel_bounds_build(&b, g, &c, 2);
         if (!pixel_bounds_active(&b)) {
@@ -165,8 +165,9 @@ static void scene_checks(const char *path, int res)
     /* The camera at a voxel's centre: that voxel straddles its plane. */
     camera inside = s.camera;
     vec3 lo, hi;
-    uint32_t pc = g.level[0].coords[g.level[0].count / 2];
-    grid_cell_corners(&g, 0, (int)(pc >> 20), (int)((pc >> 10) & 1023u), (int)(pc & 1023u), &lo, &hi);
+    int cx, cy, cz;
+    grid_coords(&g, 0, g.level[0].count / 2, &cx, &cy, &cz);
+    grid_cell_corners(&g, 0, cx, cy, cz, &lo, &hi);
     inside.position = v3_scale(v3_add(lo, hi), 0.5f);
     const int sizes[2][2] = {{64, 40}, {150, 150}};
     for (int k = 0; k < 2; k++) {
