@@ -117,6 +117,29 @@ static void test_inverse_remembered(void)
     CHECK(name, bad == 0);
 }
 
+/* f without its expf where the mix is linear (gamma 0, tau >= 0) gives the bits of the formula with
+ * the call, for either zero's sign and the edge depths too (0, -0, 2, huge, infinite, negative,
+ * NaN: the last two still call it), and for mixed gammas as before. */
+static void test_linear_mix_without_exp(void)
+{
+    rng g = rng_seed(29, 0);
+    const float edges[] = {0.0f, -0.0f, 2.0f, 1.9999999f, 1e-30f, 1e30f, INFINITY, -INFINITY, -0.5f, NAN, 104.0f};
+    const float gammas[] = {0.0f, -0.0f, 1e-30f, 0.5f, 1.0f};
+    int bad = 0, asked = 0;
+    for (int k = 0; k < 20000; k++) {
+        float tau = k < 11 ? edges[k] : (k % 3 == 0 ? 4.0f * rng_float(&g) : 200.0f * rng_float(&g));
+        for (int j = 0; j < 5; j++) {
+            float want = vicini_f_with_exp(expf(-tau), tau, gammas[j]), got = vicini_f(tau, gammas[j]);
+            bad += memcmp(&want, &got, sizeof want) != 0;
+            asked++;
+        }
+    }
+    char name[160];
+    snprintf(name, sizeof name, "f skips expf for a linear mix with the same bits (%d depths and mixes, %d differ)",
+             asked, bad);
+    CHECK(name, bad == 0);
+}
+
 static void test_heterogeneous(void)
 {
     rng r = rng_seed(7, 0);
@@ -476,6 +499,7 @@ int main(void)
 {
     test_inverse();
     test_inverse_remembered();
+    test_linear_mix_without_exp();
     test_heterogeneous();
     test_estimator();
     test_bake();
