@@ -174,6 +174,8 @@ static void scene_checks(const char *path, int res)
         snprintf(label, sizeof label, "%s %d^3, %dx%d", path, res, sizes[k][0], sizes[k][1]);
         image_checks(label, &g, &s.camera, &inside, sizes[k][0], sizes[k][1], 11 + (uint64_t)k);
     }
+    snprintf(label, sizeof label, "%s: the scene's camera has every ray forward (empty pixels skip their rays)", path);
+    CHECK(label, pixel_bounds_all_forward(&s.camera, 256, 256) && pixel_bounds_all_forward(&s.camera, 64, 40));
     pixel_bounds b;
     if (pixel_bounds_alloc(&b, 32, 32, 2) == 0) {
         pixel_bounds_build(&b, &g, &inside, 2);
@@ -195,10 +197,58 @@ static void scene_checks(const char *path, int res)
     scene_free(&s);
 }
 
+/* pixel_bounds_all_forward, which lets a pixel whose map cell is empty skip making its rays, is
+ * sound: over cameras of every field of view a scene accepts (to 179 degrees), image shapes from
+ * 4096x1 to 1x4096 and axes orthonormal (as scene.c makes them) or skewed, whenever it says every
+ * ray points forward, camera_ray's rays through the image's corners, edges, centre and random
+ * points all have pixel_bounds_axis_cos > 0 (what pixel_bounds_ray bounds). It is not vacuous:
+ * skewed cameras with rays that do turn back exist among them (and are refused). */
+static void forward_checks(void)
+{
+    rng g = rng_seed(41, 0);
+    const int shapes[][2] = {{256, 256}, {64, 40}, {4096, 1}, {1, 4096}, {3000, 7}, {7, 3000}};
+    const double fovs[] = {1, 40, 90, 150, 170, 178, 179};
+    int cameras = 0, claimed = 0, unsound = 0, turning = 0;
+    for (int c = 0; c < 420; c++) {
+        camera cam;
+        memset(&cam, 0, sizeof cam);
+        vec3 f = v3(2.0f * rng_float(&g) - 1.0f, 2.0f * rng_float(&g) - 1.0f, 2.0f * rng_float(&g) - 1.0f);
+        vec3 up = v3(2.0f * rng_float(&g) - 1.0f, 2.0f * rng_float(&g) - 1.0f, 2.0f * rng_float(&g) - 1.0f);
+        if (v3_length(v3_cross(f, up)) < 1e-3f)
+            continue;
+        cam.forward = v3_normalize(f);
+        cam.right = v3_normalize(v3_cross(cam.forward, up));
+        cam.up = v3_cross(cam.right, cam.forward);
+        if (c % 3 == 2) /* skewed: up leans toward or away from forward */
+            cam.up = v3_normalize(v3_madd(cam.up, cam.forward, 2.0f * rng_float(&g) - 1.0f));
+        cam.tan_half_fov_y = (float)tan(fovs[c % 7] * 3.14159265358979323846 / 360.0);
+        int w = shapes[(c / 7) % 6][0], h = shapes[(c / 7) % 6][1];
+        int all = pixel_bounds_all_forward(&cam, w, h), back = 0;
+        const float xs[] = {0.0f, nextafterf((float)w, 0.0f), 0.5f * (float)w, (float)w * rng_float(&g)};
+        const float ys[] = {0.0f, nextafterf((float)h, 0.0f), 0.5f * (float)h, (float)h * rng_float(&g)};
+        for (int i = 0; i < 4; i++)
+            for (int j = 0; j < 4; j++) {
+                vec3 o, d;
+                camera_ray(&cam, w, h, xs[i], ys[j], 0.0f, 0.0f, 0, &o, &d);
+                back |= !(pixel_bounds_axis_cos(cam.forward, d) > 0.0);
+            }
+        cameras++;
+        claimed += all;
+        unsound += all && back;
+        turning += back;
+    }
+    char name[240];
+    snprintf(name, sizeof name,
+             "all_forward: every camera it passes (%d of %d) has every ray forward; %d have rays turning back", claimed,
+             cameras, turning);
+    CHECK(name, unsound == 0 && claimed > cameras / 2 && turning > 0);
+}
+
 static void bounds_switch(render_options *o, int on) { o->pixel_bounds = on; }
 
 int main(void)
 {
+    forward_checks();
     scene_checks("scenes/bunny.json", 100);
     scene_checks("scenes/trees.json", 64);
     scene_checks("scenes/city.json", 96);

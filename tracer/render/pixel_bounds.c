@@ -239,6 +239,7 @@ void pixel_bounds_build_cells(pixel_bounds *b, const voxel_grid *g, const camera
     J.keep = keep;
     J.keep_ctx = keep_ctx;
     b->failed = 0;
+    b->forward_rays = pixel_bounds_all_forward(cam, b->width, b->height);
     parallel_for(BOUNDS_SHARES, threads, bounds_share, &J, NULL);
     for (int t = 0; t < threads; t++)
         b->failed |= J.failed[t];
@@ -246,6 +247,22 @@ void pixel_bounds_build_cells(pixel_bounds *b, const voxel_grid *g, const camera
         parallel_for(b->map_h, threads, bounds_merge, &J, NULL);
     else
         parallel_for(b->parts, threads, bounds_reset, &J, NULL); /* no map: empty the parts again */
+}
+
+int pixel_bounds_all_forward(const camera *cam, int width, int height)
+{
+    /* camera_ray's direction is d = f + sx r + sy u normalised, |sx| <= S = tan * aspect and
+     * |sy| <= T = tan (the image's edges). Exactly, d . f >= |f|^2 - S |r . f| - T |u . f|. The float
+     * sums making d err by a few ulps of M = |f| + S |r| + T |u| per component, the normalisation by
+     * a few ulps of each component of a positive multiple of d, and the double dot product by far
+     * less: together under 1e-6 M |f| of d . f's scale (2^-24 is 6e-8), so 1e-5 M |f| of slack
+     * leaves the sign certain. */
+    double f[3] = {cam->forward.x, cam->forward.y, cam->forward.z}, r[3] = {cam->right.x, cam->right.y, cam->right.z},
+           u[3] = {cam->up.x, cam->up.y, cam->up.z};
+    double T = fabs((double)cam->tan_half_fov_y), S = T * fabs((double)width / (double)height);
+    double nf = sqrt(vx_dot3d(f, f)), M = nf + S * sqrt(vx_dot3d(r, r)) + T * sqrt(vx_dot3d(u, u));
+    double least = vx_dot3d(f, f) - S * fabs(vx_dot3d(r, f)) - T * fabs(vx_dot3d(u, f)) - 1e-5 * M * nf;
+    return least > 0.0; /* also false for NaN */
 }
 
 void pixel_bounds_build(pixel_bounds *b, const voxel_grid *g, const camera *cam, int threads)

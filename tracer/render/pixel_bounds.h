@@ -7,7 +7,8 @@
  * near bound (no voxel lies before it on any of them) and end it at its far bound (none lies
  * beyond): the walks report the same cells with the same [t0, t1] as walks over the whole ray,
  * since every non-empty cell on a ray lies wholly between the bounds by the margin. A pixel that no
- * voxel covers has nothing to walk.
+ * voxel covers has nothing to walk, and when every ray of the frame is certain to be bounded
+ * (pixel_bounds_all_forward) it makes no rays (pixel_bounds_pixel_empty).
  *
  * It depends on the camera, so it is built per frame, inside the frame's clock, with the render's
  * threads (each takes a share of the voxels into its own map, then the maps are merged by pixel).
@@ -34,6 +35,8 @@ typedef struct {
     float *part;           /* the threads' own maps while building */
     int parts;
     int failed; /* a voxel straddles the camera's plane: no map for this frame */
+    int forward_rays; /* every primary ray of the frame has dir . forward > 0, so pixel_bounds_ray
+                       * bounds each of them (pixel_bounds_all_forward) */
 } pixel_bounds;
 
 /* Allocates the map and the threads' parts for a width x height image (before the clock starts).
@@ -66,6 +69,28 @@ int pixel_bounds_may_fail(const pixel_bounds *b, const voxel_grid *g, const came
 /* Whether the map holds bounds for this frame. */
 static inline int pixel_bounds_active(const pixel_bounds *b) { return b->near_t && !b->failed; }
 
+/* dir . forward as pixel_bounds_ray computes it (in double): a ray is bounded when it is positive. */
+static inline double pixel_bounds_axis_cos(vec3 forward, vec3 dir)
+{
+    return (double)dir.x * forward.x + (double)dir.y * forward.y + (double)dir.z * forward.z;
+}
+
+/* Whether every ray camera_ray makes for a pinhole camera cam and a width x height image has
+ * dir . forward > 0 as pixel_bounds_ray computes it (in double, from the float direction), proven from
+ * the camera's axes by a bound on the float rounding; 0 when that is not certain (a view of nearly
+ * 180 degrees across a very wide image, or axes far from orthonormal). */
+int pixel_bounds_all_forward(const camera *cam, int width, int height);
+
+/* Whether every ray of pixel (px, py) meets nothing: its map cell holds no voxel and, every ray of
+ * the frame being bounded by the map, each of them gets an empty interval from pixel_bounds_ray
+ * (so walks no cell and takes the background). */
+static inline int pixel_bounds_pixel_empty(const pixel_bounds *b, int px, int py)
+{
+    return pixel_bounds_active(b) && b->forward_rays &&
+           b->near_t[(size_t)(py >> PIXEL_BOUNDS_TILE_SHIFT) * (size_t)b->map_w + (size_t)(px >> PIXEL_BOUNDS_TILE_SHIFT)] ==
+               INFINITY;
+}
+
 /* Narrows [*t_min, *t_max] to where ray org + t dir of pixel (px, py) can meet a non-empty voxel
  * (org: the camera's position). The map holds depths along the camera's axis, and a point of the
  * ray at depth Z lies at t = Z / (dir . forward), whatever dir's length; a relative 1e-6 covers the
@@ -76,7 +101,7 @@ static inline void pixel_bounds_ray(const pixel_bounds *b, vec3 forward, int px,
     if (!pixel_bounds_active(b))
         return;
     size_t i = (size_t)(py >> PIXEL_BOUNDS_TILE_SHIFT) * (size_t)b->map_w + (size_t)(px >> PIXEL_BOUNDS_TILE_SHIFT);
-    double c = (double)dir.x * forward.x + (double)dir.y * forward.y + (double)dir.z * forward.z;
+    double c = pixel_bounds_axis_cos(forward, dir);
     if (!(c > 0.0))
         return;
     if (b->near_t[i] == INFINITY) {

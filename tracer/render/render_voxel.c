@@ -45,6 +45,7 @@ static void cache_put(struct voxel_ctx *x, int64_t index, const vx_answer *a);
 #define VOXEL_BOUNDS_ACTIVE(x) pixel_bounds_active((x)->bounds)
 #define VOXEL_RAY_BOUNDS(x, px, py, dir, t_min, t_max) \
     pixel_bounds_ray((x)->bounds, (x)->cam.forward, px, py, dir, t_min, t_max)
+#define VOXEL_PIXEL_EMPTY(x, px, py) pixel_bounds_pixel_empty((x)->bounds, px, py)
 #define VOXEL_PREFETCH_RECORD(x, index) voxel_prefetch_record(x, index)
 #define VOXEL_SHADOW_PRECOMPUTED(x, index, light) \
     ((x)->shadow_T ? (x)->shadow_T[(size_t)(index) * (size_t)(x)->light_count + (size_t)(light)] : -1.0f)

@@ -29,7 +29,10 @@
  * and VOXEL_BOUNDS_ACTIVE(x) with VOXEL_RAY_BOUNDS(x, px, py, dir, &t_min, &t_max): when the first
  *                                 is true, the second narrows a primary ray of pixel (px, py) to the
  *                                 interval where it can meet a non-empty voxel (the C backend's
- *                                 pixel_bounds.h; exact, and the skip is then not asked for);
+ *                                 pixel_bounds.h; exact, and the skip is then not asked for), and
+ *                                 VOXEL_PIXEL_EMPTY(x, px, py), 1 when it would narrow every ray of
+ *                                 the pixel to nothing (its rays are then not made: the pixel is
+ *                                 the background, as they would make it);
  * and, for a model with vx_voxel_eval.transmit,
  *   VOXEL_HAS_TRANSMIT(x)          1 when the model declares transmit
  *   VOXEL_TRANSMIT(x, rec, a, T)   the transmittance behind the voxel of opacity a reached with T
@@ -82,6 +85,7 @@
 #ifndef VOXEL_RAY_BOUNDS
 #define VOXEL_BOUNDS_ACTIVE(x) 0
 #define VOXEL_RAY_BOUNDS(x, px, py, dir, t_min, t_max)
+#define VOXEL_PIXEL_EMPTY(x, px, py) 0
 #endif
 #ifndef VOXEL_SHADOW_DIRECTION
 #define VOXEL_SHADOW_DIRECTION(x, light, dir) ((const gt_direction *)0)
@@ -339,6 +343,12 @@ VX_INLINE void voxel_precompute_shadows(voxel_ctx *x, const grid_hit *h, float *
     voxel_gather_lights(x, &q, h->index, centre, T);
 }
 
+/* A ray's colour: what it composited (color, opacity A) over the background. */
+VX_INLINE vec3 voxel_over_background(const voxel_ctx *x, vec3 color, float A)
+{
+    return v3_madd(color, x->background, 1.0f - A);
+}
+
 /* One ray: the voxels' answers composited front to back over the background. [t_min, t_max]: where
  * its walk starts and ends (VOXEL_PIXEL_SKIP's or VOXEL_RAY_BOUNDS' answer; the ray meets no
  * non-empty voxel outside it). */
@@ -381,7 +391,7 @@ VX_INLINE vec3 voxel_trace_ray(voxel_ctx *x, vec3 org, vec3 dir, float t_min, fl
             }
         }
     }
-    return v3_madd(color, x->background, 1.0f - A);
+    return voxel_over_background(x, color, A);
 }
 
 /* Ray k of pixel (px, py): a stratified jittered sample (the ground truth's strata.h), with a lens
@@ -408,6 +418,19 @@ VX_INLINE void voxel_store_mean(VX_GLOBAL float *dst, vec3 sum, int spp)
     dst[2] = sum.z / (float)spp;
 }
 
+/* A pixel whose spp rays meet nothing (VOXEL_PIXEL_EMPTY), into dst[0..2]: the mean of spp
+ * background colours summed as voxel_render_span sums its rays' (so the same bits), the rays counted
+ * as if made. Bunny's 256^2 frame has 40 % such pixels: making, bounding and ending their rays
+ * was 22 million of binary's instructions a frame (7 %). */
+VX_INLINE void voxel_empty_pixel(voxel_ctx *x, int spp, VX_GLOBAL float *dst)
+{
+    vec3 sum = v3(0.0f, 0.0f, 0.0f);
+    for (int k = 0; k < spp; k++)
+        sum = v3_add(sum, voxel_over_background(x, v3(0.0f, 0.0f, 0.0f), 0.0f));
+    x->counts.rays += (uint64_t)spp;
+    voxel_store_mean(dst, sum, spp);
+}
+
 /* Pixels px .. px + count - 1 of row py of a width x height image, each the box filter's mean of
  * its spp rays (the random stream of the pixel's index, as the ground truth's), into
  * dst[0 .. 3 count - 1].
@@ -425,7 +448,13 @@ VX_INLINE void voxel_render_span(voxel_ctx *x, uint64_t seed, int px, int count,
     int dof = (x->effects & VX_EFFECT_DOF) != 0;
     vec3 org[VOXEL_SKIP_GROUP], dir[VOXEL_SKIP_GROUP];
     if (!dof && count > 1 && count * spp <= VOXEL_SKIP_GROUP) {
+        /* The empty pixels (only where the bounds are active, so never where the skip is asked)
+         * make no rays. */
+        int empty[VOXEL_SKIP_GROUP];
         for (int p = 0; p < count; p++) {
+            empty[p] = VOXEL_PIXEL_EMPTY(x, px + p, py);
+            if (empty[p])
+                continue;
             rng r = rng_seed(seed, (uint64_t)py * (uint64_t)width + (uint64_t)(px + p));
             for (int k = 0; k < spp; k++)
                 voxel_pixel_ray(x, &r, k, px + p, py, width, height, strata_x, strata_y, 0, &org[p * spp + k],
@@ -433,6 +462,10 @@ VX_INLINE void voxel_render_span(voxel_ctx *x, uint64_t seed, int px, int count,
         }
         float t_skip = VOXEL_BOUNDS_ACTIVE(x) ? 0.0f : VOXEL_PIXEL_SKIP(x, org[0], dir, count * spp);
         for (int p = 0; p < count; p++) {
+            if (empty[p]) {
+                voxel_empty_pixel(x, spp, dst + 3 * p);
+                continue;
+            }
             vec3 sum = v3(0.0f, 0.0f, 0.0f);
             for (int k = 0; k < spp; k++) {
                 float t_min = t_skip, t_max = INFINITY;
@@ -444,6 +477,10 @@ VX_INLINE void voxel_render_span(voxel_ctx *x, uint64_t seed, int px, int count,
         return;
     }
     for (int p = 0; p < count; p++) {
+        if (!dof && VOXEL_PIXEL_EMPTY(x, px + p, py)) {
+            voxel_empty_pixel(x, spp, dst + 3 * p);
+            continue;
+        }
         rng r = rng_seed(seed, (uint64_t)py * (uint64_t)width + (uint64_t)(px + p));
         vec3 sum = v3(0.0f, 0.0f, 0.0f);
         for (int first = 0; first < spp; first += VOXEL_SKIP_GROUP) {
