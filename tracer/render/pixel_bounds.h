@@ -69,6 +69,12 @@ int pixel_bounds_may_fail(const pixel_bounds *b, const voxel_grid *g, const came
 /* Whether the map holds bounds for this frame. */
 static inline int pixel_bounds_active(const pixel_bounds *b) { return b->near_t && !b->failed; }
 
+/* The map cell of pixel (px, py). */
+static inline size_t pixel_bounds_cell(const pixel_bounds *b, int px, int py)
+{
+    return (size_t)(py >> PIXEL_BOUNDS_TILE_SHIFT) * (size_t)b->map_w + (size_t)(px >> PIXEL_BOUNDS_TILE_SHIFT);
+}
+
 /* dir . forward as pixel_bounds_ray computes it (in double): a ray is bounded when it is positive. */
 static inline double pixel_bounds_axis_cos(vec3 forward, vec3 dir)
 {
@@ -86,9 +92,7 @@ int pixel_bounds_all_forward(const camera *cam, int width, int height);
  * (so walks no cell and takes the background). */
 static inline int pixel_bounds_pixel_empty(const pixel_bounds *b, int px, int py)
 {
-    return pixel_bounds_active(b) && b->forward_rays &&
-           b->near_t[(size_t)(py >> PIXEL_BOUNDS_TILE_SHIFT) * (size_t)b->map_w + (size_t)(px >> PIXEL_BOUNDS_TILE_SHIFT)] ==
-               INFINITY;
+    return pixel_bounds_active(b) && b->forward_rays && b->near_t[pixel_bounds_cell(b, px, py)] == INFINITY;
 }
 
 /* Narrows [*t_min, *t_max] to where ray org + t dir of pixel (px, py) can meet a non-empty voxel
@@ -100,7 +104,7 @@ static inline void pixel_bounds_ray(const pixel_bounds *b, vec3 forward, int px,
 {
     if (!pixel_bounds_active(b))
         return;
-    size_t i = (size_t)(py >> PIXEL_BOUNDS_TILE_SHIFT) * (size_t)b->map_w + (size_t)(px >> PIXEL_BOUNDS_TILE_SHIFT);
+    size_t i = pixel_bounds_cell(b, px, py);
     double c = pixel_bounds_axis_cos(forward, dir);
     if (!(c > 0.0))
         return;
