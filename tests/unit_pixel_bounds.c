@@ -5,6 +5,10 @@
  *    pixel_bounds_ray gives reports exactly the cells, indices and [t0, t1] bits of the walk over
  *    the whole ray, and no non-empty voxel's box touches the ray outside the interval (slab tests
  *    against every voxel, not the DDA);
+ *  - the same for the depth slabs' spans (pixel_bounds_ray_spans, pixel_spans_next): the walks over
+ *    them, one after the other, report exactly the cells and [t0, t1] bits of the walk over the whole
+ *    ray, no voxel's box touches the ray outside them, and they do leave gaps (a span's end half a
+ *    slab short fails both);
  *  - the bounds bound: a hit ray's walk starts most of the way to its first cell;
  *  - the map is the same, bit for bit, whatever the thread count and whatever was built before;
  *  - a camera inside a voxel gets no map (a voxel straddling the camera's plane has no bounded
@@ -26,13 +30,53 @@
 #include "rng.h"
 #include "unit.h"
 
+/* The spans a ray walks: pixel_bounds_ray_spans' first and pixel_spans_next's after it. */
+#define MAX_SPANS (PIXEL_BOUNDS_SLABS / 2 + 1)
+static int ray_spans(const pixel_bounds *b, vec3 forward, int px, int py, vec3 d, float lo[MAX_SPANS], float hi[MAX_SPANS])
+{
+    pixel_spans rest;
+    lo[0] = 0.0f;
+    hi[0] = INFINITY;
+    pixel_bounds_ray_spans(b, forward, px, py, d, &lo[0], &hi[0], &rest);
+    int n = 1;
+    while (n < MAX_SPANS && pixel_spans_next(&rest, &lo[n], &hi[n]))
+        n++;
+    return n;
+}
+
+/* Brute force, independent of the DDA: the non-empty voxels whose closed box the ray touches
+ * somewhere that no span [lo[i], hi[i]] holds whole. */
+static int voxels_outside_spans(const voxel_grid *g, vec3 o, vec3 d, const float *lo, const float *hi, int n)
+{
+    const grid_level *L = &g->level[0];
+    const double od[3] = {o.x, o.y, o.z}, dd[3] = {d.x, d.y, d.z};
+    int outside = 0;
+    for (size_t i = 0; i < L->count; i++) {
+        int c[3];
+        grid_coords(g, 0, i, &c[0], &c[1], &c[2]);
+        double bl[3], bh[3], a, b;
+        for (int k = 0; k < 3; k++) {
+            bl[k] = g->origin_d[k] + c[k] * g->voxel_size_d;
+            bh[k] = g->origin_d[k] + (c[k] + 1) * g->voxel_size_d;
+        }
+        if (!vx_ray_box(od, dd, bl, bh, 0.0, &a, &b))
+            continue;
+        int held = 0;
+        for (int s = 0; s < n && !held; s++)
+            held = a >= lo[s] && b <= hi[s];
+        outside += !held;
+    }
+    return outside;
+}
+
 static void image_checks(const char *label, const voxel_grid *g, const camera *cam, const camera *inside, int w, int h,
                          uint64_t seed)
 {
-    static walk_cell full[WALK_MAX_CELLS], part[WALK_MAX_CELLS];
+    static walk_cell full[WALK_MAX_CELLS], part[WALK_MAX_CELLS], spanned[WALK_MAX_CELLS];
     char name[300];
     pixel_bounds b, b1;
-    if (pixel_bounds_alloc(&b, w, h, 2) || pixel_bounds_alloc(&b1, w, h, 3)) {
+    if (pixel_bounds_alloc(&b, w, h, 2) || pixel_bounds_alloc(&b1, w, h, 3) || pixel_bounds_alloc_slabs(&b) ||
+        pixel_bounds_alloc_slabs(&b1)) {
         printf("not ok %s: out of memory\n", label);
         unit_failures++;
         return;
@@ -50,9 +94,12 @@ static void image_checks(const char *label, const voxel_grid *g, const camera *c
     size_t bytes = (size_t)b.map_w * (size_t)b.map_h * sizeof(float);
     snprintf(name, sizeof name,
              "%s: the map is the same with 1 and 2 threads, and after builds for other cameras, bit for bit", label);
-    CHECK(name, memcmp(b.near_t, b1.near_t, bytes) == 0 && memcmp(b.far_t, b1.far_t, bytes) == 0);
+    CHECK(name, memcmp(b.near_t, b1.near_t, bytes) == 0 && memcmp(b.far_t, b1.far_t, bytes) == 0 &&
+                    memcmp(b.slabs, b1.slabs, bytes / sizeof(float) * sizeof(uint64_t)) == 0 &&
+                    b.slab_z0 == b1.slab_z0 && b.slab_dz == b1.slab_dz);
     rng r = rng_seed(seed, 0);
-    int rays = 0, differ = 0, outside = 0, hits = 0;
+    int rays = 0, differ = 0, outside = 0, hits = 0, span_differ = 0, span_outside = 0, gapped = 0;
+    double skipped = 0.0, bounded = 0.0;
     double gap = 0.0, way = 0.0;
     for (int k = 0; k < 1500; k++) {
         int px = (int)(rng_float(&r) * w), py = (int)(rng_float(&r) * h);
@@ -75,6 +122,23 @@ static void image_checks(const char *label, const voxel_grid *g, const camera *c
                    fy, t_min, t_max, nf, np);
         differ += !same;
         outside += voxels_outside(g, o, d, 0.0, t_min, t_max);
+        /* The spans: their walks, one after the other, are the walk over the whole ray. */
+        float lo[MAX_SPANS], hi[MAX_SPANS];
+        int ns = ray_spans(&b, cam->forward, px, py, d, lo, hi), nw = 0;
+        for (int k2 = 0; k2 < ns; k2++)
+            nw += walk_cells(g, o, d, lo[k2], hi[k2], spanned + nw);
+        int same_spans = walks_equal(full, nf, spanned, nw) && lo[0] == t_min && hi[ns - 1] == t_max;
+        if (!same_spans && span_differ < 5)
+            printf("# spans differ: pixel (%d %d) + (%g %g): %d spans, %d cells, %d over the ray\n", px, py, fx, fy, ns,
+                   nw, nf);
+        span_differ += !same_spans;
+        span_outside += voxels_outside_spans(g, o, d, lo, hi, ns);
+        if (t_min < t_max) {
+            bounded += t_max - t_min;
+            for (int k2 = 1; k2 < ns; k2++)
+                skipped += lo[k2] - hi[k2 - 1];
+            gapped += ns > 1;
+        }
         rays++;
         if (nf > 0) {
             hits++;
@@ -92,6 +156,14 @@ static void image_checks(const char *label, const voxel_grid *g, const camera *c
              "%s: %d hit rays start %.2f voxels before their first cell on average, of %.1f from the camera (< 15 %%)",
              label, hits, hits ? gap / hits : 0.0, hits ? way / hits : 0.0);
     CHECK(name, hits > 100 && gap < 0.15 * way);
+    snprintf(name, sizeof name,
+             "%s: walks over the depth slabs' spans, one after the other, equal walks over the whole ray, bit for bit "
+             "(%d rays, %d differ; %d have gaps, %.0f %% of their bounds skipped)",
+             label, rays, span_differ, gapped, bounded > 0.0 ? 100.0 * skipped / bounded : 0.0);
+    CHECK(name, span_differ == 0 && gapped > 0 && skipped > 0.0);
+    snprintf(name, sizeof name, "%s: no voxel's box touches a ray outside its spans (slab tests, %d touch)", label,
+             span_outside);
+    CHECK(name, span_outside == 0);
     pixel_bounds_free(&b);
     pixel_bounds_free(&b1);
 }

@@ -394,12 +394,12 @@ static void render_checks(const scene *s, const char *model)
             if (!m->cone) {
                 /* The shading cache: 4 slots a pixel (128x128: 65,536) at most one a voxel, 24 B each;
                  * a 16-slot table evicts all the time and must not change the image. Beside it the
-                 * shadow memo; and apart, the maps: the pixels' depth bounds (near and far per cell of
-                 * 2 x 2 pixels, the map and each thread's part) and each directional light's shadow
-                 * ends. */
+                 * shadow memo; and apart, the maps: the pixels' depth bounds (near, far and the depth
+                 * slabs' word per cell of 2 x 2 pixels, the map and each thread's part) and each
+                 * directional light's shadow ends. */
                 size_t voxels = grid_count(&g, 0), slots = voxels < 65536 ? voxels : 65536;
                 size_t memo = m->voxel->opacity_by_direction ? voxels * sizeof(float) : 0;
-                size_t bounds = 2 * (size_t)64 * 64 * sizeof(float) * (1 + 2), clips = 0; /* 2 x 2 pixels a cell */
+                size_t bounds = (size_t)64 * 64 * (2 * sizeof(float) + sizeof(uint64_t)) * (1 + 2), clips = 0; /* 2 x 2 pixels a cell */
                 for (int li = 0; li < s->light_count; li++) {
                     shadow_clip c;
                     if (s->lights[li].type == LIGHT_DIRECTIONAL && shadow_clip_build(&c, &g, s->lights[li].direction) == 0) {

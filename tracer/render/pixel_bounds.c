@@ -63,16 +63,36 @@ int pixel_bounds_alloc(pixel_bounds *b, int width, int height, int threads)
     return 0;
 }
 
+int pixel_bounds_alloc_slabs(pixel_bounds *b)
+{
+    size_t pixels = (size_t)b->map_w * (size_t)b->map_h;
+    b->slabs = calloc(pixels, sizeof *b->slabs);
+    b->slab_part = malloc(pixels * (size_t)b->parts * sizeof *b->slab_part);
+    if (!b->slabs || !b->slab_part) {
+        free(b->slabs);
+        free(b->slab_part);
+        b->slabs = b->slab_part = NULL;
+        return -1;
+    }
+    /* Touched here, before the clock, as the depths are (and empty, as every build leaves them). */
+    memset(b->slab_part, 0, pixels * (size_t)b->parts * sizeof *b->slab_part);
+    memset(b->slabs, 0, pixels * sizeof *b->slabs);
+    return 0;
+}
+
 void pixel_bounds_free(pixel_bounds *b)
 {
     free(b->near_t);
     free(b->part);
+    free(b->slabs);
+    free(b->slab_part);
     memset(b, 0, sizeof *b);
 }
 
 size_t pixel_bounds_bytes(const pixel_bounds *b)
 {
-    return b->near_t ? 2 * (size_t)b->map_w * (size_t)b->map_h * (size_t)(1 + b->parts) * sizeof(float) : 0;
+    size_t cells = (size_t)b->map_w * (size_t)b->map_h * (size_t)(1 + b->parts);
+    return b->near_t ? cells * (2 * sizeof(float) + (b->slabs ? sizeof(uint64_t) : 0)) : 0;
 }
 
 typedef struct {
@@ -85,6 +105,7 @@ typedef struct {
     double margin;           /* world units added to every block's half-extents */
     pixel_bounds_keep keep;  /* NULL: every block */
     const void *keep_ctx;
+    double slab_z0, slab_per_dz; /* the slabs' (pixel_bounds.h), when b->slabs */
     int failed[64];          /* per thread (parallel_for's threads are fewer) */
 } bounds_job;
 
@@ -102,10 +123,23 @@ static inline void block_from_camera(const voxel_grid *g, int level, size_t i, d
         q[a] = g->origin_d[a] + ((double)c[a] + 0.5) * vs - pos[a];
 }
 
+/* The slabs that depths [z_near, z_far] may touch: a thousandth of a slab more each way than the
+ * slabs' own ends (pixel_spans_take_run computes them as z0 + s dz, to a relative 1e-16), and the
+ * depths beyond the first and last slab in those (whose ends are open). */
+static uint64_t slab_bits(const bounds_job *J, double z_near, double z_far)
+{
+    double lo = floor((z_near - J->slab_z0) * J->slab_per_dz - 1e-3), hi = floor((z_far - J->slab_z0) * J->slab_per_dz + 1e-3);
+    int first = lo > 0.0 ? (lo < PIXEL_BOUNDS_SLABS - 1 ? (int)lo : PIXEL_BOUNDS_SLABS - 1) : 0;
+    int last = hi > 0.0 ? (hi < PIXEL_BOUNDS_SLABS - 1 ? (int)hi : PIXEL_BOUNDS_SLABS - 1) : 0; /* NaN: 0 */
+    last = last > first ? last : first;
+    return (~(uint64_t)0 >> (PIXEL_BOUNDS_SLABS - 1 - last)) & (~(uint64_t)0 << first);
+}
+
 /* One block: its box in the camera's axes (centre q from the camera, half-extents hx, hy, hz) into
- * the thread's map, or the thread's failure when it straddles the camera's plane. */
-static inline void bounds_block(bounds_job *J, float *pairs, const double q[3], double hx, double hy, double hz,
-                                double vs, int level, int thread)
+ * the thread's map (and its slabs, when not NULL), or the thread's failure when it straddles the
+ * camera's plane. */
+static inline void bounds_block(bounds_job *J, float *pairs, uint64_t *slabs, const double q[3], double hx, double hy,
+                                double hz, double vs, int level, int thread)
 {
     pixel_bounds *b = J->b;
     double Z = vx_dot3d(q, J->fwd);
@@ -139,11 +173,17 @@ static inline void bounds_block(bounds_job *J, float *pairs, const double q[3], 
     /* Depths along the camera's axis (pixel_bounds_ray turns them into each ray's t); rounding
      * to float (relative 6e-8) stays inside pixel_bounds_ray's relative margin. */
     float tn = (float)(Z - hz), tf = (float)(Z + hz);
+    /* The slabs from the depths before their rounding to float: the slabs' margin covers only the
+     * doubles' rounding. */
+    uint64_t bits = slabs ? slab_bits(J, Z - hz, Z + hz) : 0;
     for (int py = py0; py <= py1; py++)
         for (int px = px0; px <= px1; px++) {
-            float *pair = pairs + 2 * ((size_t)py * (size_t)b->map_w + (size_t)px);
+            size_t k = (size_t)py * (size_t)b->map_w + (size_t)px;
+            float *pair = pairs + 2 * k;
             pair[0] = tn < pair[0] ? tn : pair[0];
             pair[1] = tf > pair[1] ? tf : pair[1];
+            if (slabs)
+                slabs[k] |= bits;
         }
 }
 
@@ -154,6 +194,7 @@ static void bounds_share(void *p, int64_t share, int thread)
     const voxel_grid *g = J->g;
     size_t pixels = (size_t)b->map_w * (size_t)b->map_h;
     float *pairs = b->part + 2 * pixels * (size_t)thread;
+    uint64_t *slabs = b->slabs ? b->slab_part + pixels * (size_t)thread : NULL;
     for (int level = J->level_lo; level <= J->level_hi && !J->failed[thread]; level++) {
         const grid_level *L = &g->level[level];
         size_t first = L->count * (size_t)share / BOUNDS_SHARES, last = L->count * (size_t)(share + 1) / BOUNDS_SHARES;
@@ -168,7 +209,7 @@ static void bounds_share(void *p, int64_t share, int thread)
         for (size_t i = first; i < last && !J->failed[thread]; i++) {
             double q[3];
             block_from_camera(g, level, i, vs, J->pos, q);
-            bounds_block(J, pairs, q, half[0], half[1], half[2], vs, level, thread);
+            bounds_block(J, pairs, slabs, q, half[0], half[1], half[2], vs, level, thread);
         }
     }
 }
@@ -179,6 +220,8 @@ static void bounds_reset(void *p, int64_t part, int thread)
     bounds_job *J = p;
     size_t pixels = (size_t)J->b->map_w * (size_t)J->b->map_h;
     reset_part(J->b->part + 2 * pixels * (size_t)part, pixels);
+    if (J->b->slabs)
+        memset(J->b->slab_part + pixels * (size_t)part, 0, pixels * sizeof *J->b->slab_part);
 }
 
 static void bounds_merge(void *p, int64_t row, int thread)
@@ -198,7 +241,39 @@ static void bounds_merge(void *p, int64_t row, int thread)
         }
         b->near_t[k] = n;
         b->far_t[k] = f;
+        if (b->slabs) {
+            uint64_t bits = 0; /* or-ed: the threads' order does not matter */
+            for (int t = 0; t < b->parts; t++) {
+                bits |= b->slab_part[pixels * (size_t)t + k];
+                b->slab_part[pixels * (size_t)t + k] = 0;
+            }
+            b->slabs[k] = bits;
+        }
     }
+}
+
+/* The slabs for camera axis fwd from pos: the grid's cube's depths, from the camera's plane on, in
+ * PIXEL_BOUNDS_SLABS equal parts (blocks beyond them fall in the open first or last slab). */
+static void slabs_for_frame(bounds_job *J, const voxel_grid *g)
+{
+    double zmin = INFINITY, zmax = -INFINITY, side = (double)g->n * g->voxel_size_d;
+    for (int k = 0; k < 8; k++) {
+        double p[3];
+        for (int a = 0; a < 3; a++)
+            p[a] = g->origin_d[a] + ((k >> a) & 1 ? side : 0.0) - J->pos[a];
+        double Z = vx_dot3d(p, J->fwd);
+        zmin = Z < zmin ? Z : zmin;
+        zmax = Z > zmax ? Z : zmax;
+    }
+    zmin = zmin > 0.0 ? zmin : 0.0;
+    double dz = (zmax - zmin) / PIXEL_BOUNDS_SLABS;
+    if (!(dz > 0.0) || !isfinite(dz) || !isfinite(zmin)) {
+        zmin = 0.0; /* nothing in front, or no sense: one slab holds all (they are all or-ed alike) */
+        dz = INFINITY;
+    }
+    J->b->slab_z0 = J->slab_z0 = zmin;
+    J->b->slab_dz = dz;
+    J->slab_per_dz = 1.0 / dz;
 }
 
 /* The level whose blocks the map is built from: the finest with at most BOUNDS_ITEMS_PER_PIXEL
@@ -240,6 +315,8 @@ void pixel_bounds_build_cells(pixel_bounds *b, const voxel_grid *g, const camera
     J.keep_ctx = keep_ctx;
     b->failed = 0;
     b->forward_rays = pixel_bounds_all_forward(cam, b->width, b->height);
+    if (b->slabs)
+        slabs_for_frame(&J, g);
     parallel_for(BOUNDS_SHARES, threads, bounds_share, &J, NULL);
     for (int t = 0; t < threads; t++)
         b->failed |= J.failed[t];

@@ -44,7 +44,8 @@ static void cache_put(struct voxel_ctx *x, int64_t index, const vx_answer *a);
 #define VOXEL_SHADOW_DIRECTION(x, light, dir) voxel_light_direction(x, light, dir)
 #define VOXEL_BOUNDS_ACTIVE(x) pixel_bounds_active((x)->bounds)
 #define VOXEL_RAY_BOUNDS(x, px, py, dir, t_min, t_max) \
-    pixel_bounds_ray((x)->bounds, (x)->cam.forward, px, py, dir, t_min, t_max)
+    pixel_bounds_ray_spans((x)->bounds, (x)->cam.forward, px, py, dir, t_min, t_max, &(x)->spans)
+#define VOXEL_NEXT_SPAN(x, t_min, t_max) pixel_spans_next(&(x)->spans, t_min, t_max)
 #define VOXEL_PIXEL_EMPTY(x, px, py) pixel_bounds_pixel_empty((x)->bounds, px, py)
 #define VOXEL_PREFETCH_RECORD(x, index) voxel_prefetch_record(x, index)
 #define VOXEL_SHADOW_PRECOMPUTED(x, index, light) \
@@ -67,6 +68,7 @@ static void cache_put(struct voxel_ctx *x, int64_t index, const vx_answer *a);
     const grid_distance *skip;   \
     const shadow_clip *clips;    \
     const pixel_bounds *bounds;  \
+    pixel_spans spans; /* the primary ray's spans after the one being walked (VOXEL_NEXT_SPAN) */ \
     const float *shadow_T;       \
     gt_direction light_dir[VX_MAX_LIGHTS]; /* each directional light's, prepared (voxel_prepare_light_directions) */ \
     uint64_t model_cycles;       \
@@ -206,7 +208,8 @@ static int voxel_prepare(render_job *j, vx_err *e)
      * a voxel may straddle the camera's plane (the camera inside the grid). Elsewhere its build
      * (6.5 ms on bunny 256^3, where alpha's frame takes 45) would be work for nothing. */
     int bounds = j->o->pixel_bounds && !(s->effects & EFFECT_DOF);
-    if (bounds && pixel_bounds_alloc(&st->bounds, j->o->width, j->o->height, parallel_threads(j->o->threads)))
+    if (bounds && (pixel_bounds_alloc(&st->bounds, j->o->width, j->o->height, parallel_threads(j->o->threads)) ||
+                   pixel_bounds_alloc_slabs(&st->bounds)))
         return vx_fail(e, "out of memory for the pixels' depth bounds");
     j->map_bytes += pixel_bounds_bytes(&st->bounds);
     if (j->o->empty_skip && (!bounds || pixel_bounds_may_fail(&st->bounds, j->g, &s->camera)) &&

@@ -32,7 +32,11 @@
  *                                 pixel_bounds.h; exact, and the skip is then not asked for), and
  *                                 VOXEL_PIXEL_EMPTY(x, px, py), 1 when it would narrow every ray of
  *                                 the pixel to nothing (its rays are then not made: the pixel is
- *                                 the background, as they would make it);
+ *                                 the background, as they would make it), and it may define
+ *                                 VOXEL_NEXT_SPAN(x, &t_min, &t_max): 1 with the next interval of the
+ *                                 ray last narrowed by VOXEL_RAY_BOUNDS after the one walked (the
+ *                                 C backend's depth slabs: none of the ray's non-empty cells lies
+ *                                 between the two), 0 when there is none;
  * and, for a model with vx_voxel_eval.transmit,
  *   VOXEL_HAS_TRANSMIT(x)          1 when the model declares transmit
  *   VOXEL_TRANSMIT(x, rec, a, T)   the transmittance behind the voxel of opacity a reached with T
@@ -86,6 +90,9 @@
 #define VOXEL_BOUNDS_ACTIVE(x) 0
 #define VOXEL_RAY_BOUNDS(x, px, py, dir, t_min, t_max)
 #define VOXEL_PIXEL_EMPTY(x, px, py) 0
+#endif
+#ifndef VOXEL_NEXT_SPAN
+#define VOXEL_NEXT_SPAN(x, t_min, t_max) 0
 #endif
 #ifndef VOXEL_SHADOW_DIRECTION
 #define VOXEL_SHADOW_DIRECTION(x, light, dir) ((const gt_direction *)0)
@@ -363,10 +370,14 @@ VX_INLINE vec3 voxel_trace_ray(voxel_ctx *x, vec3 org, vec3 dir, float t_min, fl
     /* The rays from the camera (all of them without depth of field) start from its lattice point,
      * mapped once; an equal float maps to the same doubles, so the walk is the same. */
     int from_camera = org.x == x->cam.position.x && org.y == x->cam.position.y && org.z == x->cam.position.z;
-    /* An empty [t_min, t_max] (a pixel whose bounds hold no voxel: t_min infinite) has no cells,
-     * as gt_iter_init would find after its divisions. */
-    if (t_min < t_max && (from_camera ? gt_iter_init_lattice(&it, x->g, 0, x->cam_lattice, dir, t_min, t_max)
-                                      : gt_iter_init(&it, x->g, 0, org, dir, t_min, t_max))) {
+    /* The walk goes over each span the bounds leave the ray (VOXEL_NEXT_SPAN), in order: no
+     * non-empty cell lies between them, so the walks together report the cells of one. An empty
+     * [t_min, t_max] (a pixel whose bounds hold no voxel: t_min infinite) has no cells, as
+     * gt_iter_init would find after its divisions. */
+    do {
+        if (!(t_min < t_max && (from_camera ? gt_iter_init_lattice(&it, x->g, 0, x->cam_lattice, dir, t_min, t_max)
+                                            : gt_iter_init(&it, x->g, 0, org, dir, t_min, t_max))))
+            continue;
         while (!done && gt_iter_next(&it, &h)) {
             x->counts.visits++;
             vx_answer a;
@@ -390,7 +401,7 @@ VX_INLINE vec3 voxel_trace_ray(voxel_ctx *x, vec3 org, vec3 dir, float t_min, fl
                 done = A >= x->stop_opacity;
             }
         }
-    }
+    } while (!done && VOXEL_NEXT_SPAN(x, &t_min, &t_max));
     return voxel_over_background(x, color, A);
 }
 
