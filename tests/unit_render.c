@@ -423,7 +423,9 @@ static void render_checks(const scene *s, const char *model)
                  * directional light's shadow ends. */
                 size_t voxels = grid_count(&g, 0), slots = voxels < 65536 ? voxels : 65536;
                 size_t memo = m->voxel->opacity_by_direction ? voxels * sizeof(float) : 0;
-                size_t bounds = (size_t)64 * 64 * (2 * sizeof(float) + sizeof(uint64_t)) * (1 + 2), clips = 0; /* 2 x 2 pixels a cell */
+                /* The slabs' word only for the models that walk past a voxel (not first hit). */
+                size_t slab_word = m->voxel->compositing == VX_COMPOSITE_FIRST_HIT ? 0 : sizeof(uint64_t);
+                size_t bounds = (size_t)64 * 64 * (2 * sizeof(float) + slab_word) * (1 + 2), clips = 0; /* 2 x 2 pixels a cell */
                 for (int li = 0; li < s->light_count; li++) {
                     shadow_clip c;
                     if (s->lights[li].type == LIGHT_DIRECTIONAL && shadow_clip_build(&c, &g, s->lights[li].direction) == 0) {

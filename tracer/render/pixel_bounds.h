@@ -9,10 +9,10 @@
  * since every non-empty cell on a ray lies wholly between the bounds by the margin. A pixel that no
  * voxel covers has nothing to walk, and when every ray of the frame is certain to be bounded
  * (pixel_bounds_all_forward) it makes no rays (pixel_bounds_pixel_empty). The voxel marcher's map
- * also keeps, per cell, which of 64 depth slabs its voxels' depth ranges touch (or-ed, so in no
- * order); a ray then walks each run of such slabs in turn and jumps over the slabs between them,
- * where no voxel lies (pixel_bounds_ray_spans, pixel_spans_next): the same cells again, by the
- * same margins.
+ * (for the models that walk on past a voxel, not first hit) also keeps, per cell, which of 64
+ * depth slabs its voxels' depth ranges touch (or-ed, so in no order); a ray then walks each run of
+ * such slabs in turn and jumps over the slabs between them, where no voxel lies
+ * (pixel_bounds_ray_spans, pixel_spans_next): the same cells again, by the same margins.
  *
  * It depends on the camera, so it is built per frame, inside the frame's clock, with the render's
  * threads (each takes a share of the voxels into its own map, then the maps are merged by pixel).
