@@ -788,6 +788,69 @@ static int check_ray(const voxel_grid *g, int level, vec3 org, vec3 dir, float t
     return 1;
 }
 
+/* gt_cell_at_exit, the walk's starting cell on one axis and its exit plane, against brute force:
+ * for random origins and directions (both signs, lengths from 1e-3 to 1e3 lattice units), at t on
+ * a lattice plane and one ulp either side, the cell must be the one the ray occupies just after t
+ * by the planes' own distances (s > 0: the last plane at or before t; s < 0: the first whose next
+ * plane is at or before t; clamped to [lo, hi]), and the exit the distance gt_exit_t gives for it,
+ * bit for bit. The floor of o + t d only guesses the cell; the check also counts the guesses that
+ * had to be corrected up and down, for each sign, so that the corrections (where the exit plane is
+ * carried along) are shown to be reached. */
+static void test_cell_at_exit(void)
+{
+    enum { N = 64 };
+    rng r = rng_seed(20261206, 1);
+    long wrong_cell = 0, wrong_exit = 0, corrected[2][2] = {{0, 0}, {0, 0}}; /* [s > 0][up] */
+    for (int trial = 0; trial < 400000; trial++) {
+        grid_iter it;
+        memset(&it, 0, sizeof it);
+        double len = pow(10.0, -3.0 + 6.0 * rng_float(&r));
+        int s = rng_float(&r) < 0.5f ? -1 : 1;
+        it.o[0] = -8.0 + (N + 16.0) * rng_float(&r) + ldexp(rng_float(&r), -20);
+        it.d[0] = s * len * (1.0 + rng_float(&r) / 3.0);
+        it.inv[0] = 1.0 / it.d[0];
+        it.dir[0] = s;
+        int k = (int)(rng_float(&r) * (N + 1));
+        double t = gt_plane_t(&it, 0, k);
+        int side = (int)(rng_float(&r) * 3.0f);
+        if (side == 1)
+            t = nextafter(t, -INFINITY);
+        else if (side == 2)
+            t = nextafter(t, INFINITY);
+        double exit;
+        int c = gt_cell_at_exit(&it, 0, t, 0, N - 1, &exit);
+        int want = s > 0 ? 0 : N - 1;
+        if (s > 0) {
+            for (int q = 1; q < N; q++)
+                if (gt_plane_t(&it, 0, q) <= t)
+                    want = q;
+        } else {
+            for (int q = N - 1; q >= 0; q--)
+                if (gt_plane_t(&it, 0, q + 1) <= t)
+                    want = q;
+        }
+        double want_exit = gt_exit_t(&it, 0, want, 0);
+        wrong_cell += c != want;
+        wrong_exit += memcmp(&exit, &want_exit, sizeof exit) != 0;
+        /* The guess gt_cell_at_exit starts from (its own rule, restated). */
+        double p = it.o[0] + t * it.d[0];
+        int guess = !(p >= 0.0) ? 0 : (p >= N ? N - 1 : (int)p);
+        if (s < 0 && p >= 0.0 && p < N && guess == p && guess > 0)
+            guess--;
+        if (guess != c)
+            corrected[s > 0][c > guess]++;
+    }
+    char name[200];
+    snprintf(name, sizeof name, "gt_cell_at_exit: the brute-force cell in 400000 trials (%ld wrong)", wrong_cell);
+    CHECK(name, wrong_cell == 0);
+    snprintf(name, sizeof name, "gt_cell_at_exit: its exit is gt_exit_t's, bit for bit (%ld wrong)", wrong_exit);
+    CHECK(name, wrong_exit == 0);
+    snprintf(name, sizeof name,
+             "gt_cell_at_exit: guesses corrected, s > 0 up %ld / down %ld, s < 0 up %ld / down %ld (each > 0)",
+             corrected[1][1], corrected[1][0], corrected[0][1], corrected[0][0]);
+    CHECK(name, corrected[1][1] > 0 && corrected[1][0] > 0 && corrected[0][1] > 0 && corrected[0][0] > 0);
+}
+
 static void test_traversal(void)
 {
     mesh m = {0};
@@ -1190,6 +1253,7 @@ int main(void)
     test_face_on_plane();
     test_sphere();
     test_degenerate();
+    test_cell_at_exit();
     test_traversal();
     test_dilated();
     test_bunny();

@@ -371,12 +371,23 @@ VX_INLINE vec3 voxel_trace_ray(voxel_ctx *x, vec3 org, vec3 dir, float t_min, fl
      * mapped once; an equal float maps to the same doubles, so the walk is the same. */
     int from_camera = org.x == x->cam.position.x && org.y == x->cam.position.y && org.z == x->cam.position.z;
     /* The walk goes over each span the bounds leave the ray (VOXEL_NEXT_SPAN), in order: no
-     * non-empty cell lies between them, so the walks together report the cells of one. An empty
-     * [t_min, t_max] (a pixel whose bounds hold no voxel: t_min infinite) has no cells, as
-     * gt_iter_init would find after its divisions. */
+     * non-empty cell lies between them, so the walks together report the cells of one. The ray's
+     * origin and direction are mapped to the lattice once, before its first span that is not empty
+     * (gt_iter_init's own steps, so the same walks). An empty [t_min, t_max] (a pixel whose bounds
+     * hold no voxel: t_min infinite) has no cells, as gt_iter_init would find after its divisions. */
+    while (!(t_min < t_max))
+        if (!VOXEL_NEXT_SPAN(x, &t_min, &t_max))
+            return voxel_over_background(x, color, A);
+    gt_direction pd;
+    double o[3];
+    gt_direction_prepare(x->g, 0, dir, &pd);
+    if (from_camera)
+        for (int a = 0; a < 3; a++)
+            o[a] = x->cam_lattice[a];
+    else
+        gt_lattice_point(x->g, 0, org, o);
     do {
-        if (!(t_min < t_max && (from_camera ? gt_iter_init_lattice(&it, x->g, 0, x->cam_lattice, dir, t_min, t_max)
-                                            : gt_iter_init(&it, x->g, 0, org, dir, t_min, t_max))))
+        if (!(t_min < t_max && gt_iter_init_prepared(&it, x->g, 0, o, &pd, t_min, t_max)))
             continue;
         while (!done && gt_iter_next(&it, &h)) {
             x->counts.visits++;
