@@ -817,8 +817,8 @@ static void test_cell_at_exit(void)
             t = nextafter(t, -INFINITY);
         else if (side == 2)
             t = nextafter(t, INFINITY);
-        double exit;
-        int c = gt_cell_at_exit(&it, 0, t, 0, N - 1, &exit);
+        double t_exit;
+        int c = gt_cell_at_exit(&it, 0, t, 0, N - 1, &t_exit);
         int want = s > 0 ? 0 : N - 1;
         if (s > 0) {
             for (int q = 1; q < N; q++)
@@ -831,7 +831,7 @@ static void test_cell_at_exit(void)
         }
         double want_exit = gt_exit_t(&it, 0, want, 0);
         wrong_cell += c != want;
-        wrong_exit += memcmp(&exit, &want_exit, sizeof exit) != 0;
+        wrong_exit += memcmp(&t_exit, &want_exit, sizeof t_exit) != 0;
         /* The guess gt_cell_at_exit starts from (its own rule, restated). */
         double p = it.o[0] + t * it.d[0];
         int guess = !(p >= 0.0) ? 0 : (p >= N ? N - 1 : (int)p);

@@ -209,8 +209,9 @@ static int voxel_prepare(render_job *j, vx_err *e)
      * (6.5 ms on bunny 256^3, where alpha's frame takes 45) would be work for nothing. */
     int bounds = j->o->pixel_bounds && !(s->effects & EFFECT_DOF);
     /* The depth slabs serve the walks that go on past a voxel: a first-hit model's ray ends at its
-     * first opaque voxel, and binary's rays almost never reach a second span, so building the slabs
-     * was work for nothing (3 % of binary's instructions a frame on bunny 256^3). */
+     * first voxel that is not transparent, and with the slabs about 1 % of binary's rays walked a
+     * second span (bunny 256^3: 149,499 walks for 148,224 rays), so building them was work for
+     * nothing (3 % of binary's instructions a frame). */
     int slabs = j->m->voxel->compositing != VX_COMPOSITE_FIRST_HIT;
     if (bounds && (pixel_bounds_alloc(&st->bounds, j->o->width, j->o->height, parallel_threads(j->o->threads)) ||
                    (slabs && pixel_bounds_alloc_slabs(&st->bounds))))
