@@ -10,8 +10,8 @@
  *    shadow opacity memo) and heitz-neyret (the cone marcher's light cache):
  *    page faults inside the render's clock (render_counts.page_faults, the whole process) below a
  *    bound far under the caches' page count, and 1- and 2-thread images equal word for word;
- *    small images (heights 1 to 33, not multiples of the threads' 8-row bands) with every ray
- *    traced once and the same image on 1 and 3 threads.
+ *    small images (heights 1 to 50, not multiples of the threads' 8-row bands and 2-row tail
+ *    pieces) with every ray traced once and the same image on 1 and 3 threads.
  *  - the shading cache (tracer/render/shading_cache.h) sized by the image: its size rule, slots
  *    inside the table with runs of 8 voxels side by side, eviction, a voxel's answer never returned
  *    for another under two threads hammering a 16-slot table, and city rendered with a 16-slot
@@ -348,12 +348,13 @@ static int render(const scene *s, const voxel_grid *g, const vx_model *m, const 
     return render_slots(s, g, m, rec, threads, 0, img, c);
 }
 
-/* The threads take the image in bands of rows (render.c): images whose height is not a multiple of
- * a band, or is below one, must still have every row rendered, once (the rays counted: spp per
- * pixel, one per pixel for a cone model), the same with 1 and 3 threads. */
+/* The threads take the image in bands of rows, its last rows (a band's worth per thread) in pieces
+ * of two (render.c): images whose height is not a multiple of a band, or is below the tail, must
+ * still have every row rendered, once (the rays counted: spp per pixel, one per pixel for a cone
+ * model), the same with 1 and 3 threads (50 rows on 3 threads: 3 bands, then 13 pieces). */
 static void band_checks(const scene *s, const voxel_grid *g, const vx_model *m, const void *rec)
 {
-    static const int heights[] = {1, 7, 9, 17, 33};
+    static const int heights[] = {1, 7, 9, 17, 33, 50};
     for (size_t k = 0; k < sizeof heights / sizeof *heights; k++) {
         image img[2];
         render_counts c[2];

@@ -1,5 +1,6 @@
-/* A small thread pool loop: items are handed out dynamically, but every item's result must depend
- * only on the item (never on the thread), which keeps renders deterministic for any thread count. */
+/* A thread pool: items are handed out dynamically, but every item's result must depend only on the
+ * item (never on the thread), which keeps renders deterministic for any thread count. The threads
+ * are kept from call to call (parallel.c says why). */
 #ifndef VX_PARALLEL_H
 #define VX_PARALLEL_H
 
@@ -10,8 +11,9 @@ typedef void (*parallel_fn)(void *ctx, int64_t item, int thread);
 /* Number of threads to use: `requested` when > 0, else the online CPU count. */
 int parallel_threads(int requested);
 
-/* Runs fn(ctx, i, thread) for i in [0, count) on `threads` threads. When `label` is not NULL and
- * stderr is a terminal, shows "label: NN%" progress there. */
+/* Runs fn(ctx, i, thread) for i in [0, count) on `threads` threads (thread 0 the caller; thread
+ * numbers below min(threads, count)). Safe to call from inside fn and from several threads at once.
+ * When `label` is not NULL and stderr is a terminal, shows "label: NN%" progress there. */
 void parallel_for(int64_t count, int threads, parallel_fn fn, void *ctx, const char *label);
 
 /* Seconds from a monotonic clock. */
