@@ -89,8 +89,12 @@ typedef struct {
     int running;           /* of those, how many have not finished it */
 } pool;
 
-static pool the_pool = {PTHREAD_MUTEX_INITIALIZER, PTHREAD_MUTEX_INITIALIZER, PTHREAD_COND_INITIALIZER,
-                        PTHREAD_COND_INITIALIZER, NULL, 0, 0, 0, 0};
+/* A pool with no helpers and no job: the process's at start, a forked child's (pool_after_fork). */
+#define POOL_EMPTY                                                                                   \
+    {PTHREAD_MUTEX_INITIALIZER, PTHREAD_MUTEX_INITIALIZER, PTHREAD_COND_INITIALIZER,                 \
+     PTHREAD_COND_INITIALIZER, NULL, 0, 0, 0, 0}
+
+static pool the_pool = POOL_EMPTY;
 static _Thread_local int on_pool_thread;
 
 typedef struct {
@@ -130,8 +134,7 @@ static void *helper_main(void *p)
  * whatever they held, are not there). */
 static void pool_after_fork(void)
 {
-    pool fresh = {PTHREAD_MUTEX_INITIALIZER, PTHREAD_MUTEX_INITIALIZER, PTHREAD_COND_INITIALIZER,
-                  PTHREAD_COND_INITIALIZER, NULL, 0, 0, 0, 0};
+    pool fresh = POOL_EMPTY;
     the_pool = fresh;
     on_pool_thread = 0;
 }
@@ -180,7 +183,7 @@ static int pool_run(job *j, int threads)
     return 0;
 }
 
-/* The job on threads started for this call alone (when the pool is in use). */
+/* The job on threads started for this call alone (when the pool is in use; none for one thread). */
 static void spawn_run(job *j, int threads)
 {
     pthread_t *tids = malloc(sizeof(pthread_t) * (size_t)threads);
@@ -212,10 +215,7 @@ void parallel_for(int64_t count, int threads, parallel_fn fn, void *ctx, const c
         threads = (int)count;
     if (threads < 1)
         threads = 1;
-    if (threads == 1) {
-        worker_arg self = {&j, 0};
-        worker(&self);
-    } else if (pool_run(&j, threads) != 0)
+    if (threads == 1 || pool_run(&j, threads) != 0)
         spawn_run(&j, threads);
     if (j.label) {
         show_progress(&j, count);

@@ -39,7 +39,7 @@ void render_default_options(render_options *o)
  * mostly the same voxels: when two threads render them at the same time, the shading cache's slots
  * that one thread writes are read by the other a moment later, and the cache lines bounce between
  * the cores (binary on city 256^3, 256x256: 1.68x from a second thread with single rows, 1.87x with
- * bands of 8, and the 2-thread frame 10 % shorter; 32 bands still balance the two threads). */
+ * bands of 8, and the 2-thread frame 10 % shorter; the last rows go in smaller pieces, below). */
 #define RENDER_BAND_ROWS 8
 /* The image's last rows (a band's worth per thread) are handed out in pieces of this many rows:
  * the thread that took the last whole band made the others wait for it, up to a band (bunny 256^3,
