@@ -7,7 +7,11 @@ set -u
 cd "$(dirname "$0")/.."
 export BUILD=${BUILD:-build}
 export VOXLAB="$PWD/$BUILD/voxlab"
-export POCL_CACHE_DIR="$PWD/$BUILD/pocl-cache"
+# One kernel cache for every build flavour: the kernels are the same sources and options whatever
+# the host code's build (PoCL keys its cache by both), so the sanitizer pass reuses what the plain
+# pass compiled instead of compiling them all again (test_opencl: 126 s -> 59 s under ASan; its own
+# cold-cache case uses a fresh directory of its own).
+export POCL_CACHE_DIR="$PWD/build/pocl-cache"
 tmp_root=$(mktemp -d)
 trap 'rm -rf "$tmp_root"' EXIT
 passed=0

@@ -255,12 +255,29 @@ def write_sphere(name, nu=128, nv=64):
     return name + ".ply"
 
 
+_bakes = {}
+
+
+def render(scene, model, res, spp, out, *extra):
+    """`voxlab render scene --model model --res res`'s image into out, rendered from a .vox that one
+    `voxlab bake --model <every model>` made for scene and res (each test renders every model of a
+    scene at a resolution): one pass of the shared sampler for all of them, not one bake per render,
+    which was most of this file's time. The files are those separate bakes write, and a render from
+    one is the image render --res gives (tests/test_sweep_bake_groups.py, tests/test_vox_records.py)."""
+    key = (scene, res)
+    if key not in _bakes:
+        _bakes[key] = os.path.join(TMP, f"bake{len(_bakes)}_{res}_{{model}}.vox")
+        voxlab("bake", scene, "--model", ",".join(MODELS), "--res", res, "-o", _bakes[key])
+    vox = _bakes[key].replace("{model}", model)
+    voxlab("render", scene, "--model", model, "--vox", vox, "--spp", spp_for(model, spp), *extra, "-o", out)
+
+
 def coverage(scene, model, res, spp, tag):
     out = os.path.join(TMP, f"{tag}_{model}_{res}.exr")
     if model == "truth":
         voxlab("truth", scene, "--spp", spp, "-o", out)
     else:
-        voxlab("render", scene, "--model", model, "--res", res, "--spp", spp_for(model, spp), "-o", out)
+        render(scene, model, res, spp, out)
     img = read_image(out)[:, :, :3].astype(np.float64)
     return 1.0 - img.mean(axis=2)
 
@@ -623,11 +640,10 @@ def real_scenes():
         for res in (128, 256):
             for m in MODELS:
                 out = os.path.join(TMP, f"real_{name}_{m}_{res}.exr")
-                common = ["--model", m, "--res", res, "--spp", spp_for(m, 4), "--size", "128x128"]
-                voxlab("render", scene, *common, "-o", out)
+                render(scene, m, res, 4, out, "--size", "128x128")
                 img = read_image(out)[:, :, :3]
                 out_ns = os.path.join(TMP, f"real_{name}_{m}_{res}_noshadow.exr")
-                voxlab("render", unshadowed, *common, "-o", out_ns)
+                render(unshadowed, m, res, 4, out_ns, "--size", "128x128")
                 lit = read_image(out_ns)[:, :, :3].astype(np.float64).mean(2)
                 rad = img.astype(np.float64).mean(2)
                 finite = bool(np.all(np.isfinite(img)))
@@ -687,7 +703,7 @@ def interior_shading():
             truth = float(read_image(t_out)[:, :, :3].astype(np.float64).mean(2)[inner].mean())
             for m in MODELS:
                 out = os.path.join(TMP, f"{tag}_{m}.exr")
-                voxlab("render", sc, "--model", m, "--res", res, "--spp", spp_for(m, 16), "-o", out)
+                render(sc, m, res, 16, out)
                 lit = float(read_image(out)[:, :, :3].astype(np.float64).mean(2)[inner].mean())
                 cov = float(coverage(blk, m, res, 16, tag + "_cov")[inner].mean())
                 if m in ("binary", "heitz-neyret"):
@@ -732,7 +748,7 @@ def tilted_plate():
         mse, low, ratio = [], [], []
         for res in (32, 64, 128):
             out = os.path.join(TMP, f"offaxis_{m}_{res}.exr")
-            voxlab("render", lit, "--model", m, "--res", res, "--spp", spp_for(m, 16), "-o", out)
+            render(lit, m, res, 16, out)
             img = read_image(out)[:, :, :3].astype(np.float64)
             mse.append(float(((img - truth["lit"]) ** 2).mean()))
             lum = img.mean(axis=2)

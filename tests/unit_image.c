@@ -117,6 +117,18 @@ static void test_exr_roundtrip(void)
     CHECK("exr leaves no temp files", temp_leftovers(tmpdir) == 0);
 }
 
+/* The images test_exr_incompressible_chunks writes and reads back. Under AddressSanitizer a tenth
+ * of them, the first ones (the same code paths, and the bug below altered 1 to 2 % of images, so a
+ * few of these; the plain build's pass runs them all): under the sanitizer every
+ * write's compressor state is a fresh mapping of the sanitizer's large-block allocator, zeroed page
+ * by page: the 3000 took 150 s of CI's sanitizer pass (the whole of this test takes 4 s plain, 15 s
+ * sanitized with 300). */
+#ifdef __SANITIZE_ADDRESS__
+#define CHUNK_IMAGES 300
+#else
+#define CHUNK_IMAGES 3000
+#endif
+
 /* Chunks that ZIP cannot shrink. OpenEXR stores such a chunk raw, and a reader takes a chunk whose
  * stored size equals its raw size for a raw one; OpenEXR 3.1's core library (Debian 12) stored the
  * deflated bytes when they came out exactly as long as the raw ones (it tested > where >= was
@@ -130,7 +142,7 @@ static void test_exr_incompressible_chunks(void)
     int images = 0, altered = 0, raw_sized = 0;
     vx_err e;
     const char *path = tmp_path("chunk.exr");
-    for (unsigned seed = 1; seed <= 3000; seed++) {
+    for (unsigned seed = 1; seed <= CHUNK_IMAGES; seed++) {
         image img, back;
         int width = 2 + (int)(seed % 5), nc = 1 + (int)(seed / 5 % 3);
         if (image_alloc(&img, width, 16, nc, &e) != 0)
@@ -167,7 +179,7 @@ static void test_exr_incompressible_chunks(void)
     snprintf(label, sizeof label,
              "exr chunks that do not compress read back bit for bit (%d images, %d stored raw, %d altered)", images,
              raw_sized, altered);
-    CHECK(label, images == 3000 && raw_sized > 100 && altered == 0);
+    CHECK(label, images == CHUNK_IMAGES && raw_sized > CHUNK_IMAGES / 30 && altered == 0);
 }
 
 static void test_srgb_values(void)
