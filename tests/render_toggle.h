@@ -15,33 +15,23 @@
 
 typedef void (*render_switch)(render_options *o, int on);
 
-static inline void render_toggle_checks(const char *path, const char *model, int res, render_switch set,
-                                        const char *what)
+/* A background whose mean over 5 equal rays is not itself in float (0.9504637 and 0.42332646 come
+ * back an ulp off): a pixel an optimisation fills without marching (pixel_bounds.h's empty pixels)
+ * must sum its rays' background as the march does. Set before baking (it is not in the records). */
+static inline void render_toggle_background(scene *s) { s->background = v3(0.9504637f, 0.42332646f, 0.027559113f); }
+
+/* Model m's records rec on grid g of scene s rendered with `set` off and on, at 4 spp on a 98-wide
+ * image, 1 spp and 5 spp: each pair equal, word for word. Checks are named "LABEL, WxH, N spp: ...". */
+static inline void render_toggle_compare(const char *label, const scene *s, const voxel_grid *g, const vx_model *m,
+                                         const void *rec, render_switch set, const char *what)
 {
-    scene s;
-    vx_err e;
-    const vx_model *m = model_find(model);
-    if (!m || scene_load(path, &s, &e)) {
-        printf("not ok render %s %s\n", path, model);
-        unit_failures++;
-        return;
-    }
-    /* A background whose mean over 5 equal rays is not itself in float (0.9504637 and 0.42332646
-     * come back an ulp off): a pixel an optimisation fills without marching (pixel_bounds.h's empty
-     * pixels) must sum its rays' background as the march does. */
-    s.background = v3(0.9504637f, 0.42332646f, 0.027559113f);
-    bake_options bo = {.rays = 16, .seed = 1, .threads = 0, .progress = 0};
-    bake_counts bc;
-    double gs;
-    voxel_grid g;
-    void *rec = NULL;
-    render_counts c;
-    int ok = bake_scene(&s, m, res, &bo, &g, &rec, &bc, &gs, &e) == 0;
     const int spps[] = {4, 1, 5}, widths[] = {98, 96, 50};
-    for (int v = 0; ok && v < 3; v++) {
+    for (int v = 0; v < 3; v++) {
         image img[2];
-        int w = widths[v], h = 40;
-        for (int k = 0; ok && k < 2; k++) {
+        int w = widths[v], h = 40, ok = 1, made = 0;
+        render_counts c;
+        vx_err e;
+        for (int k = 0; k < 2 && ok; k++) {
             render_options o;
             render_default_options(&o);
             o.width = w;
@@ -49,20 +39,55 @@ static inline void render_toggle_checks(const char *path, const char *model, int
             o.spp = spps[v];
             o.progress = 0;
             set(&o, k);
-            ok = render_image(&s, &g, m, rec, &o, &img[k], &c, &e) == 0;
-            if (!ok && k == 1)
-                image_free(&img[0]);
+            ok = render_image(s, g, m, rec, &o, &img[k], &c, &e) == 0;
+            made += ok;
         }
-        char name[300];
-        snprintf(name, sizeof name, "%s %s %d^3, %dx%d, %d spp: the image with %s equals the image without, word for word",
-                 path, model, res, w, h, spps[v], what);
+        char name[400];
+        snprintf(name, sizeof name, "%s, %dx%d, %d spp: the image with %s equals the image without, word for word",
+                 label, w, h, spps[v], what);
         CHECK(name, ok && memcmp(img[0].data, img[1].data, (size_t)w * h * 3 * sizeof(float)) == 0);
-        if (ok) {
-            image_free(&img[0]);
-            image_free(&img[1]);
-        }
+        for (int k = 0; k < made; k++)
+            image_free(&img[k]);
     }
-    if (ok) {
+}
+
+/* Model m's records for scene s at res^3, baked small (16 rays a voxel): 0, or -1 after a failed
+ * check named LABEL. */
+static inline int render_toggle_bake(const char *label, const scene *s, const vx_model *m, int res, voxel_grid *g,
+                                     void **rec)
+{
+    bake_options bo = {.rays = 16, .seed = 1, .threads = 0, .progress = 0};
+    bake_counts bc;
+    double gs;
+    vx_err e;
+    *rec = NULL;
+    if (bake_scene(s, m, res, &bo, g, rec, &bc, &gs, &e) == 0)
+        return 0;
+    printf("not ok %s: baked (%s)\n", label, e.msg);
+    unit_failures++;
+    return -1;
+}
+
+/* Scene `path` (its background render_toggle_background's) baked small at res^3 for `model`, then
+ * render_toggle_compare. */
+static inline void render_toggle_checks(const char *path, const char *model, int res, render_switch set,
+                                        const char *what)
+{
+    scene s;
+    vx_err e;
+    char label[300];
+    snprintf(label, sizeof label, "%s %s %d^3", path, model, res);
+    const vx_model *m = model_find(model);
+    if (!m || scene_load(path, &s, &e)) {
+        printf("not ok render %s %s\n", path, model);
+        unit_failures++;
+        return;
+    }
+    render_toggle_background(&s);
+    voxel_grid g;
+    void *rec;
+    if (render_toggle_bake(label, &s, m, res, &g, &rec) == 0) {
+        render_toggle_compare(label, &s, &g, m, rec, set, what);
         free(rec);
         grid_free(&g);
     }

@@ -11,7 +11,8 @@
  * (pixel_bounds.h, and the camera cones' ends), the shadow rays' and light cones' ends
  * (shadow_clip.h), the distance-field skip (pixel_skip.h); and 1 against 3 threads (the pool, the
  * bands and their 2-row tail); and, for the per-voxel models, the shadows precomputed per voxel
- * (--shadows voxel) against marched. Every model, baked once per case. A speed-up that moved a
+ * (--shadows voxel) against marched. Every model, baked once per case; each pair of images at the
+ * three shapes and ray counts of render_toggle_compare, over its background. A speed-up that moved a
  * single ray's cells would change some pixel. */
 #include <math.h>
 #include <stdio.h>
@@ -21,6 +22,7 @@
 #include "bake.h"
 #include "render.h"
 #include "scene.h"
+#include "render_toggle.h"
 #include "shadow_maps_core.h"
 #include "unit.h"
 
@@ -38,62 +40,58 @@ static camera look(vec3 pos, vec3 at, vec3 up, float fov_deg)
     return c;
 }
 
-enum { SW_BOUNDS, SW_CLIP, SW_SKIP, SW_ALL, SW_THREADS, SW_VOXEL_SHADOWS, SWITCHES };
-static const char *const switch_names[SWITCHES] = {"the depth bounds", "the shadow rays' ends", "the empty-space skip",
-                                                   "all three", "3 threads (off: 1)", "shadows precomputed per voxel"};
-
-static void set_switch(render_options *o, int sw, int on)
+/* Each switch but the threads' own runs on 3 threads, so that both images take the pool, its bands
+ * and their tail. */
+static void bounds_switch(render_options *o, int on)
 {
     o->threads = 3;
-    switch (sw) {
-    case SW_BOUNDS: o->pixel_bounds = on; break;
-    case SW_CLIP: o->shadow_clip = on; break;
-    case SW_SKIP: o->empty_skip = on; break;
-    case SW_ALL: o->pixel_bounds = o->shadow_clip = o->empty_skip = on; break;
-    case SW_THREADS: o->threads = on ? 3 : 1; break;
-    case SW_VOXEL_SHADOWS: o->shadow_method = on ? SHADOW_VOXEL : SHADOW_MARCH; break;
-    }
+    o->pixel_bounds = on;
+}
+static void clip_switch(render_options *o, int on)
+{
+    o->threads = 3;
+    o->shadow_clip = on;
+}
+static void skip_switch(render_options *o, int on)
+{
+    o->threads = 3;
+    o->empty_skip = on;
+}
+static void all_switch(render_options *o, int on)
+{
+    o->threads = 3;
+    o->pixel_bounds = o->shadow_clip = o->empty_skip = on;
+}
+static void threads_switch(render_options *o, int on) { o->threads = on ? 3 : 1; }
+static void voxel_shadows_switch(render_options *o, int on)
+{
+    o->threads = 3;
+    o->shadow_method = on ? SHADOW_VOXEL : SHADOW_MARCH;
 }
 
-/* Every switch off and on for model m on scene s: the two images equal, word for word. */
+static const struct {
+    render_switch set;
+    const char *what;
+    int per_voxel_only; /* a cone model has no per-voxel shadows to precompute */
+} switches[] = {{bounds_switch, "the depth bounds", 0},
+                {clip_switch, "the shadow rays' ends", 0},
+                {skip_switch, "the empty-space skip", 0},
+                {all_switch, "all three", 0},
+                {threads_switch, "3 threads (off: 1)", 0},
+                {voxel_shadows_switch, "shadows precomputed per voxel", 1}};
+
+/* Model m baked once on scene s, then every switch off and on (render_toggle_compare). */
 static void case_checks(const char *label, const scene *s, const vx_model *m)
 {
-    bake_options bo = {.rays = 16, .seed = 1, .threads = 0, .progress = 0};
-    bake_counts bc;
-    double gs;
+    char name[300];
+    snprintf(name, sizeof name, "%s %s", label, m->name);
     voxel_grid g;
-    void *rec = NULL;
-    vx_err e;
-    char name[400];
-    if (bake_scene(s, m, 48, &bo, &g, &rec, &bc, &gs, &e)) {
-        snprintf(name, sizeof name, "%s %s: baked (%s)", label, m->name, e.msg);
-        CHECK(name, 0);
+    void *rec;
+    if (render_toggle_bake(name, s, m, 48, &g, &rec))
         return;
-    }
-    int per_voxel = m->voxel != NULL;
-    for (int sw = 0; sw < SWITCHES; sw++) {
-        if (sw == SW_VOXEL_SHADOWS && !per_voxel)
-            continue; /* a cone model has no per-voxel shadows to precompute */
-        image img[2];
-        int ok = 1, made = 0;
-        render_counts c;
-        for (int k = 0; k < 2 && ok; k++) {
-            render_options o;
-            render_default_options(&o);
-            o.width = 98; /* a row ending in a span of two (voxel_render_span) */
-            o.height = 40;
-            o.spp = 4;
-            o.progress = 0;
-            set_switch(&o, sw, k);
-            ok = render_image(s, &g, m, rec, &o, &img[k], &c, &e) == 0;
-            made += ok;
-        }
-        snprintf(name, sizeof name, "%s %s: the image with %s equals the image without, word for word", label,
-                 m->name, switch_names[sw]);
-        CHECK(name, ok && memcmp(img[0].data, img[1].data, (size_t)98 * 40 * 3 * sizeof(float)) == 0);
-        for (int k = 0; k < made; k++)
-            image_free(&img[k]);
-    }
+    for (size_t k = 0; k < sizeof switches / sizeof switches[0]; k++)
+        if (!switches[k].per_voxel_only || m->voxel)
+            render_toggle_compare(name, s, &g, m, rec, switches[k].set, switches[k].what);
     free(rec);
     grid_free(&g);
 }
@@ -110,6 +108,7 @@ int main(void)
             printf("not ok scenes/city.json: %s\n", e.msg);
             return 1;
         }
+        render_toggle_background(&s);
         if (c == 1) {
             s.lights[0].direction = v3(0.0f, 1.0f, 0.0f);
             s.camera = look(v3(0.0f, 20.0f, 0.0f), v3(0.0f, 0.0f, 0.0f), v3(0.0f, 0.0f, -1.0f), 40.0f);
