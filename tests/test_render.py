@@ -6,14 +6,13 @@ Expectations are independent of the code under test: bit-identity between two pa
 the same image, counters that must be zero or not, and accuracy bounds that are checked to be
 discriminating (an all-background image and a colour-swapped render must fail them). MSE is also
 recomputed here with numpy from the images (read with OpenImageIO's Python bindings)."""
-import glob
 import json
 import os
 import shutil
 
 import numpy as np
 
-from testlib import REPO, TMP, finish, read_image, report, voxlab, write_ply, write_scene
+from testlib import REPO, TMP, finish, leftovers, read_image, report, voxlab, write_ply, write_scene
 
 SPHERES = os.path.join(REPO, "scenes", "spheres.json")
 
@@ -47,10 +46,6 @@ def write_pfm(p, img):
     with open(p, "wb") as f:
         f.write(f"PF\n{w} {h}\n-1.0\n".encode())
         f.write(np.ascontiguousarray(img[::-1]).astype("<f4").tobytes())
-
-
-def leftovers(directory, stem):
-    return sorted(os.path.basename(p) for p in glob.glob(os.path.join(directory, stem + "*")))
 
 
 # ---------- (a) models ----------

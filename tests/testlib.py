@@ -104,8 +104,18 @@ def write_gltf(path, primitives):
         json.dump(doc, f)
 
 
-def write_scene(name, objects, lights, camera, effects=(), materials=None, size=(16, 16), background=(0, 0, 0)):
-    """Writes a scene file into TMP and returns its path."""
+def leftovers(directory, stem):
+    """The files in directory whose name starts with stem: an output and its temporary files
+    (OUT.tmp.PID.N), which a refused or failed command must not leave behind."""
+    import glob
+
+    return sorted(os.path.basename(p) for p in glob.glob(os.path.join(directory, glob.escape(stem) + "*")))
+
+
+def write_scene(name, objects, lights, camera, effects=(), materials=None, size=(16, 16), background=(0, 0, 0),
+                extra=None):
+    """Writes a scene file into TMP and returns its path; extra: further top-level fields (a
+    `shadows` block)."""
     scene = {
         "name": name,
         "size": list(size),
@@ -115,6 +125,7 @@ def write_scene(name, objects, lights, camera, effects=(), materials=None, size=
         "lights": lights,
         "materials": materials or {"grey": {"color": [0.5, 0.5, 0.5]}},
         "objects": objects,
+        **(extra or {}),
     }
     path = os.path.join(TMP, name + ".json")
     with open(path, "w") as f:
