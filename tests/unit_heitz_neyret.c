@@ -663,6 +663,253 @@ static void stencil_brute_force(void)
     mesh_free(&me);
 }
 
+/* The per-cell definitions the blends had before they took a cell's weights per level block and
+ * axis row (hn_stencil's layout), kept here as the reference: the edge field's weights, gradients
+ * and offsets, the attributes' bilinear factors, and the geometry's visit of every entry by slot. */
+static void ref_edge_terms(const hn_stencil *st, int i, vec3 p, float *w, vec3 *gw, vec3 *dp)
+{
+    float size = st->size[i];
+    *dp = v3_sub(p, st->centre[i]);
+    float wa[3], ga[3];
+    for (int a = 0; a < 3; a++) {
+        float u = v3_get(*dp, a) / size;
+        wa[a] = vx_fmaxf(0.0f, 1.0f - fabsf(u));
+        ga[a] = (u > 0.0f ? -1.0f : 1.0f) / size;
+    }
+    *w = wa[0] * wa[1] * wa[2];
+    *gw = v3(ga[0] * wa[1] * wa[2], wa[0] * ga[1] * wa[2], wa[0] * wa[1] * ga[2]);
+}
+
+static int ref_blend_edge(const hn_record *records, const hn_stencil *st, vec3 p, hn_sample *s)
+{
+    vec3 N = v3_normalize_or(s->n, v3(0.0f, 0.0f, 1.0f));
+    int count = st->count < HN_STENCIL_MAX ? st->count : HN_STENCIL_MAX;
+    float W[2] = {0.0f, 0.0f}, S[2] = {0.0f, 0.0f};
+    vec3 G[2], Gw[2];
+    G[0] = G[1] = Gw[0] = Gw[1] = v3(0.0f, 0.0f, 0.0f);
+    int own[HN_STENCIL_MAX];
+    vec3 own_n[HN_STENCIL_MAX];
+    float own_h[HN_STENCIL_MAX], own_psi[HN_STENCIL_MAX];
+    for (int i = 0; i < count; i++) {
+        own[i] = 0;
+        own_n[i] = N;
+        own_h[i] = own_psi[i] = 0.0f;
+        if (st->index[i] < 0)
+            continue;
+        hn_data d;
+        hn_decode_geometry(records + st->index[i], st->size[i], &d);
+        if (!(d.area > 0.0f))
+            continue;
+        own[i] = 1;
+        own_n[i] = v3_normalize_or(d.n, N);
+        own_h[i] = d.h;
+        own_psi[i] = d.psi;
+    }
+    for (int i = 0; i < count; i++) {
+        float w, size = st->size[i];
+        vec3 gw, dp;
+        ref_edge_terms(st, i, p, &w, &gw, &dp);
+        float psi;
+        if (st->index[i] >= 0) {
+            if (!own[i])
+                continue;
+            psi = own_psi[i];
+        } else {
+            if (!hn_plane_enters(N, s->D - v3_dot(N, dp), size) ||
+                !hn_empty_cell_ends(i, count, own, own_n, own_h, st->centre, size, N))
+                continue;
+            psi = 0.5f * size;
+        }
+        int k = st->slot[i] ? 1 : 0;
+        W[k] += w;
+        S[k] += w * psi;
+        G[k] = v3_madd(G[k], gw, psi);
+        Gw[k] = v3_add(Gw[k], gw);
+    }
+    float f = vx_fminf(vx_fmaxf(st->level_frac, 0.0f), 1.0f);
+    float w0, w1;
+    hn_level_weights(f, W[0] > 0.0f, W[1] > 0.0f, &w0, &w1);
+    if (!(w0 + w1 > 0.0f))
+        return 0;
+    s->psi = 0.0f;
+    s->gpsi = v3(0.0f, 0.0f, 0.0f);
+    for (int k = 0; k < 2; k++) {
+        float wk = (k ? w1 : w0) / (w0 + w1);
+        if (!(wk > 0.0f))
+            continue;
+        float pk = S[k] / W[k];
+        vec3 gk = v3_scale(v3_madd(G[k], Gw[k], -pk), 1.0f / W[k]);
+        s->psi += wk * pk;
+        s->gpsi = v3_madd(s->gpsi, gk, wk);
+    }
+    s->edge = 1;
+    return W[0] > 0.0f;
+}
+
+/* The geometry sums of level k, visiting every entry and keeping those of slot k. */
+static float ref_level_geometry(const hn_record *records, const hn_stencil *st, int count, int k, vec3 p, hn_sample *g)
+{
+    vec3 sn = v3(0.0f, 0.0f, 0.0f);
+    float sD = 0.0f, s_var_h = 0.0f, s_var_n = 0.0f, s_two = 0.0f, wsum = 0.0f;
+    for (int i = 0; i < count; i++) {
+        if ((st->slot[i] ? 1 : 0) != k)
+            continue;
+        float w = st->weight[i];
+        if (!(w > 0.0f) || st->index[i] < 0)
+            continue;
+        hn_data d;
+        hn_decode_geometry(records + st->index[i], st->size[i], &d);
+        if (!(d.area > 0.0f))
+            continue;
+        vec3 n = d.n;
+        float h = d.h;
+        if (d.two_sided && v3_dot(n, sn) < 0.0f) {
+            n = v3_scale(n, -1.0f);
+            h = -h;
+        }
+        vec3 nu = v3_normalize_or(n, v3(0.0f, 0.0f, 1.0f));
+        float wg = w * vx_fminf(1.0f, 2.0f * d.area / (st->size[i] * st->size[i]));
+        sn = v3_madd(sn, n, wg);
+        sD += wg * (v3_dot(nu, v3_sub(p, st->centre[i])) - h);
+        s_var_h += wg * d.var_h;
+        s_var_n += wg * d.var_n;
+        s_two += wg * (d.two_sided ? 1.0f : 0.0f);
+        wsum += wg;
+    }
+    hn_sample_zero(g);
+    g->n = sn;
+    g->D = sD;
+    g->var_h = s_var_h;
+    g->var_n = s_var_n;
+    g->two_sided = s_two;
+    return wsum;
+}
+
+/* The attributes' area weights of entry i (the bilinear factors along the surface, per cell). */
+static float ref_attribute_weight(const hn_stencil *st, int i, vec3 p, int across, float area)
+{
+    float wa = area / (st->size[i] * st->size[i]);
+    for (int a = 0; a < 3; a++)
+        if (a != across)
+            wa *= vx_fmaxf(0.0f, 1.0f - fabsf(v3_get(p, a) - v3_get(st->centre[i], a)) / st->size[i]);
+    return wa;
+}
+
+static int same_float(float a, float b) { return memcmp(&a, &b, sizeof a) == 0; }
+static int same_vec(vec3 a, vec3 b) { return same_float(a.x, b.x) && same_float(a.y, b.y) && same_float(a.z, b.z); }
+
+/* hn_blend_geometry's, hn_blend_edge's and hn_blend_attributes's per-level-block forms against the
+ * per-cell definitions above, bit for bit: stencils of a 32^3 grid of tilted plates and a box
+ * (hn_fill_stencil, as in stencil_brute_force) at 20,000 random points and levels, every record
+ * random (normals, heights, variances, areas, psi, sidedness, colours), each blend asked at the
+ * point and, for the edge, at random planes through it. */
+static void stencil_blends_per_cell(void)
+{
+    mesh me;
+    memset(&me, 0, sizeof me);
+    mesh_add_quad(&me, v3(0.1f, 0.1f, 0.2f), v3(0.9f, 0.1f, 0.35f), v3(0.9f, 0.9f, 0.3f), v3(0.1f, 0.9f, 0.2f), 0);
+    mesh_add_quad(&me, v3(0.2f, 0.1f, 0.9f), v3(0.2f, 0.8f, 0.6f), v3(0.3f, 0.8f, 0.5f), v3(0.3f, 0.1f, 0.8f), 0);
+    mesh_add_quad(&me, v3(0.6f, 0.6f, 0.7f), v3(0.7f, 0.6f, 0.7f), v3(0.7f, 0.7f, 0.7f), v3(0.6f, 0.7f, 0.7f), 0);
+    mesh_add_flat_triangle(&me, v3(0, 0, 0), v3(0.001f, 0, 0), v3(0, 0.001f, 0), 0);
+    mesh_add_flat_triangle(&me, v3(1, 1, 1), v3(0.999f, 1, 1), v3(1, 0.999f, 1), 0);
+    voxel_grid g;
+    vx_err e;
+    if (grid_build(&g, &me, 32, &e)) {
+        CHECK("grid builds (blends)", 0);
+        mesh_free(&me);
+        return;
+    }
+    size_t total = 0;
+    for (int l = 0; l < g.levels; l++)
+        total += grid_count(&g, l);
+    hn_record *recs = calloc(total, sizeof *recs);
+    uint64_t seed = 11;
+    for (size_t i = 0; i < total; i++) {
+        hn_record *r = &recs[i];
+        r->h = (float)(rnd01(&seed) - 0.5) * 0.05f;
+        for (int a = 0; a < 3; a++) {
+            r->n[a] = (short)(65534.0 * rnd01(&seed) - 32767.0);
+            r->a[a] = (unsigned char)(256.0 * rnd01(&seed));
+            r->as[a] = (signed char)(254.0 * rnd01(&seed) - 127.0);
+        }
+        r->var_h = hn_float_to_half((float)rnd01(&seed) * 0.1f);
+        r->var_n = hn_float_to_half((float)rnd01(&seed) * 0.5f);
+        /* a tenth never hit (area 0), a tenth hit only from behind (negative: no colour) */
+        double u = rnd01(&seed);
+        r->area = hn_float_to_half(u < 0.1 ? 0.0f : (float)(u < 0.2 ? -rnd01(&seed) : rnd01(&seed)));
+        r->alpha = (unsigned short)(65536.0 * rnd01(&seed));
+        r->f0_flags = (unsigned char)((rnd01(&seed) < 0.3 ? HN_TWO_SIDED : 0u) | (unsigned)(128.0 * rnd01(&seed)));
+        r->psi = (signed char)(254.0 * rnd01(&seed) - 127.0);
+    }
+    int wrong = 0, edges = 0, blocks16 = 0;
+    for (int t = 0; t < 20000; t++) {
+        vec3 p = v3((float)(1.4 * rnd01(&seed) - 0.2), (float)(1.4 * rnd01(&seed) - 0.2), (float)(1.4 * rnd01(&seed) - 0.2));
+        float level = (float)(rnd01(&seed) * (g.levels + 0.5) - 0.5);
+        hn_stencil st;
+        if (!hn_fill_stencil(&g, p, level, &st))
+            continue;
+        blocks16 += st.count == 16;
+        int count = st.count;
+        /* geometry, level by level */
+        for (int k = 0; k < 2; k++) {
+            hn_sample a, b;
+            float wa = hn_blend_level_geometry(recs, &st, count, k, p, &a), wb = ref_level_geometry(recs, &st, count, k, p, &b);
+            wrong += !same_float(wa, wb) || !same_vec(a.n, b.n) || !same_float(a.D, b.D) || !same_float(a.var_h, b.var_h) ||
+                     !same_float(a.var_n, b.var_n) || !same_float(a.two_sided, b.two_sided);
+        }
+        /* the edge, from the blended geometry and from a random plane through p */
+        hn_sample s0;
+        int have = hn_blend_geometry(recs, &st, p, &s0);
+        for (int plane = 0; plane < 2; plane++) {
+            hn_sample a = s0;
+            if (plane || !have) {
+                hn_sample_zero(&a);
+                a.n = v3((float)rnd_gauss(&seed), (float)rnd_gauss(&seed), (float)rnd_gauss(&seed));
+                a.D = (float)(rnd01(&seed) - 0.5) * st.size[0];
+            }
+            hn_sample b = a;
+            int ra = hn_blend_edge(recs, &st, p, &a), rb = ref_blend_edge(recs, &st, p, &b);
+            edges += a.edge;
+            wrong += ra != rb || a.edge != b.edge || !same_float(a.psi, b.psi) || !same_vec(a.gpsi, b.gpsi);
+        }
+        /* the attributes' weights, entry by entry, and the whole blend against them summed per cell */
+        vec3 n = v3((float)rnd_gauss(&seed), (float)rnd_gauss(&seed), (float)rnd_gauss(&seed));
+        hn_sample at;
+        hn_sample_zero(&at);
+        hn_blend_attributes(recs, &st, p, n, &at);
+        float ax = fabsf(n.x), ay = fabsf(n.y), az = fabsf(n.z);
+        int across = ax >= ay && ax >= az ? 0 : (ay >= az ? 1 : 2);
+        float wv[2] = {0.0f, 0.0f}, vh[2] = {0.0f, 0.0f};
+        for (int i = 0; i < count; i++) {
+            if (st.index[i] < 0)
+                continue;
+            hn_data d;
+            hn_decode(recs + st.index[i], st.size[i], &d);
+            if (!(d.area > 0.0f))
+                continue;
+            float w = ref_attribute_weight(&st, i, p, across, d.area);
+            if (!(w > 0.0f))
+                continue;
+            vh[st.slot[i]] += w * d.var_h;
+            wv[st.slot[i]] += w;
+        }
+        float f = vx_fminf(vx_fmaxf(st.level_frac, 0.0f), 1.0f), w0, w1;
+        hn_level_weights(f, wv[0] > 0.0f, wv[1] > 0.0f, &w0, &w1);
+        if (w0 + w1 > 0.0f) {
+            float want = (w0 > 0.0f ? w0 * vh[0] / wv[0] : 0.0f) + (w1 > 0.0f ? w1 * vh[1] / wv[1] : 0.0f);
+            want /= w0 + w1;
+            wrong += !same_float(want, at.var_h);
+        }
+    }
+    printf("# blends per level block: %d edge fields, %d two-level stencils, %d differences from the per-cell forms\n",
+           edges, blocks16, wrong);
+    CHECK("geometry, edge and attribute blends equal their per-cell forms, bit for bit",
+          wrong == 0 && edges > 5000 && blocks16 > 1000);
+    free(recs);
+    grid_free(&g);
+    mesh_free(&me);
+}
+
 static void grid_cases(void)
 {
     const vx_model *m = model_find("heitz-neyret");
@@ -824,6 +1071,7 @@ int main(int argc, char **argv)
     bake();
     grid_cases();
     stencil_brute_force();
+    stencil_blends_per_cell();
     mip_edge();
     return unit_exit();
 }

@@ -17,6 +17,10 @@
 
 #define HN_STENCIL_MAX 16 /* 8 cells on each of two levels */
 
+/* The cells around a point on two MIP levels, as hn_fill_stencil (hn_cone.h) lays them out: count
+ * is 0, 8 or 16; entries 0-7 the finer level's 2x2x2 block, 8-15 the coarser one's, each block in
+ * the order x, y, z major to minor, its cells one size, their centres taken from one pair of
+ * coordinates per axis (the blends below rely on that layout). */
 typedef struct {
     int count;
     float level_frac;                 /* weight of slot 1 (the coarser level) */
@@ -73,9 +77,9 @@ VX_INLINE float hn_blend_level_geometry(VX_GLOBAL const hn_record *records, cons
 {
     vec3 sn = v3(0.0f, 0.0f, 0.0f);
     float sD = 0.0f, s_var_h = 0.0f, s_var_n = 0.0f, s_two = 0.0f, wsum = 0.0f;
-    for (int i = 0; i < count; i++) {
-        if ((st->slot[i] ? 1 : 0) != k)
-            continue;
+    /* Level k's cells are block k of the stencil (hn_stencil's layout): only those are visited. */
+    int end = 8 * k + 8 < count ? 8 * k + 8 : count;
+    for (int i = 8 * k; i < end; i++) {
         float w = st->weight[i];
         if (!(w > 0.0f) || st->index[i] < 0)
             continue;
@@ -219,35 +223,50 @@ VX_INLINE int hn_blend_edge(VX_GLOBAL const hn_record *records, const hn_stencil
         own_h[i] = d.h;
         own_psi[i] = d.psi;
     }
-    for (int i = 0; i < count; i++) {
-        float size = st->size[i];
-        vec3 dp = v3_sub(p, st->centre[i]);
-        float wa[3], ga[3];
-        for (int a = 0; a < 3; a++) {
-            float u = v3_get(dp, a) / size;
-            wa[a] = vx_fmaxf(0.0f, 1.0f - fabsf(u));
-            ga[a] = (u > 0.0f ? -1.0f : 1.0f) / size;
+    /* Per level block (the stencil's layout, hn_stencil): a cell's offset from p, its weight and
+     * its weight's gradient along an axis depend only on which of the block's two rows it is in on
+     * that axis, so they are computed for the two rows of each axis (12 divisions a block, not 48)
+     * and each cell multiplies its rows' values in the same order as before: the same bits
+     * (tests/unit_heitz_neyret.c keeps the per-cell form and compares). The loops unroll, so that
+     * the rows' arrays are indexed by constants (registers, not private memory, under OpenCL). */
+    for (int base = 0; base < count; base += 8) {
+        float size = st->size[base];
+        float dpa[3][2], wa[3][2], ga[3][2];
+        VX_UNROLL
+        for (int a = 0; a < 3; a++)
+            VX_UNROLL
+            for (int d = 0; d < 2; d++) {
+                dpa[a][d] = v3_get(p, a) - v3_get(st->centre[base + (d << (2 - a))], a);
+                float u = dpa[a][d] / size;
+                wa[a][d] = vx_fmaxf(0.0f, 1.0f - fabsf(u));
+                ga[a][d] = (u > 0.0f ? -1.0f : 1.0f) / size;
+            }
+        int k = st->slot[base] ? 1 : 0;
+        VX_UNROLL
+        for (int c = 0; c < 8; c++) {
+            int i = base + c, dx = c >> 2, dy = (c >> 1) & 1, dz = c & 1;
+            float psi;
+            if (st->index[i] >= 0) {
+                if (!own[i])
+                    continue;
+                psi = own_psi[i];
+            } else {
+                /* The conservative voxelisation marks every cell a triangle touches: an empty cell
+                 * the plane enters has lost its surface. */
+                vec3 dp = v3(dpa[0][dx], dpa[1][dy], dpa[2][dz]);
+                if (!hn_plane_enters(N, s->D - v3_dot(N, dp), size) ||
+                    !hn_empty_cell_ends(i, count, own, own_n, own_h, st->centre, size, N))
+                    continue;
+                psi = 0.5f * size;
+            }
+            float w = wa[0][dx] * wa[1][dy] * wa[2][dz];
+            vec3 gw = v3(ga[0][dx] * wa[1][dy] * wa[2][dz], wa[0][dx] * ga[1][dy] * wa[2][dz],
+                         wa[0][dx] * wa[1][dy] * ga[2][dz]);
+            W[k] += w;
+            S[k] += w * psi;
+            G[k] = v3_madd(G[k], gw, psi);
+            Gw[k] = v3_add(Gw[k], gw);
         }
-        float w = wa[0] * wa[1] * wa[2];
-        vec3 gw = v3(ga[0] * wa[1] * wa[2], wa[0] * ga[1] * wa[2], wa[0] * wa[1] * ga[2]);
-        float psi;
-        if (st->index[i] >= 0) {
-            if (!own[i])
-                continue;
-            psi = own_psi[i];
-        } else {
-            /* The conservative voxelisation marks every cell a triangle touches: an empty cell
-             * the plane enters has lost its surface. */
-            if (!hn_plane_enters(N, s->D - v3_dot(N, dp), size) ||
-                !hn_empty_cell_ends(i, count, own, own_n, own_h, st->centre, size, N))
-                continue;
-            psi = 0.5f * size;
-        }
-        int k = st->slot[i] ? 1 : 0;
-        W[k] += w;
-        S[k] += w * psi;
-        G[k] = v3_madd(G[k], gw, psi);
-        Gw[k] = v3_add(Gw[k], gw);
     }
     float f = vx_fminf(vx_fmaxf(st->level_frac, 0.0f), 1.0f);
     float w0, w1;
@@ -285,6 +304,16 @@ VX_INLINE void hn_blend_attributes(VX_GLOBAL const hn_record *records, const hn_
     hn_sample_zero(&lv[0]);
     hn_sample_zero(&lv[1]);
     int count = st->count < HN_STENCIL_MAX ? st->count : HN_STENCIL_MAX;
+    /* The bilinear factors per level block and axis row, as hn_blend_edge takes them (hn_stencil's
+     * layout): the same expressions, once a row rather than once a cell. */
+    float lin[2][3][2];
+    for (int base = 0; base < count; base += 8)
+        VX_UNROLL
+        for (int a = 0; a < 3; a++)
+            VX_UNROLL
+            for (int d = 0; d < 2; d++)
+                lin[base >> 3][a][d] = vx_fmaxf(
+                    0.0f, 1.0f - fabsf(v3_get(p, a) - v3_get(st->centre[base + (d << (2 - a))], a)) / st->size[base]);
     for (int i = 0; i < count; i++) {
         if (st->index[i] < 0)
             continue;
@@ -293,9 +322,10 @@ VX_INLINE void hn_blend_attributes(VX_GLOBAL const hn_record *records, const hn_
         if (!(d.area > 0.0f))
             continue;
         float wa = d.area / (st->size[i] * st->size[i]);
+        int row[3] = {(i >> 2) & 1, (i >> 1) & 1, i & 1};
         for (int a = 0; a < 3; a++)
             if (a != across)
-                wa *= vx_fmaxf(0.0f, 1.0f - fabsf(v3_get(p, a) - v3_get(st->centre[i], a)) / st->size[i]);
+                wa *= lin[i >> 3][a][row[a]];
         if (!(wa > 0.0f))
             continue;
         int k = st->slot[i] ? 1 : 0;
