@@ -597,31 +597,42 @@ static void mip_edge(void)
 }
 
 /* hn_fill_stencil, which looks up the coarser level first and stops when its cells are all empty,
- * against grid_index cell by cell: a 32^3 grid of two tilted plates and a small box, 20,000 random
+ * against grid_index cell by cell: a grid of two tilted plates, a wall and a small box, 20,000 random
  * points in and around it at random fractional levels. Where it reports nothing, every one of the
  * 16 cells is empty; elsewhere every entry (slot, record index) is the cell's; and it does stop
- * early for some points (the case it exists for). */
-static void stencil_brute_force(void)
+ * early for some points (the case it exists for). At 32^3 a column is one word of 64 cells; at
+ * 160^3 it is three: half the points there lie by a steep wall where the finer cells straddle two
+ * words (hn_column_pair then reads both), and those are counted. */
+static void stencil_brute_force(int res)
 {
     mesh me;
     memset(&me, 0, sizeof me);
     mesh_add_quad(&me, v3(0.1f, 0.1f, 0.2f), v3(0.9f, 0.1f, 0.35f), v3(0.9f, 0.9f, 0.3f), v3(0.1f, 0.9f, 0.2f), 0);
     mesh_add_quad(&me, v3(0.2f, 0.1f, 0.9f), v3(0.2f, 0.8f, 0.6f), v3(0.3f, 0.8f, 0.5f), v3(0.3f, 0.1f, 0.8f), 0);
     mesh_add_quad(&me, v3(0.6f, 0.6f, 0.7f), v3(0.7f, 0.6f, 0.7f), v3(0.7f, 0.7f, 0.7f), v3(0.6f, 0.7f, 0.7f), 0);
+    /* a wall across every z, so that occupied pairs straddle two words at 160^3 */
+    mesh_add_quad(&me, v3(0.5f, 0.1f, 0.02f), v3(0.5f, 0.9f, 0.02f), v3(0.55f, 0.9f, 0.98f), v3(0.55f, 0.1f, 0.98f), 0);
     mesh_add_flat_triangle(&me, v3(0, 0, 0), v3(0.001f, 0, 0), v3(0, 0.001f, 0), 0);
     mesh_add_flat_triangle(&me, v3(1, 1, 1), v3(0.999f, 1, 1), v3(1, 0.999f, 1), 0);
     voxel_grid g;
     vx_err e;
-    if (grid_build(&g, &me, 32, &e)) {
+    if (grid_build(&g, &me, res, &e)) {
         CHECK("grid builds (stencils)", 0);
         mesh_free(&me);
         return;
     }
     uint64_t seed = 3;
-    int wrong = 0, stopped = 0, full = 0;
+    int wrong = 0, stopped = 0, full = 0, straddle = 0;
     for (int t = 0; t < 20000; t++) {
         vec3 p = v3((float)(1.4 * rnd01(&seed) - 0.2), (float)(1.4 * rnd01(&seed) - 0.2), (float)(1.4 * rnd01(&seed) - 0.2));
         float level = (float)(rnd01(&seed) * (g.levels + 0.5) - 0.5);
+        if (res > 64 && (t & 1)) {
+            /* by the wall, at level 0 or 1, where the finer 2x2x2 block's z cells are 63 and 64 */
+            int L = (int)(2.0 * rnd01(&seed));
+            level = (float)L + 0.25f * (float)rnd01(&seed);
+            p.x = (float)(0.49 + 0.08 * rnd01(&seed));
+            p.z = (float)(g.origin_d[2] + (63.5 + rnd01(&seed)) * (double)(1 << L) * g.voxel_size_d);
+        }
         hn_stencil st;
         int any = hn_fill_stencil(&g, p, level, &st);
         float lv = fminf(fmaxf(level, 0.0f), (float)(g.levels - 1));
@@ -637,6 +648,7 @@ static void stencil_brute_force(void)
             int i0[3];
             for (int a = 0; a < 3; a++)
                 i0[a] = (int)floor(lat[a] / (double)(1 << L) - 0.5);
+            straddle += i0[2] >= 0 && (i0[2] & 63) == 63 && i0[2] + 1 < g.level[L].n && any;
             for (int dx = 0; dx < 2; dx++)
                 for (int dy = 0; dy < 2; dy++)
                     for (int dz = 0; dz < 2; dz++) {
@@ -655,10 +667,12 @@ static void stencil_brute_force(void)
         for (int i = 0; i < n && i < st.count; i++)
             wrong += st.index[i] != want[i] || st.slot[i] != (i >= 8);
     }
-    printf("# stencils: %d of 20000 with surface, %d empty ones stopped at the coarser level, %d wrong\n", full,
-           stopped, wrong);
+    printf("# stencils at %d^3: %d of 20000 with surface, %d empty ones stopped at the coarser level, %d straddling "
+           "two words, %d wrong\n", res, full, stopped, straddle, wrong);
     CHECK("stencils agree with grid_index cell by cell, empty ones found empty", wrong == 0 && full > 1000);
     CHECK("an empty coarser level ends the lookup", stopped > 1000);
+    if (res > 64)
+        CHECK("some stencils' column pairs straddle two words", straddle > 20);
     grid_free(&g);
     mesh_free(&me);
 }
@@ -1070,7 +1084,8 @@ int main(int argc, char **argv)
     masks();
     bake();
     grid_cases();
-    stencil_brute_force();
+    stencil_brute_force(32);
+    stencil_brute_force(160);
     stencil_blends_per_cell();
     mip_edge();
     return unit_exit();
