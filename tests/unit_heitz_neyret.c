@@ -596,8 +596,21 @@ static void mip_edge(void)
     mesh_free(&me);
 }
 
+/* The stencil tests' scene: two tilted plates, a steep wall across every z (so that at 160^3 occupied
+ * pairs of cells straddle two 64-cell words) and a small box, in the unit cube. */
+static void stencil_mesh(mesh *me)
+{
+    memset(me, 0, sizeof *me);
+    mesh_add_quad(me, v3(0.1f, 0.1f, 0.2f), v3(0.9f, 0.1f, 0.35f), v3(0.9f, 0.9f, 0.3f), v3(0.1f, 0.9f, 0.2f), 0);
+    mesh_add_quad(me, v3(0.2f, 0.1f, 0.9f), v3(0.2f, 0.8f, 0.6f), v3(0.3f, 0.8f, 0.5f), v3(0.3f, 0.1f, 0.8f), 0);
+    mesh_add_quad(me, v3(0.6f, 0.6f, 0.7f), v3(0.7f, 0.6f, 0.7f), v3(0.7f, 0.7f, 0.7f), v3(0.6f, 0.7f, 0.7f), 0);
+    mesh_add_quad(me, v3(0.5f, 0.1f, 0.02f), v3(0.5f, 0.9f, 0.02f), v3(0.55f, 0.9f, 0.98f), v3(0.55f, 0.1f, 0.98f), 0);
+    mesh_add_flat_triangle(me, v3(0, 0, 0), v3(0.001f, 0, 0), v3(0, 0.001f, 0), 0);
+    mesh_add_flat_triangle(me, v3(1, 1, 1), v3(0.999f, 1, 1), v3(1, 0.999f, 1), 0);
+}
+
 /* hn_fill_stencil, which looks up the coarser level first and stops when its cells are all empty,
- * against grid_index cell by cell: a grid of two tilted plates, a wall and a small box, 20,000 random
+ * against grid_index cell by cell: a grid of stencil_mesh's scene, 20,000 random
  * points in and around it at random fractional levels. Where it reports nothing, every one of the
  * 16 cells is empty; elsewhere every entry (slot, record index) is the cell's; and it does stop
  * early for some points (the case it exists for). At 32^3 a column is one word of 64 cells; at
@@ -606,14 +619,7 @@ static void mip_edge(void)
 static void stencil_brute_force(int res)
 {
     mesh me;
-    memset(&me, 0, sizeof me);
-    mesh_add_quad(&me, v3(0.1f, 0.1f, 0.2f), v3(0.9f, 0.1f, 0.35f), v3(0.9f, 0.9f, 0.3f), v3(0.1f, 0.9f, 0.2f), 0);
-    mesh_add_quad(&me, v3(0.2f, 0.1f, 0.9f), v3(0.2f, 0.8f, 0.6f), v3(0.3f, 0.8f, 0.5f), v3(0.3f, 0.1f, 0.8f), 0);
-    mesh_add_quad(&me, v3(0.6f, 0.6f, 0.7f), v3(0.7f, 0.6f, 0.7f), v3(0.7f, 0.7f, 0.7f), v3(0.6f, 0.7f, 0.7f), 0);
-    /* a wall across every z, so that occupied pairs straddle two words at 160^3 */
-    mesh_add_quad(&me, v3(0.5f, 0.1f, 0.02f), v3(0.5f, 0.9f, 0.02f), v3(0.55f, 0.9f, 0.98f), v3(0.55f, 0.1f, 0.98f), 0);
-    mesh_add_flat_triangle(&me, v3(0, 0, 0), v3(0.001f, 0, 0), v3(0, 0.001f, 0), 0);
-    mesh_add_flat_triangle(&me, v3(1, 1, 1), v3(0.999f, 1, 1), v3(1, 0.999f, 1), 0);
+    stencil_mesh(&me);
     voxel_grid g;
     vx_err e;
     if (grid_build(&g, &me, res, &e)) {
@@ -679,7 +685,8 @@ static void stencil_brute_force(int res)
 
 /* The per-cell definitions the blends had before they took a cell's weights per level block and
  * axis row (hn_stencil's layout), kept here as the reference: the edge field's weights, gradients
- * and offsets, the attributes' bilinear factors, and the geometry's visit of every entry by slot. */
+ * and offsets, and the attributes' bilinear factors. (The geometry blend now visits block k for
+ * level k rather than every entry of slot k: stencil_brute_force checks that block k is slot k.) */
 static void ref_edge_terms(const hn_stencil *st, int i, vec3 p, float *w, vec3 *gw, vec3 *dp)
 {
     float size = st->size[i];
@@ -701,38 +708,20 @@ static int ref_blend_edge(const hn_record *records, const hn_stencil *st, vec3 p
     float W[2] = {0.0f, 0.0f}, S[2] = {0.0f, 0.0f};
     vec3 G[2], Gw[2];
     G[0] = G[1] = Gw[0] = Gw[1] = v3(0.0f, 0.0f, 0.0f);
-    int own[HN_STENCIL_MAX];
-    vec3 own_n[HN_STENCIL_MAX];
-    float own_h[HN_STENCIL_MAX], own_psi[HN_STENCIL_MAX];
+    hn_edge_cells cells;
+    hn_edge_cells_decode(records, st, count, N, &cells);
     for (int i = 0; i < count; i++) {
-        own[i] = 0;
-        own_n[i] = N;
-        own_h[i] = own_psi[i] = 0.0f;
-        if (st->index[i] < 0)
-            continue;
-        hn_data d;
-        hn_decode_geometry(records + st->index[i], st->size[i], &d);
-        if (!(d.area > 0.0f))
-            continue;
-        own[i] = 1;
-        own_n[i] = v3_normalize_or(d.n, N);
-        own_h[i] = d.h;
-        own_psi[i] = d.psi;
-    }
-    for (int i = 0; i < count; i++) {
-        float w, size = st->size[i];
+        float w, psi;
         vec3 gw, dp;
         ref_edge_terms(st, i, p, &w, &gw, &dp);
-        float psi;
         if (st->index[i] >= 0) {
-            if (!own[i])
+            if (!cells.own[i])
                 continue;
-            psi = own_psi[i];
+            psi = cells.psi[i];
         } else {
-            if (!hn_plane_enters(N, s->D - v3_dot(N, dp), size) ||
-                !hn_empty_cell_ends(i, count, own, own_n, own_h, st->centre, size, N))
+            if (!hn_edge_empty_counts(st, i, count, &cells, N, s->D, dp))
                 continue;
-            psi = 0.5f * size;
+            psi = 0.5f * st->size[i];
         }
         int k = st->slot[i] ? 1 : 0;
         W[k] += w;
@@ -740,63 +729,7 @@ static int ref_blend_edge(const hn_record *records, const hn_stencil *st, vec3 p
         G[k] = v3_madd(G[k], gw, psi);
         Gw[k] = v3_add(Gw[k], gw);
     }
-    float f = vx_fminf(vx_fmaxf(st->level_frac, 0.0f), 1.0f);
-    float w0, w1;
-    hn_level_weights(f, W[0] > 0.0f, W[1] > 0.0f, &w0, &w1);
-    if (!(w0 + w1 > 0.0f))
-        return 0;
-    s->psi = 0.0f;
-    s->gpsi = v3(0.0f, 0.0f, 0.0f);
-    for (int k = 0; k < 2; k++) {
-        float wk = (k ? w1 : w0) / (w0 + w1);
-        if (!(wk > 0.0f))
-            continue;
-        float pk = S[k] / W[k];
-        vec3 gk = v3_scale(v3_madd(G[k], Gw[k], -pk), 1.0f / W[k]);
-        s->psi += wk * pk;
-        s->gpsi = v3_madd(s->gpsi, gk, wk);
-    }
-    s->edge = 1;
-    return W[0] > 0.0f;
-}
-
-/* The geometry sums of level k, visiting every entry and keeping those of slot k. */
-static float ref_level_geometry(const hn_record *records, const hn_stencil *st, int count, int k, vec3 p, hn_sample *g)
-{
-    vec3 sn = v3(0.0f, 0.0f, 0.0f);
-    float sD = 0.0f, s_var_h = 0.0f, s_var_n = 0.0f, s_two = 0.0f, wsum = 0.0f;
-    for (int i = 0; i < count; i++) {
-        if ((st->slot[i] ? 1 : 0) != k)
-            continue;
-        float w = st->weight[i];
-        if (!(w > 0.0f) || st->index[i] < 0)
-            continue;
-        hn_data d;
-        hn_decode_geometry(records + st->index[i], st->size[i], &d);
-        if (!(d.area > 0.0f))
-            continue;
-        vec3 n = d.n;
-        float h = d.h;
-        if (d.two_sided && v3_dot(n, sn) < 0.0f) {
-            n = v3_scale(n, -1.0f);
-            h = -h;
-        }
-        vec3 nu = v3_normalize_or(n, v3(0.0f, 0.0f, 1.0f));
-        float wg = w * vx_fminf(1.0f, 2.0f * d.area / (st->size[i] * st->size[i]));
-        sn = v3_madd(sn, n, wg);
-        sD += wg * (v3_dot(nu, v3_sub(p, st->centre[i])) - h);
-        s_var_h += wg * d.var_h;
-        s_var_n += wg * d.var_n;
-        s_two += wg * (d.two_sided ? 1.0f : 0.0f);
-        wsum += wg;
-    }
-    hn_sample_zero(g);
-    g->n = sn;
-    g->D = sD;
-    g->var_h = s_var_h;
-    g->var_n = s_var_n;
-    g->two_sided = s_two;
-    return wsum;
+    return hn_edge_finish(st->level_frac, W, S, G, Gw, s); /* the levels mixed as the model mixes them */
 }
 
 /* The attributes' area weights of entry i (the bilinear factors along the surface, per cell). */
@@ -812,20 +745,15 @@ static float ref_attribute_weight(const hn_stencil *st, int i, vec3 p, int acros
 static int same_float(float a, float b) { return memcmp(&a, &b, sizeof a) == 0; }
 static int same_vec(vec3 a, vec3 b) { return same_float(a.x, b.x) && same_float(a.y, b.y) && same_float(a.z, b.z); }
 
-/* hn_blend_geometry's, hn_blend_edge's and hn_blend_attributes's per-level-block forms against the
- * per-cell definitions above, bit for bit: stencils of a 32^3 grid of tilted plates and a box
+/* hn_blend_edge's and hn_blend_attributes's per-level-block forms against the per-cell
+ * definitions above, bit for bit: stencils of a 32^3 grid of stencil_mesh's scene
  * (hn_fill_stencil, as in stencil_brute_force) at 20,000 random points and levels, every record
  * random (normals, heights, variances, areas, psi, sidedness, colours), each blend asked at the
  * point and, for the edge, at random planes through it. */
 static void stencil_blends_per_cell(void)
 {
     mesh me;
-    memset(&me, 0, sizeof me);
-    mesh_add_quad(&me, v3(0.1f, 0.1f, 0.2f), v3(0.9f, 0.1f, 0.35f), v3(0.9f, 0.9f, 0.3f), v3(0.1f, 0.9f, 0.2f), 0);
-    mesh_add_quad(&me, v3(0.2f, 0.1f, 0.9f), v3(0.2f, 0.8f, 0.6f), v3(0.3f, 0.8f, 0.5f), v3(0.3f, 0.1f, 0.8f), 0);
-    mesh_add_quad(&me, v3(0.6f, 0.6f, 0.7f), v3(0.7f, 0.6f, 0.7f), v3(0.7f, 0.7f, 0.7f), v3(0.6f, 0.7f, 0.7f), 0);
-    mesh_add_flat_triangle(&me, v3(0, 0, 0), v3(0.001f, 0, 0), v3(0, 0.001f, 0), 0);
-    mesh_add_flat_triangle(&me, v3(1, 1, 1), v3(0.999f, 1, 1), v3(1, 0.999f, 1), 0);
+    stencil_mesh(&me);
     voxel_grid g;
     vx_err e;
     if (grid_build(&g, &me, 32, &e)) {
@@ -864,15 +792,9 @@ static void stencil_blends_per_cell(void)
             continue;
         blocks16 += st.count == 16;
         int count = st.count;
-        /* geometry, level by level */
-        for (int k = 0; k < 2; k++) {
-            hn_sample a, b;
-            float wa = hn_blend_level_geometry(recs, &st, count, k, p, &a), wb = ref_level_geometry(recs, &st, count, k, p, &b);
-            wrong += !same_float(wa, wb) || !same_vec(a.n, b.n) || !same_float(a.D, b.D) || !same_float(a.var_h, b.var_h) ||
-                     !same_float(a.var_n, b.var_n) || !same_float(a.two_sided, b.two_sided);
-        }
         /* the edge, from the blended geometry and from a random plane through p */
         hn_sample s0;
+        hn_sample_zero(&s0);
         int have = hn_blend_geometry(recs, &st, p, &s0);
         for (int plane = 0; plane < 2; plane++) {
             hn_sample a = s0;
@@ -917,7 +839,7 @@ static void stencil_blends_per_cell(void)
     }
     printf("# blends per level block: %d edge fields, %d two-level stencils, %d differences from the per-cell forms\n",
            edges, blocks16, wrong);
-    CHECK("geometry, edge and attribute blends equal their per-cell forms, bit for bit",
+    CHECK("edge and attribute blends equal their per-cell forms, bit for bit",
           wrong == 0 && edges > 5000 && blocks16 > 1000);
     free(recs);
     grid_free(&g);

@@ -180,6 +180,75 @@ VX_INLINE int hn_empty_cell_ends(int i, int count, const int *own, const vec3 *o
     return hn_plane_enters(own_n[j], v3_dot(own_n[j], v3_sub(centre[i], centre[j])) - own_h[j], size);
 }
 
+/* The edge field's two levels' sums (per level k: W the weights, S the weighted psi, G the weighted
+ * psi times the weights' gradients, Gw the gradients) into s->psi and s->gpsi, the levels mixed by
+ * level_frac; returns whether the finer level had any cell to blend (0, s untouched, when neither
+ * had). */
+VX_INLINE int hn_edge_finish(float level_frac, const float W[2], const float S[2], const vec3 G[2], const vec3 Gw[2],
+                             hn_sample *s)
+{
+    float f = vx_fminf(vx_fmaxf(level_frac, 0.0f), 1.0f);
+    float w0, w1;
+    hn_level_weights(f, W[0] > 0.0f, W[1] > 0.0f, &w0, &w1);
+    if (!(w0 + w1 > 0.0f))
+        return 0;
+    s->psi = 0.0f;
+    s->gpsi = v3(0.0f, 0.0f, 0.0f);
+    for (int k = 0; k < 2; k++) {
+        float wk = (k ? w1 : w0) / (w0 + w1);
+        if (!(wk > 0.0f))
+            continue;
+        float pk = S[k] / W[k];
+        /* d(S/W) = (dS - (S/W) dW) / W */
+        vec3 gk = v3_scale(v3_madd(G[k], Gw[k], -pk), 1.0f / W[k]);
+        s->psi += wk * pk;
+        s->gpsi = v3_madd(s->gpsi, gk, wk);
+    }
+    s->edge = 1;
+    return W[0] > 0.0f;
+}
+
+/* The occupied cells of a stencil as the edge field reads them: their own unit normals, heights
+ * and psi, decoded once (the empty cells' test, hn_empty_cell_ends, reads their neighbours'). */
+typedef struct {
+    int own[HN_STENCIL_MAX]; /* 1: occupied and hit */
+    vec3 n[HN_STENCIL_MAX];
+    float h[HN_STENCIL_MAX], psi[HN_STENCIL_MAX];
+} hn_edge_cells;
+
+VX_INLINE void hn_edge_cells_decode(VX_GLOBAL const hn_record *records, const hn_stencil *st, int count, vec3 N,
+                                    hn_edge_cells *c)
+{
+    for (int i = 0; i < count; i++) {
+        c->own[i] = 0;
+        c->n[i] = N;
+        c->h[i] = c->psi[i] = 0.0f;
+        if (st->index[i] < 0)
+            continue;
+        hn_data d;
+        hn_decode_geometry(records + st->index[i], st->size[i], &d);
+        /* Marked by the grid but never hit (a plane on the cell's face, whose hits the neighbour
+         * took): a triangle touches it, so it is no edge; it says nothing. */
+        if (!(d.area > 0.0f))
+            continue;
+        c->own[i] = 1;
+        c->n[i] = v3_normalize_or(d.n, N);
+        c->h[i] = d.h;
+        c->psi[i] = d.psi;
+    }
+}
+
+/* Whether empty stencil cell i (offset dp = p - its centre) has a value in the edge field (+size/2)
+ * for the blended plane (unit normal N, p at signed distance D above it). The conservative
+ * voxelisation marks every cell a triangle touches: an empty cell the plane enters has lost its
+ * surface. */
+VX_INLINE int hn_edge_empty_counts(const hn_stencil *st, int i, int count, const hn_edge_cells *c, vec3 N, float D,
+                                   vec3 dp)
+{
+    float size = st->size[i];
+    return hn_plane_enters(N, D - v3_dot(N, dp), size) && hn_empty_cell_ends(i, count, c->own, c->n, c->h, st->centre, size, N);
+}
+
 /* The edge field at p: psi, the in-plane signed distance to where the surface ends (> 0 beyond
  * it), interpolated trilinearly over the dense 2x2x2 block of each level, and its gradient. Why:
  * a cell's plane is unbounded, and with the sparse grid's empty cells dropped from the blend the
@@ -202,27 +271,8 @@ VX_INLINE int hn_blend_edge(VX_GLOBAL const hn_record *records, const hn_stencil
     float W[2] = {0.0f, 0.0f}, S[2] = {0.0f, 0.0f};
     vec3 G[2], Gw[2];
     G[0] = G[1] = Gw[0] = Gw[1] = v3(0.0f, 0.0f, 0.0f);
-    /* The occupied cells' own planes and psi, decoded once: the empty cells' test reads them. */
-    int own[HN_STENCIL_MAX];
-    vec3 own_n[HN_STENCIL_MAX];
-    float own_h[HN_STENCIL_MAX], own_psi[HN_STENCIL_MAX];
-    for (int i = 0; i < count; i++) {
-        own[i] = 0;
-        own_n[i] = N;
-        own_h[i] = own_psi[i] = 0.0f;
-        if (st->index[i] < 0)
-            continue;
-        hn_data d;
-        hn_decode_geometry(records + st->index[i], st->size[i], &d);
-        /* Marked by the grid but never hit (a plane on the cell's face, whose hits the neighbour
-         * took): a triangle touches it, so it is no edge; it says nothing. */
-        if (!(d.area > 0.0f))
-            continue;
-        own[i] = 1;
-        own_n[i] = v3_normalize_or(d.n, N);
-        own_h[i] = d.h;
-        own_psi[i] = d.psi;
-    }
+    hn_edge_cells cells;
+    hn_edge_cells_decode(records, st, count, N, &cells);
     /* Per level block (the stencil's layout, hn_stencil): a cell's offset from p, its weight and
      * its weight's gradient along an axis depend only on which of the block's two rows it is in on
      * that axis, so they are computed for the two rows of each axis (12 divisions a block, not 48)
@@ -247,15 +297,11 @@ VX_INLINE int hn_blend_edge(VX_GLOBAL const hn_record *records, const hn_stencil
             int i = base + c, dx = c >> 2, dy = (c >> 1) & 1, dz = c & 1;
             float psi;
             if (st->index[i] >= 0) {
-                if (!own[i])
+                if (!cells.own[i])
                     continue;
-                psi = own_psi[i];
+                psi = cells.psi[i];
             } else {
-                /* The conservative voxelisation marks every cell a triangle touches: an empty cell
-                 * the plane enters has lost its surface. */
-                vec3 dp = v3(dpa[0][dx], dpa[1][dy], dpa[2][dz]);
-                if (!hn_plane_enters(N, s->D - v3_dot(N, dp), size) ||
-                    !hn_empty_cell_ends(i, count, own, own_n, own_h, st->centre, size, N))
+                if (!hn_edge_empty_counts(st, i, count, &cells, N, s->D, v3(dpa[0][dx], dpa[1][dy], dpa[2][dz])))
                     continue;
                 psi = 0.5f * size;
             }
@@ -268,25 +314,7 @@ VX_INLINE int hn_blend_edge(VX_GLOBAL const hn_record *records, const hn_stencil
             Gw[k] = v3_add(Gw[k], gw);
         }
     }
-    float f = vx_fminf(vx_fmaxf(st->level_frac, 0.0f), 1.0f);
-    float w0, w1;
-    hn_level_weights(f, W[0] > 0.0f, W[1] > 0.0f, &w0, &w1);
-    if (!(w0 + w1 > 0.0f))
-        return 0;
-    s->psi = 0.0f;
-    s->gpsi = v3(0.0f, 0.0f, 0.0f);
-    for (int k = 0; k < 2; k++) {
-        float wk = (k ? w1 : w0) / (w0 + w1);
-        if (!(wk > 0.0f))
-            continue;
-        float pk = S[k] / W[k];
-        /* d(S/W) = (dS - (S/W) dW) / W */
-        vec3 gk = v3_scale(v3_madd(G[k], Gw[k], -pk), 1.0f / W[k]);
-        s->psi += wk * pk;
-        s->gpsi = v3_madd(s->gpsi, gk, wk);
-    }
-    s->edge = 1;
-    return W[0] > 0.0f;
+    return hn_edge_finish(st->level_frac, W, S, G, Gw, s);
 }
 
 /* Attributes (colours, variances, material) at a point p of the surface: they are averages over
