@@ -685,8 +685,9 @@ static void stencil_brute_force(int res)
 
 /* The per-cell definitions the blends had before they took a cell's weights per level block and
  * axis row (hn_stencil's layout), kept here as the reference: the edge field's weights, gradients
- * and offsets, and the attributes' bilinear factors. (The geometry blend now visits block k for
- * level k rather than every entry of slot k: stencil_brute_force checks that block k is slot k.) */
+ * and offsets, and the attributes' bilinear factors; and the geometry blend's weights of level k
+ * summed over every entry of slot k (it now visits block k only; stencil_brute_force checks that
+ * block k is slot k). */
 static void ref_edge_terms(const hn_stencil *st, int i, vec3 p, float *w, vec3 *gw, vec3 *dp)
 {
     float size = st->size[i];
@@ -745,8 +746,8 @@ static float ref_attribute_weight(const hn_stencil *st, int i, vec3 p, int acros
 static int same_float(float a, float b) { return memcmp(&a, &b, sizeof a) == 0; }
 static int same_vec(vec3 a, vec3 b) { return same_float(a.x, b.x) && same_float(a.y, b.y) && same_float(a.z, b.z); }
 
-/* hn_blend_edge's and hn_blend_attributes's per-level-block forms against the per-cell
- * definitions above, bit for bit: stencils of a 32^3 grid of stencil_mesh's scene
+/* hn_blend_edge's and hn_blend_attributes's per-level-block forms, and hn_blend_level_geometry's
+ * weights, against the per-cell definitions above, bit for bit: stencils of a 32^3 grid of stencil_mesh's scene
  * (hn_fill_stencil, as in stencil_brute_force) at 20,000 random points and levels, every record
  * random (normals, heights, variances, areas, psi, sidedness, colours), each blend asked at the
  * point and, for the edge, at random planes through it. */
@@ -792,6 +793,20 @@ static void stencil_blends_per_cell(void)
             continue;
         blocks16 += st.count == 16;
         int count = st.count;
+        /* the geometry's weights of level k: those of the entries of slot k, summed in entry order */
+        for (int k = 0; k < 2; k++) {
+            float want = 0.0f;
+            for (int i = 0; i < count; i++) {
+                hn_data d;
+                if ((st.slot[i] ? 1 : 0) != k || !(st.weight[i] > 0.0f) || st.index[i] < 0)
+                    continue;
+                hn_decode_geometry(recs + st.index[i], st.size[i], &d);
+                if (d.area > 0.0f)
+                    want += st.weight[i] * vx_fminf(1.0f, 2.0f * d.area / (st.size[i] * st.size[i]));
+            }
+            hn_sample gk;
+            wrong += !same_float(hn_blend_level_geometry(recs, &st, count, k, p, &gk), want);
+        }
         /* the edge, from the blended geometry and from a random plane through p */
         hn_sample s0;
         hn_sample_zero(&s0);
@@ -839,7 +854,7 @@ static void stencil_blends_per_cell(void)
     }
     printf("# blends per level block: %d edge fields, %d two-level stencils, %d differences from the per-cell forms\n",
            edges, blocks16, wrong);
-    CHECK("edge and attribute blends equal their per-cell forms, bit for bit",
+    CHECK("edge, attribute and geometry blends equal their per-cell forms, bit for bit",
           wrong == 0 && edges > 5000 && blocks16 > 1000);
     free(recs);
     grid_free(&g);
