@@ -1,4 +1,5 @@
 """Python test helpers: report(name, cond, why) prints the protocol lines tests/run_all.sh counts."""
+import glob
 import json
 import os
 import subprocess
@@ -107,8 +108,6 @@ def write_gltf(path, primitives):
 def leftovers(directory, stem):
     """The files in directory whose name starts with stem: an output and its temporary files
     (OUT.tmp.PID.N), which a refused or failed command must not leave behind."""
-    import glob
-
     return sorted(os.path.basename(p) for p in glob.glob(os.path.join(directory, glob.escape(stem) + "*")))
 
 

@@ -706,9 +706,8 @@ static int ref_blend_edge(const hn_record *records, const hn_stencil *st, vec3 p
 {
     vec3 N = v3_normalize_or(s->n, v3(0.0f, 0.0f, 1.0f));
     int count = st->count < HN_STENCIL_MAX ? st->count : HN_STENCIL_MAX;
-    float W[2] = {0.0f, 0.0f}, S[2] = {0.0f, 0.0f};
-    vec3 G[2], Gw[2];
-    G[0] = G[1] = Gw[0] = Gw[1] = v3(0.0f, 0.0f, 0.0f);
+    hn_edge_sums sums;
+    hn_edge_sums_zero(&sums);
     hn_edge_cells cells;
     hn_edge_cells_decode(records, st, count, N, &cells);
     for (int i = 0; i < count; i++) {
@@ -724,13 +723,9 @@ static int ref_blend_edge(const hn_record *records, const hn_stencil *st, vec3 p
                 continue;
             psi = 0.5f * st->size[i];
         }
-        int k = st->slot[i] ? 1 : 0;
-        W[k] += w;
-        S[k] += w * psi;
-        G[k] = v3_madd(G[k], gw, psi);
-        Gw[k] = v3_add(Gw[k], gw);
+        hn_edge_sums_add(&sums, st->slot[i] ? 1 : 0, w, gw, psi);
     }
-    return hn_edge_finish(st->level_frac, W, S, G, Gw, s); /* the levels mixed as the model mixes them */
+    return hn_edge_finish(st->level_frac, &sums, s); /* the levels mixed as the model mixes them */
 }
 
 /* The attributes' area weights of entry i (the bilinear factors along the surface, per cell). */
@@ -762,9 +757,7 @@ static void stencil_blends_per_cell(void)
         mesh_free(&me);
         return;
     }
-    size_t total = 0;
-    for (int l = 0; l < g.levels; l++)
-        total += grid_count(&g, l);
+    size_t total = bake_record_count(model_find("heitz-neyret"), &g); /* every level's records */
     hn_record *recs = calloc(total, sizeof *recs);
     uint64_t seed = 11;
     for (size_t i = 0; i < total; i++) {

@@ -180,16 +180,35 @@ VX_INLINE int hn_empty_cell_ends(int i, int count, const int *own, const vec3 *o
     return hn_plane_enters(own_n[j], v3_dot(own_n[j], v3_sub(centre[i], centre[j])) - own_h[j], size);
 }
 
-/* The edge field's two levels' sums (per level k: W the weights, S the weighted psi, G the weighted
- * psi times the weights' gradients, Gw the gradients) into s->psi and s->gpsi, the levels mixed by
- * level_frac; returns whether the finer level had any cell to blend (0, s untouched, when neither
- * had). */
-VX_INLINE int hn_edge_finish(float level_frac, const float W[2], const float S[2], const vec3 G[2], const vec3 Gw[2],
-                             hn_sample *s)
+/* The edge field's sums over the cells of each level k: W the weights, S the weighted psi, G the
+ * weighted psi times the weights' gradients, Gw the gradients. */
+typedef struct {
+    float W[2], S[2];
+    vec3 G[2], Gw[2];
+} hn_edge_sums;
+
+VX_INLINE void hn_edge_sums_zero(hn_edge_sums *e)
+{
+    e->W[0] = e->W[1] = e->S[0] = e->S[1] = 0.0f;
+    e->G[0] = e->G[1] = e->Gw[0] = e->Gw[1] = v3(0.0f, 0.0f, 0.0f);
+}
+
+/* A cell of level k with weight w, weight gradient gw and value psi. */
+VX_INLINE void hn_edge_sums_add(hn_edge_sums *e, int k, float w, vec3 gw, float psi)
+{
+    e->W[k] += w;
+    e->S[k] += w * psi;
+    e->G[k] = v3_madd(e->G[k], gw, psi);
+    e->Gw[k] = v3_add(e->Gw[k], gw);
+}
+
+/* The two levels' sums into s->psi and s->gpsi, the levels mixed by level_frac; returns whether
+ * the finer level had any cell to blend (0, s untouched, when neither had). */
+VX_INLINE int hn_edge_finish(float level_frac, const hn_edge_sums *e, hn_sample *s)
 {
     float f = vx_fminf(vx_fmaxf(level_frac, 0.0f), 1.0f);
     float w0, w1;
-    hn_level_weights(f, W[0] > 0.0f, W[1] > 0.0f, &w0, &w1);
+    hn_level_weights(f, e->W[0] > 0.0f, e->W[1] > 0.0f, &w0, &w1);
     if (!(w0 + w1 > 0.0f))
         return 0;
     s->psi = 0.0f;
@@ -198,14 +217,14 @@ VX_INLINE int hn_edge_finish(float level_frac, const float W[2], const float S[2
         float wk = (k ? w1 : w0) / (w0 + w1);
         if (!(wk > 0.0f))
             continue;
-        float pk = S[k] / W[k];
+        float pk = e->S[k] / e->W[k];
         /* d(S/W) = (dS - (S/W) dW) / W */
-        vec3 gk = v3_scale(v3_madd(G[k], Gw[k], -pk), 1.0f / W[k]);
+        vec3 gk = v3_scale(v3_madd(e->G[k], e->Gw[k], -pk), 1.0f / e->W[k]);
         s->psi += wk * pk;
         s->gpsi = v3_madd(s->gpsi, gk, wk);
     }
     s->edge = 1;
-    return W[0] > 0.0f;
+    return e->W[0] > 0.0f;
 }
 
 /* The occupied cells of a stencil as the edge field reads them: their own unit normals, heights
@@ -268,9 +287,8 @@ VX_INLINE int hn_blend_edge(VX_GLOBAL const hn_record *records, const hn_stencil
 {
     vec3 N = v3_normalize_or(s->n, v3(0.0f, 0.0f, 1.0f));
     int count = st->count < HN_STENCIL_MAX ? st->count : HN_STENCIL_MAX;
-    float W[2] = {0.0f, 0.0f}, S[2] = {0.0f, 0.0f};
-    vec3 G[2], Gw[2];
-    G[0] = G[1] = Gw[0] = Gw[1] = v3(0.0f, 0.0f, 0.0f);
+    hn_edge_sums sums;
+    hn_edge_sums_zero(&sums);
     hn_edge_cells cells;
     hn_edge_cells_decode(records, st, count, N, &cells);
     /* Per level block (the stencil's layout, hn_stencil): a cell's offset from p, its weight and
@@ -308,13 +326,10 @@ VX_INLINE int hn_blend_edge(VX_GLOBAL const hn_record *records, const hn_stencil
             float w = wa[0][dx] * wa[1][dy] * wa[2][dz];
             vec3 gw = v3(ga[0][dx] * wa[1][dy] * wa[2][dz], wa[0][dx] * ga[1][dy] * wa[2][dz],
                          wa[0][dx] * wa[1][dy] * ga[2][dz]);
-            W[k] += w;
-            S[k] += w * psi;
-            G[k] = v3_madd(G[k], gw, psi);
-            Gw[k] = v3_add(Gw[k], gw);
+            hn_edge_sums_add(&sums, k, w, gw, psi);
         }
     }
-    return hn_edge_finish(st->level_frac, W, S, G, Gw, s);
+    return hn_edge_finish(st->level_frac, &sums, s);
 }
 
 /* Attributes (colours, variances, material) at a point p of the surface: they are averages over
