@@ -238,15 +238,15 @@ for model in ("alpha", "binary"):
            and st_off["cache_bytes"] == 4 * st_off["voxels"], f"{st_on['cache_bytes']} for {st_on['voxels']} voxels, "
            f"{st_off['cache_bytes']} with --no-cache")
 
-    # The C marcher's maps, apart from the caches: the near and far depth per cell of 2 x 2 pixels
+    # The C marcher's maps, apart from the caches: the near and far depth per pixel (64 x 64 here)
     # and, for a model that walks past a voxel (alpha, not binary's first hit), the depth slabs'
     # word (in the map and in each thread's part while it is built), and the shadow rays' ends
     # toward the scene's directional light (a few bytes a column across its direction, under 16 kB
     # for this small grid).
     threads = st_on["threads"] if st_on["threads"] else os.cpu_count()
     cell = 2 * 4 + (0 if model == "binary" else 8)
-    bounds = cell * 32 * 32 * (1 + threads)
-    report(f"--stats map_bytes: the depth bounds' {cell * 32 * 32} B a copy and the shadow ends ({model})",
+    bounds = cell * 64 * 64 * (1 + threads)
+    report(f"--stats map_bytes: the depth bounds' {cell * 64 * 64} B a copy and the shadow ends ({model})",
            bounds < st_on["map_bytes"] < bounds + 16384 and st_on["map_bytes"] == st_off["map_bytes"],
            f"{st_on['map_bytes']} B, {st_off['map_bytes']} B with --no-cache, {threads} threads")
 

@@ -82,7 +82,8 @@ static void camera_checks(const char *label, const voxel_grid *g, const dilated_
 {
     char name[300];
     pixel_bounds b, b1, every;
-    if (pixel_bounds_alloc(&b, w, h, 2) || pixel_bounds_alloc(&b1, w, h, 3) || pixel_bounds_alloc(&every, w, h, 2)) {
+    if (pixel_bounds_alloc(&b, w, h, CONE_ENDS_TILE_SHIFT, 2) || pixel_bounds_alloc(&b1, w, h, CONE_ENDS_TILE_SHIFT, 3) ||
+        pixel_bounds_alloc(&every, w, h, CONE_ENDS_TILE_SHIFT, 2)) {
         printf("not ok %s: out of memory\n", label);
         unit_failures++;
         return;

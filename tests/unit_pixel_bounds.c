@@ -1,6 +1,7 @@
 /* The primary rays' depth bounds per pixel (tracer/render/pixel_bounds.h, issue 15) are exact:
  *  - brute force over the shipped scenes' grids (a resolution that is not a power of two; city at
- *    96^3 on a small image, where the map is made of 2^3 blocks) and two image shapes: for rays
+ *    96^3 on a small image, where the map is made of 2^3 blocks), two image shapes and map cells of
+ *    1 and 2 x 2 pixels (the voxel marcher's and the camera cones' ends'): for rays
  *    through random points of random pixels (their edges included), the walk over the interval
  *    pixel_bounds_ray gives reports exactly the cells, indices and [t0, t1] bits of the walk over
  *    the whole ray, and no non-empty voxel's box touches the ray outside the interval (slab tests
@@ -70,12 +71,13 @@ static int voxels_outside_spans(const voxel_grid *g, vec3 o, vec3 d, const float
 }
 
 static void image_checks(const char *label, const voxel_grid *g, const camera *cam, const camera *inside, int w, int h,
-                         uint64_t seed)
+                         int tile_shift, uint64_t seed)
 {
     static walk_cell full[WALK_MAX_CELLS], part[WALK_MAX_CELLS], spanned[WALK_MAX_CELLS];
     char name[300];
     pixel_bounds b, b1;
-    if (pixel_bounds_alloc(&b, w, h, 2) || pixel_bounds_alloc(&b1, w, h, 3) || pixel_bounds_alloc_slabs(&b) ||
+    if (pixel_bounds_alloc(&b, w, h, tile_shift, 2) || pixel_bounds_alloc(&b1, w, h, tile_shift, 3) ||
+        pixel_bounds_alloc_slabs(&b) ||
         pixel_bounds_alloc_slabs(&b1)) {
         printf("not ok %s: out of memory\n", label);
         unit_failures++;
@@ -174,7 +176,7 @@ static void may_fail_checks(const char *label, const voxel_grid *g, const camera
 {
     char name[300];
     pixel_bounds b;
-    if (pixel_bounds_alloc(&b, w, h, 2)) {
+    if (pixel_bounds_alloc(&b, w, h, 0, 2)) {
         printf("not ok %s: out of memory\n", label);
         unit_failures++;
         return;
@@ -241,15 +243,18 @@ static void scene_checks(const char *path, int res)
     grid_coords(&g, 0, g.level[0].count / 2, &cx, &cy, &cz);
     grid_cell_corners(&g, 0, cx, cy, cz, &lo, &hi);
     inside.position = v3_scale(v3_add(lo, hi), 0.5f);
-    const int sizes[2][2] = {{64, 40}, {150, 150}};
+    /* Map cells of 2 x 2 pixels (the camera cones' ends') on an image whose sides they do not divide,
+     * and of one pixel (the voxel marcher's). */
+    const int sizes[2][3] = {{63, 41, 1}, {150, 150, 0}};
     for (int k = 0; k < 2; k++) {
-        snprintf(label, sizeof label, "%s %d^3, %dx%d", path, res, sizes[k][0], sizes[k][1]);
-        image_checks(label, &g, &s.camera, &inside, sizes[k][0], sizes[k][1], 11 + (uint64_t)k);
+        snprintf(label, sizeof label, "%s %d^3, %dx%d, cells of %d pixels", path, res, sizes[k][0], sizes[k][1],
+                 1 << (2 * sizes[k][2]));
+        image_checks(label, &g, &s.camera, &inside, sizes[k][0], sizes[k][1], sizes[k][2], 11 + (uint64_t)k);
     }
     snprintf(label, sizeof label, "%s: the scene's camera has every ray forward (empty pixels skip their rays)", path);
     CHECK(label, pixel_bounds_all_forward(&s.camera, 256, 256) && pixel_bounds_all_forward(&s.camera, 64, 40));
     pixel_bounds b;
-    if (pixel_bounds_alloc(&b, 32, 32, 2) == 0) {
+    if (pixel_bounds_alloc(&b, 32, 32, 0, 2) == 0) {
         pixel_bounds_build(&b, &g, &inside, 2);
         float t_min = 0.0f, t_max = INFINITY;
         pixel_bounds_ray(&b, inside.forward, 3, 4, inside.forward, &t_min, &t_max);
@@ -321,6 +326,10 @@ static void bounds_switch(render_options *o, int on) { o->pixel_bounds = on; }
 int main(void)
 {
     forward_checks();
+    pixel_bounds bad;
+    CHECK("a map's cells of 2^5 pixels a side are refused, and nothing is left allocated",
+          pixel_bounds_alloc(&bad, 64, 64, 5, 1) == -1 && pixel_bounds_alloc(&bad, 64, 64, -1, 1) == -1 &&
+              !bad.near_t && !bad.part && pixel_bounds_bytes(&bad) == 0);
     scene_checks("scenes/bunny.json", 100);
     scene_checks("scenes/trees.json", 64);
     scene_checks("scenes/city.json", 96);

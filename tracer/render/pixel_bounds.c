@@ -14,11 +14,7 @@
  * map (min and max do not depend on the order, so neither does the map). */
 #define BOUNDS_SHARES 64
 #define BOUNDS_ITEMS_PER_PIXEL 3
-/* A map cell is 2 x 2 pixels: a block then marks about one to four cells instead of four to nine
- * pixels, for bounds a little looser (the rays start about a voxel earlier). Measured against 1, 3
- * and 4 (256^3, 256 x 256, medians of 5; binary / alpha): bunny 22.8 / 57.3 ms with 1, 19.4 / 54.9
- * with 2, 21.5 / 67.4 with 4; city and trees alike or within 2 %. */
-#define BOUNDS_TILE (1 << PIXEL_BOUNDS_TILE_SHIFT)
+#define BOUNDS_MAX_TILE_SHIFT 4
 
 /* Margins, far above the float rounding of the camera's rays (relative 1e-7 of a direction: 1e-5 of
  * a pixel) and of the DDA's cells (1e-13 of a voxel), far below anything that changes how much a ray
@@ -36,10 +32,12 @@ static void reset_part(float *pairs, size_t pixels)
     }
 }
 
-int pixel_bounds_alloc(pixel_bounds *b, int width, int height, int threads)
+int pixel_bounds_alloc(pixel_bounds *b, int width, int height, int tile_shift, int threads)
 {
     memset(b, 0, sizeof *b);
-    int tile = BOUNDS_TILE;
+    if (tile_shift < 0 || tile_shift > BOUNDS_MAX_TILE_SHIFT)
+        return -1;
+    int tile = 1 << tile_shift;
     int mw = (width + tile - 1) / tile, mh = (height + tile - 1) / tile;
     size_t pixels = (size_t)mw * (size_t)mh;
     threads = threads < 1 ? 1 : threads;
@@ -52,6 +50,7 @@ int pixel_bounds_alloc(pixel_bounds *b, int width, int height, int threads)
     b->far_t = b->near_t + pixels;
     b->width = width;
     b->height = height;
+    b->tile_shift = tile_shift;
     b->map_w = mw;
     b->map_h = mh;
     b->parts = threads;
@@ -168,10 +167,10 @@ static inline void bounds_block(bounds_job *J, float *pairs, uint64_t *slabs, co
         return;
     int px0 = x0 > 0.0 ? (int)x0 : 0, py0 = y0 > 0.0 ? (int)y0 : 0;
     int px1 = x1 < b->width - 1 ? (int)x1 : b->width - 1, py1 = y1 < b->height - 1 ? (int)y1 : b->height - 1;
-    px0 >>= PIXEL_BOUNDS_TILE_SHIFT; /* >= 0 */
-    py0 >>= PIXEL_BOUNDS_TILE_SHIFT;
-    px1 >>= PIXEL_BOUNDS_TILE_SHIFT;
-    py1 >>= PIXEL_BOUNDS_TILE_SHIFT;
+    px0 >>= b->tile_shift; /* >= 0 */
+    py0 >>= b->tile_shift;
+    px1 >>= b->tile_shift;
+    py1 >>= b->tile_shift;
     /* Depths along the camera's axis (pixel_bounds_ray turns them into each ray's t); rounding
      * to float (relative 6e-8) stays inside pixel_bounds_ray's relative margin. */
     float tn = (float)(Z - hz), tf = (float)(Z + hz);

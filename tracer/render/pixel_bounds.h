@@ -3,10 +3,10 @@
  * non-empty block of the finest MIP level with at most that many) is projected onto the image: its
  * box in the camera's axes gives a conservative rectangle of pixels, widened by a margin, and a
  * range of depths along the camera's axis, which the map's cells under the rectangle take in, like a
- * z-buffer that keeps both ends. A cell is 2 x 2 pixels. A pixel's rays then start their walk at its
- * near bound (no voxel lies before it on any of them) and end it at its far bound (none lies
- * beyond): the walks report the same cells with the same [t0, t1] as walks over the whole ray,
- * since every non-empty cell on a ray lies wholly between the bounds by the margin. A pixel that no
+ * z-buffer that keeps both ends (a cell: a pixel or a square of them). A pixel's rays then start
+ * their walk at its near bound (no voxel lies before it on any of them) and end it at its far bound
+ * (none lies beyond): the walks report the same cells with the same [t0, t1] as walks over the whole
+ * ray, since every non-empty cell on a ray lies wholly between the bounds by the margin. A pixel that no
  * voxel covers has nothing to walk, and when every ray of the frame is certain to be bounded
  * (pixel_bounds_all_forward) it makes no rays (pixel_bounds_pixel_empty). The voxel marcher's map
  * (for the models that walk on past a voxel, not first hit) also keeps, per cell, which of 64
@@ -26,13 +26,11 @@
 #include "camera.h"
 #include "grid_core.h"
 
-/* A map cell is 2^PIXEL_BOUNDS_TILE_SHIFT pixels a side (why 2: pixel_bounds.c). A constant, so
- * that a ray finds its cell by shifts, not two integer divisions. */
-#define PIXEL_BOUNDS_TILE_SHIFT 1
-
 typedef struct {
     int width, height; /* the image */
-    int map_w, map_h;  /* the map's cells (PIXEL_BOUNDS_TILE_SHIFT), map_w x map_h of them */
+    int tile_shift;    /* a map cell is 2^tile_shift pixels a side (pixel_bounds_alloc), so that a ray
+                        * finds its cell by shifts, not two integer divisions */
+    int map_w, map_h;  /* the map's cells, map_w x map_h of them */
     float *near_t, *far_t; /* width * height each, row-major: the depths along the camera's axis
                             * (not t) of the nearest and farthest voxel over the pixel; near
                             * INFINITY: nothing; NULL: no map */
@@ -62,9 +60,11 @@ typedef struct {
     float t_far;        /* the ray's far bound */
 } pixel_spans;
 
-/* Allocates the map and the threads' parts for a width x height image (before the clock starts).
- * Returns 0, or -1 when out of memory. */
-int pixel_bounds_alloc(pixel_bounds *b, int width, int height, int threads);
+/* Allocates the map and the threads' parts for a width x height image, its cells 2^tile_shift pixels
+ * a side (0 .. 4), before the clock starts. Larger cells make a cheaper map with looser bounds (the
+ * rays start their walks earlier): the marchers choose (render_voxel.c, render_cone.c). Returns 0, or
+ * -1 when out of memory (or a tile_shift out of range). */
+int pixel_bounds_alloc(pixel_bounds *b, int width, int height, int tile_shift, int threads);
 /* Adds the depth slabs to an allocated map (the voxel marcher's; the cones' ends do without): 0, or -1
  * when out of memory. */
 int pixel_bounds_alloc_slabs(pixel_bounds *b);
@@ -98,7 +98,7 @@ static inline int pixel_bounds_active(const pixel_bounds *b) { return b->near_t 
 /* The map cell of pixel (px, py). */
 static inline size_t pixel_bounds_cell(const pixel_bounds *b, int px, int py)
 {
-    return (size_t)(py >> PIXEL_BOUNDS_TILE_SHIFT) * (size_t)b->map_w + (size_t)(px >> PIXEL_BOUNDS_TILE_SHIFT);
+    return (size_t)(py >> b->tile_shift) * (size_t)b->map_w + (size_t)(px >> b->tile_shift);
 }
 
 /* dir . forward as pixel_bounds_ray computes it (in double): a ray is bounded when it is positive. */

@@ -139,7 +139,8 @@ static int cone_prepare(render_job *j, vx_err *e)
     if (st->use_clips && cone_clips_build(j, &st->clips))
         return vx_fail(e, "out of memory for the light cones' ends"); /* the caller releases st */
     if (j->o->pixel_bounds && !((s->effects & EFFECT_DOF) && s->camera.aperture_radius > 0.0f)) {
-        if (pixel_bounds_alloc(&st->ends, j->o->width, j->o->height, parallel_threads(j->o->threads)))
+        if (pixel_bounds_alloc(&st->ends, j->o->width, j->o->height, CONE_ENDS_TILE_SHIFT,
+                               parallel_threads(j->o->threads)))
             return vx_fail(e, "out of memory for the camera cones' ends");
         j->map_bytes += pixel_bounds_bytes(&st->ends);
     }
