@@ -14,6 +14,8 @@
  * map (min and max do not depend on the order, so neither does the map). */
 #define BOUNDS_SHARES 64
 #define BOUNDS_ITEMS_PER_PIXEL 3
+/* Cells of up to 16 x 16 pixels: the marchers use 1 x 1 and 2 x 2, and larger cells only loosen the
+ * bounds further (a shift past the int's width would be undefined). */
 #define BOUNDS_MAX_TILE_SHIFT 4
 
 /* Margins, far above the float rounding of the camera's rays (relative 1e-7 of a direction: 1e-5 of

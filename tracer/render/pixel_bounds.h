@@ -6,8 +6,8 @@
  * z-buffer that keeps both ends (a cell: a pixel or a square of them). A pixel's rays then start
  * their walk at its near bound (no voxel lies before it on any of them) and end it at its far bound
  * (none lies beyond): the walks report the same cells with the same [t0, t1] as walks over the whole
- * ray, since every non-empty cell on a ray lies wholly between the bounds by the margin. A pixel that no
- * voxel covers has nothing to walk, and when every ray of the frame is certain to be bounded
+ * ray, since every non-empty cell on a ray lies wholly between the bounds by the margin. A pixel
+ * that no voxel covers has nothing to walk, and when every ray of the frame is certain to be bounded
  * (pixel_bounds_all_forward) it makes no rays (pixel_bounds_pixel_empty). The voxel marcher's map
  * (for the models that walk on past a voxel, not first hit) also keeps, per cell, which of 64
  * depth slabs its voxels' depth ranges touch (or-ed, so in no order); a ray then walks each run of
@@ -31,8 +31,8 @@ typedef struct {
     int tile_shift;    /* a map cell is 2^tile_shift pixels a side (pixel_bounds_alloc), so that a ray
                         * finds its cell by shifts, not two integer divisions */
     int map_w, map_h;  /* the map's cells, map_w x map_h of them */
-    float *near_t, *far_t; /* width * height each, row-major: the depths along the camera's axis
-                            * (not t) of the nearest and farthest voxel over the pixel; near
+    float *near_t, *far_t; /* map_w * map_h each, row-major: the depths along the camera's axis
+                            * (not t) of the nearest and farthest voxel over the cell; near
                             * INFINITY: nothing; NULL: no map */
     float *part;           /* the threads' own maps while building */
     int parts;
