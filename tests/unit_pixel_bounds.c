@@ -77,8 +77,7 @@ static void image_checks(const char *label, const voxel_grid *g, const camera *c
     char name[300];
     pixel_bounds b, b1;
     if (pixel_bounds_alloc(&b, w, h, tile_shift, 2) || pixel_bounds_alloc(&b1, w, h, tile_shift, 3) ||
-        pixel_bounds_alloc_slabs(&b) ||
-        pixel_bounds_alloc_slabs(&b1)) {
+        pixel_bounds_alloc_slabs(&b) || pixel_bounds_alloc_slabs(&b1)) {
         printf("not ok %s: out of memory\n", label);
         unit_failures++;
         return;

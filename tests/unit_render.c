@@ -172,11 +172,12 @@ static void prefault_checks(void)
 /* The depth-bounds map's slabs (pixel_bounds.h), which the render threads write inside the frame's
  * clock: every page resident once allocated (they came from calloc, or malloc and memset folded
  * into it, and faulted in during the first frame: 77 more faults in bunny's at 256x256). A map for
- * a 2048x2048 image: 8 MiB of slabs, 16 MiB of the two threads' parts, fresh pages if untouched. */
+ * a 2048x2048 image in cells of 2 x 2 pixels: 8 MiB of slabs, 16 MiB of the two threads' parts,
+ * fresh pages if untouched. */
 static void bounds_slab_checks(void)
 {
     pixel_bounds b;
-    int made = pixel_bounds_alloc(&b, 2048, 2048, 0, 2) == 0 && pixel_bounds_alloc_slabs(&b) == 0;
+    int made = pixel_bounds_alloc(&b, 2048, 2048, 1, 2) == 0 && pixel_bounds_alloc_slabs(&b) == 0;
     size_t cells = made ? (size_t)b.map_w * (size_t)b.map_h : 0, pages = 0, part_pages = 0;
     size_t res = made ? resident_pages(b.slabs, cells * sizeof *b.slabs, &pages) : 0;
     size_t part_res = made ? resident_pages(b.slab_part, cells * 2 * sizeof *b.slab_part, &part_pages) : 0;
