@@ -24,6 +24,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "cone_camera_ends.h"
 #include "grid_scene.h"
 #include "grid_walk.h"
 #include "pixel_bounds.h"
@@ -175,7 +176,7 @@ static void may_fail_checks(const char *label, const voxel_grid *g, const camera
 {
     char name[300];
     pixel_bounds b;
-    if (pixel_bounds_alloc(&b, w, h, 0, 2)) {
+    if (pixel_bounds_alloc(&b, w, h, VOXEL_BOUNDS_TILE_SHIFT, 2)) {
         printf("not ok %s: out of memory\n", label);
         unit_failures++;
         return;
@@ -242,9 +243,9 @@ static void scene_checks(const char *path, int res)
     grid_coords(&g, 0, g.level[0].count / 2, &cx, &cy, &cz);
     grid_cell_corners(&g, 0, cx, cy, cz, &lo, &hi);
     inside.position = v3_scale(v3_add(lo, hi), 0.5f);
-    /* Map cells of 2 x 2 pixels (the camera cones' ends') on an image whose sides they do not divide,
-     * and of one pixel (the voxel marcher's). */
-    const int sizes[2][3] = {{63, 41, 1}, {150, 150, 0}};
+    /* The camera cones' ends' cells (2 x 2 pixels) on an image whose sides they do not divide, and
+     * the voxel marcher's (one pixel). */
+    const int sizes[2][3] = {{63, 41, CONE_ENDS_TILE_SHIFT}, {150, 150, VOXEL_BOUNDS_TILE_SHIFT}};
     for (int k = 0; k < 2; k++) {
         snprintf(label, sizeof label, "%s %d^3, %dx%d, cells of %d pixels", path, res, sizes[k][0], sizes[k][1],
                  1 << (2 * sizes[k][2]));
@@ -253,7 +254,7 @@ static void scene_checks(const char *path, int res)
     snprintf(label, sizeof label, "%s: the scene's camera has every ray forward (empty pixels skip their rays)", path);
     CHECK(label, pixel_bounds_all_forward(&s.camera, 256, 256) && pixel_bounds_all_forward(&s.camera, 64, 40));
     pixel_bounds b;
-    if (pixel_bounds_alloc(&b, 32, 32, 0, 2) == 0) {
+    if (pixel_bounds_alloc(&b, 32, 32, VOXEL_BOUNDS_TILE_SHIFT, 2) == 0) {
         pixel_bounds_build(&b, &g, &inside, 2);
         float t_min = 0.0f, t_max = INFINITY;
         pixel_bounds_ray(&b, inside.forward, 3, 4, inside.forward, &t_min, &t_max);

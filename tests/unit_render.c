@@ -421,13 +421,14 @@ static void render_checks(const scene *s, const char *model)
                 /* The shading cache: 4 slots a pixel (128x128: 65,536) at most one a voxel, 24 B each;
                  * a 16-slot table evicts all the time and must not change the image. Beside it the
                  * shadow memo; and apart, the maps: the pixels' depth bounds (near, far and the depth
-                 * slabs' word per pixel, the map and each thread's part) and each
+                 * slabs' word per cell, the map and each thread's part) and each
                  * directional light's shadow ends. */
                 size_t voxels = grid_count(&g, 0), slots = voxels < 65536 ? voxels : 65536;
                 size_t memo = m->voxel->opacity_by_direction ? voxels * sizeof(float) : 0;
                 /* The slabs' word only for the models that walk past a voxel (not first hit). */
                 size_t slab_word = m->voxel->compositing == VX_COMPOSITE_FIRST_HIT ? 0 : sizeof(uint64_t);
-                size_t bounds = (size_t)128 * 128 * (2 * sizeof(float) + slab_word) * (1 + 2), clips = 0; /* a pixel a cell */
+                size_t side = (size_t)128 >> VOXEL_BOUNDS_TILE_SHIFT; /* the map's cells a side */
+                size_t bounds = side * side * (2 * sizeof(float) + slab_word) * (1 + 2), clips = 0;
                 for (int li = 0; li < s->light_count; li++) {
                     shadow_clip c;
                     if (s->lights[li].type == LIGHT_DIRECTIONAL && shadow_clip_build(&c, &g, s->lights[li].direction) == 0) {

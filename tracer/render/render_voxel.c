@@ -182,17 +182,6 @@ static int voxel_prepare_shadow_rays(render_job *j, voxel_state *st, vx_err *e)
     return 0;
 }
 
-/* The primary rays' depth bounds (pixel_bounds.h) per pixel, not per 2 x 2 pixels: the map's build
- * costs more, each voxel marking about four to nine cells instead of one to four, but the rays start
- * their walks nearer their first voxel. Instructions inside a 256^3 frame's clock at 256 x 256
- * (callgrind, one thread), per pixel against per 2 x 2: binary -1.2 / -1.3 / -4.4 % (bunny / city /
- * trees), alpha -1.6 / -0.6 / -2.3 %, vmesh -1.2 / -0.2 / -1.6 %, vicini -0.7 / -0.4 / -1.5 %; on
- * bunny's binary frame the build went from 28.8 to 36.8 M and the walks from 233.9 to 222.8 M. In
- * wall time the gain is within the host's noise (paired, best of 30 frames, 2 threads, bunny alpha:
- * 40.1 / 39.9 / 40.5 ms with 2 x 2, 38.8 / 38.7 / 38.8 with one pixel); an older comparison, with
- * the code of its day, had favoured 2 x 2 (binary 22.8 ms with 1, 19.4 with 2). */
-#define VOXEL_BOUNDS_TILE_SHIFT 0
-
 /* Allocated and touched here, before the threads start and outside the render's clock: pages first
  * written by the render threads cost a zero-page fault and a TLB shootdown of the other core each
  * (issue 15: binary gained almost nothing from a second thread). vx_alloc_touched (prefault.h), not
