@@ -3,6 +3,12 @@
 # (tests/test_*.py, under /usr/bin/python3 for numpy and scikit-image). Each prints one line per case,
 # "ok NAME" or "not ok NAME: why"; this script counts them and ends with "N passed, N failed".
 # TESTS=pattern runs only the test files whose name contains the pattern.
+#
+# TEST_JOBS test files run at once (default: the machine's cores). Why: most test files keep one core
+# busy (Python, file I/O, voxlab on small images), so one at a time left half of a 2-core machine idle
+# and CI's two passes of the suite took 31 of its 41-45 minutes. Each file has its own TEST_TMP, and
+# none measures time (speed is benchmarked, not tested), so their order and overlap do not matter.
+# A file's line is printed when it ends; the counts and the failing list do not depend on the order.
 set -u
 cd "$(dirname "$0")/.."
 export BUILD=${BUILD:-build}
@@ -17,13 +23,15 @@ trap 'rm -rf "$tmp_root"' EXIT
 passed=0
 failed=0
 failed_names=()
-run_one() {
-  local name=$1; shift
-  case "$name" in *"${TESTS:-}"*) ;; *) return ;; esac
-  local log="$tmp_root/$(basename "$name").log"
-  local start=$SECONDS
-  TEST_TMP="$tmp_root/$(basename "$name").d" "$@" >"$log" 2>&1
-  local rc=$?
+jobs_max=${TEST_JOBS:-$(nproc 2>/dev/null || echo 1)}
+[ "$jobs_max" -ge 1 ] 2>/dev/null || jobs_max=1
+declare -A job_name job_start
+running=0
+
+# Counts a finished test's log and prints its line (and, when it failed, why).
+report_one() {
+  local name=$1 rc=$2 seconds=$3
+  local log="$tmp_root/$name.log"
   local p f
   p=$(grep -c '^ok ' "$log")
   f=$(grep -c '^not ok ' "$log")
@@ -37,7 +45,7 @@ run_one() {
   fi
   passed=$((passed + p))
   failed=$((failed + f))
-  printf '%-40s %3d passed %3d failed  %3ds\n' "$name" "$p" "$f" $((SECONDS - start))
+  printf '%-40s %3d passed %3d failed  %3ds\n' "$name" "$p" "$f" "$seconds"
   if [ "$f" -ne 0 ]; then
     failed_names+=("$name")
     # The failing cases first: a long log's end may not hold them (a CI log once showed 40 lines of
@@ -47,6 +55,25 @@ run_one() {
     sed 's/^/    /' "$log" | tail -40
   fi
 }
+
+# Waits for any running test and reports it.
+reap_one() {
+  local pid rc
+  wait -n -p pid
+  rc=$?
+  running=$((running - 1))
+  report_one "${job_name[$pid]}" "$rc" $((SECONDS - ${job_start[$pid]}))
+}
+
+run_one() {
+  local name=$1; shift
+  case "$name" in *"${TESTS:-}"*) ;; *) return ;; esac
+  [ "$running" -lt "$jobs_max" ] || reap_one
+  TEST_TMP="$tmp_root/$name.d" "$@" </dev/null >"$tmp_root/$name.log" 2>&1 &
+  job_name[$!]=$name
+  job_start[$!]=$SECONDS
+  running=$((running + 1))
+}
 for t in "$BUILD"/tests/unit_*; do
   [ -x "$t" ] && [ "${t%.o}" = "$t" ] && [ "${t%.d}" = "$t" ] && run_one "$(basename "$t")" "$t"
 done
@@ -55,6 +82,9 @@ for t in tests/test_*.sh; do
 done
 for t in tests/test_*.py; do
   [ -f "$t" ] && run_one "$(basename "$t")" /usr/bin/python3 "$t"
+done
+while [ "$running" -gt 0 ]; do
+  reap_one
 done
 echo
 [ ${#failed_names[@]} -eq 0 ] || echo "failing: ${failed_names[*]}"
