@@ -8,7 +8,7 @@
 # busy (Python, file I/O, voxlab on small images), so one at a time left half of a 2-core machine idle
 # and CI's two passes of the suite took 31 of its 41-45 minutes. Each file has its own TEST_TMP, and
 # none measures time (speed is benchmarked, not tested), so their order and overlap do not matter.
-# A file's line is printed when it ends; the counts and the failing list do not depend on the order.
+# A file's line is printed when it ends; the counts and the failing list (sorted) do not depend on the order.
 set -u
 cd "$(dirname "$0")/.."
 export BUILD=${BUILD:-build}
@@ -24,7 +24,9 @@ passed=0
 failed=0
 failed_names=()
 jobs_max=${TEST_JOBS:-$(nproc 2>/dev/null || echo 1)}
-[ "$jobs_max" -ge 1 ] 2>/dev/null || jobs_max=1
+case "$jobs_max" in
+  '' | *[!0-9]* | 0) echo "tests/run_all.sh: TEST_JOBS must be a whole number of at least 1, not '$jobs_max'" >&2; exit 2 ;;
+esac
 declare -A job_name job_start
 running=0
 
@@ -87,6 +89,7 @@ while [ "$running" -gt 0 ]; do
   reap_one
 done
 echo
-[ ${#failed_names[@]} -eq 0 ] || echo "failing: ${failed_names[*]}"
+# Sorted: the files end in any order, the list does not depend on it.
+[ ${#failed_names[@]} -eq 0 ] || echo "failing: $(printf '%s\n' "${failed_names[@]}" | sort | tr '\n' ' ' | sed 's/ $//')"
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

@@ -58,4 +58,8 @@ out=$(BUILD="$T/build" TESTS=unit_fakepair_ TEST_JOBS=1 bash "$REPO/tests/run_al
 rc=$?
 check "TEST_JOBS=1: one test file at a time (the waiter fails: 1 passed, 1 failed)" \
   bash -c '[ "$1" -ne 0 ] && printf "%s\n" "$2" | grep -q "^1 passed, 1 failed$"' _ "$rc" "$out"
+out=$(BUILD="$T/build" TESTS=unit_fakepass TEST_JOBS=two bash "$REPO/tests/run_all.sh" 2>&1)
+rc=$?
+check "TEST_JOBS that is not a whole number >= 1: a clear error, exit 2, no test run" \
+  bash -c '[ "$1" -eq 2 ] && printf "%s\n" "$2" | grep -q "TEST_JOBS must be a whole number of at least 1, not .two." && ! printf "%s\n" "$2" | grep -q passed' _ "$rc" "$out"
 finish
