@@ -743,12 +743,13 @@ static int same_vec(vec3 a, vec3 b) { return same_float(a.x, b.x) && same_float(
 
 /* hn_element_edge as it was defined before it tried the foot first: the centre's field blended,
  * then the foot's read over it where the foot has one (a mutation of the new order must differ from
- * this on the stencils of stencil_blends_per_cell). */
+ * this on the stencils of stencil_blends_per_cell). *kept: whether the foot's field was kept. */
 static int ref_element_edge(const voxel_grid *g, const hn_record *records, const hn_stencil *st, vec3 p, float level,
-                            hn_sample *s, hn_stencil *sts)
+                            hn_sample *s, hn_stencil *sts, int *kept)
 {
     hn_blend_edge(records, st, p, s);
     int foot_filled = 0;
+    *kept = 0;
     if (sqrtf(v3_dot(s->n, s->n)) > HN_FLAT_COHERENCE && st->count == HN_STENCIL_MAX) {
         hn_sample sf = *s;
         vec3 foot = v3_madd(p, v3_normalize_or(s->n, v3(0.0f, 0.0f, 1.0f)), -s->D);
@@ -759,6 +760,7 @@ static int ref_element_edge(const voxel_grid *g, const hn_record *records, const
                 s->psi = sf.psi;
                 s->gpsi = sf.gpsi;
                 s->edge = sf.edge;
+                *kept = 1;
             }
         }
     }
@@ -853,16 +855,14 @@ static void stencil_blends_per_cell(void)
             }
             hn_sample b = a;
             hn_stencil sa, sb;
-            int fa = hn_element_edge(&g, recs, &st, p, level, &a, &sa), fb = ref_element_edge(&g, recs, &st, p, level, &b, &sb);
+            int kept, fa = hn_element_edge(&g, recs, &st, p, level, &a, &sa),
+                      fb = ref_element_edge(&g, recs, &st, p, level, &b, &sb, &kept);
             wrong += fa != fb || a.edge != b.edge || !same_float(a.psi, b.psi) || !same_vec(a.gpsi, b.gpsi);
             if (fa) { /* the foot's stencil, which the attributes read: the same cells */
                 wrong += sa.count != sb.count;
                 for (int i = 0; i < sa.count && i < HN_STENCIL_MAX; i++)
                     wrong += sa.index[i] != sb.index[i];
-                /* whether the foot's field was kept (its finer level has cells) or p's was blended */
-                hn_sample c = b;
-                c.D = 0.0f;
-                int kept = hn_blend_edge(recs, &sa, v3_madd(p, v3_normalize_or(b.n, v3(0.0f, 0.0f, 1.0f)), -b.D), &c);
+                /* the foot's field kept (its finer level has cells), or p's blended after it */
                 feet_kept += kept;
                 feet_missed += !kept;
             }

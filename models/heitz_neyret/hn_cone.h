@@ -161,11 +161,11 @@ VX_INLINE int hn_element_edge(const voxel_grid *g, VX_GLOBAL const hn_record *re
 {
     int foot_filled = 0;
     if (sqrtf(v3_dot(s->n, s->n)) > HN_FLAT_COHERENCE && st->count == HN_STENCIL_MAX) {
-        hn_sample sf = *s;
         vec3 nf = v3_normalize_or(s->n, v3(0.0f, 0.0f, 1.0f));
         vec3 foot = v3_madd(p, nf, -s->D);
         foot_filled = fabsf(s->D) < 1e30f;
         if (foot_filled && hn_fill_stencil(g, foot, level, sts)) {
+            hn_sample sf = *s;
             sf.D = 0.0f; /* the foot lies on the plane */
             if (hn_blend_edge(records, sts, foot, &sf)) {
                 s->psi = sf.psi;
