@@ -6,8 +6,11 @@
 #
 # TEST_JOBS test files run at once (default: the machine's cores). Why: most test files keep one core
 # busy (Python, file I/O, voxlab on small images), so one at a time left half of a 2-core machine idle
-# and CI's two passes of the suite took 31 of its 41-45 minutes. Each file has its own TEST_TMP, and
-# none measures time (speed is benchmarked, not tested), so their order and overlap do not matter.
+# and CI's two passes of the suite took 31 of its 41-45 minutes. Each file has its own TEST_TMP, so
+# their order and overlap do not matter, except to a file whose checks compare times it measures
+# (test_timing.py: the truth's time rising with spp): such a file holds a line "# run_all: alone" and
+# runs with nothing beside it (beside another file, its 4-spp runs once came out slower than its
+# 16-spp ones and failed CI).
 # A file's line is printed when it ends; the counts and the failing list (sorted) do not depend on the order.
 set -u
 cd "$(dirname "$0")/.."
@@ -67,14 +70,21 @@ reap_one() {
   report_one "${job_name[$pid]}" "$rc" $((SECONDS - ${job_start[$pid]}))
 }
 
+# Starts test `name` (the command after it; its last word is the test's file) once a slot is free,
+# or, for a file that runs alone, once every other test has ended, waiting for it to end too.
 run_one() {
   local name=$1; shift
   case "$name" in *"${TESTS:-}"*) ;; *) return ;; esac
-  [ "$running" -lt "$jobs_max" ] || reap_one
+  local alone=0
+  grep -qs '^# run_all: alone' "${@: -1}" && alone=1
+  while [ "$running" -ge "$jobs_max" ] || { [ "$alone" -eq 1 ] && [ "$running" -gt 0 ]; }; do
+    reap_one
+  done
   TEST_TMP="$tmp_root/$name.d" "$@" </dev/null >"$tmp_root/$name.log" 2>&1 &
   job_name[$!]=$name
   job_start[$!]=$SECONDS
   running=$((running + 1))
+  [ "$alone" -eq 0 ] || reap_one
 }
 for t in "$BUILD"/tests/unit_*; do
   [ -x "$t" ] && [ "${t%.o}" = "$t" ] && [ "${t%.d}" = "$t" ] && run_one "$(basename "$t")" "$t"

@@ -4,6 +4,7 @@ filter x frame is a row; frame 0 is the same image under every filter; the summa
 its "split8 worse than 2x the re-bake" verdict agree with figures recomputed here from the
 experiment's own images and rows; the GIF holds every frame, truth then each model; the sweep
 times every filter and object count."""
+# run_all: alone (its checks compare times it measures: tests/run_all.sh)
 import csv
 import glob
 import os

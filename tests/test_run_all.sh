@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # tests/run_all.sh itself, on fake unit tests in a build folder of their own: its counts, its exit
-# status, that TEST_JOBS test files run at once, and that a failing test's "not ok" lines are shown
-# even when its output ends with many passing cases (a CI log once showed only the last 40 lines, all
-# "ok", of a test that failed).
+# status, that TEST_JOBS test files run at once but a file marked "# run_all: alone" by itself, and
+# that a failing test's "not ok" lines are shown even when its output ends with many passing cases (a
+# CI log once showed only the last 40 lines, all "ok", of a test that failed).
 . "$(dirname "$0")/lib.sh"
 T=$TEST_TMP
 mkdir -p "$T/build/tests"
@@ -38,9 +38,10 @@ check "a failing test: named in the failing list" \
   bash -c 'printf "%s\n" "$1" | grep -q "^failing: unit_fakefail$"' _ "$out"
 # Two test files at once (TEST_JOBS=2): the first waits for a file that only the second writes, so
 # it passes only when they overlap; one at a time (TEST_JOBS=1) it gives up after 3 s and fails.
-pair() { # $1 = seconds the waiter waits
+pair() { # $1 = seconds the waiter waits; $2 = 1: the waiter runs alone ("# run_all: alone")
   {
     echo '#!/bin/sh'
+    [ "${2:-0}" -eq 0 ] || echo '# run_all: alone'
     echo "i=0; while [ ! -e '$T/pair.flag' ] && [ \$i -lt $(($1 * 10)) ]; do sleep 0.1; i=\$((i + 1)); done"
     echo "if [ -e '$T/pair.flag' ]; then echo 'ok the other test ran meanwhile'; else echo 'not ok the other test did not run meanwhile'; fi"
   } >"$T/build/tests/unit_fakepair_1wait"
@@ -57,6 +58,11 @@ pair 3
 out=$(BUILD="$T/build" TESTS=unit_fakepair_ TEST_JOBS=1 bash "$REPO/tests/run_all.sh" 2>&1)
 rc=$?
 check "TEST_JOBS=1: one test file at a time (the waiter fails: 1 passed, 1 failed)" \
+  bash -c '[ "$1" -ne 0 ] && printf "%s\n" "$2" | grep -q "^1 passed, 1 failed$"' _ "$rc" "$out"
+pair 3 1
+out=$(BUILD="$T/build" TESTS=unit_fakepair_ TEST_JOBS=2 bash "$REPO/tests/run_all.sh" 2>&1)
+rc=$?
+check "a file marked '# run_all: alone' has nothing beside it, even with TEST_JOBS=2 (the waiter fails: 1 passed, 1 failed)" \
   bash -c '[ "$1" -ne 0 ] && printf "%s\n" "$2" | grep -q "^1 passed, 1 failed$"' _ "$rc" "$out"
 out=$(BUILD="$T/build" TESTS=unit_fakepass TEST_JOBS=two bash "$REPO/tests/run_all.sh" 2>&1)
 rc=$?

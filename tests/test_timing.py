@@ -19,6 +19,7 @@
 - A sweep over the shadow method and the shadow skip: pareto.csv's columns and labels tell the
   points apart, and the memory axis charges the `voxel` method its per-voxel transmittances.
 """
+# run_all: alone (its checks compare times it measures: tests/run_all.sh)
 import json
 import os
 import statistics
