@@ -8,7 +8,8 @@
  *      RTX 2080, shadows precomputed);
  *  (b) binary's frame time over the Embree truth's at 4 spp on the same image (goal <= 1);
  *  (c) frame time growth per doubling of the grid (128^3 -> ... -> MAX^3) for each model, the image
- *      fixed (goal <= 2 per doubling); the growth grids are baked with GROWTH_RAYS rays per voxel,
+ *      fixed (goal <= 2 per doubling), medians of RUNS rounds with each model's resolutions
+ *      interleaved; the growth grids are baked with GROWTH_RAYS rays per voxel,
  *      which changes the records a little, not the marching. Beside each, the growth of the model's
  *      evaluations (render_counts.model_evals: voxels shaded, or cone elements), which is what a
  *      model whose own work dominates grows with; and, in square brackets, the per-voxel models'
@@ -43,6 +44,7 @@
 #define SPEEDUP_RUNS 15
 #define RAYS 150
 #define GROWTH_RAYS 16
+#define GROWTH_LEVELS 4 /* 128^3 to 1024^3 */
 
 static int die(const char *what, const vx_err *e)
 {
@@ -257,39 +259,48 @@ int main(int argc, char **argv)
         unbake(&b[k]);
 
     /* (c) */
-    printf("(c) frame time growth per doubling, bunny 256x256 (grids baked with %d rays; in brackets the growth of "
-           "the model's evaluations):\n",
-           GROWTH_RAYS);
+    printf("(c) frame time growth per doubling, bunny 256x256 (grids baked with %d rays; medians of %d rounds, the "
+           "resolutions interleaved; in parentheses the growth of the model's evaluations, in brackets the frame's "
+           "with --shadows voxel):\n",
+           GROWTH_RAYS, RUNS);
     for (int k = 0; k < n; k++) {
-        double prev = 0, prev_evals = 0, prev_pre = 0;
-        printf("    %-14s", all[k]->name);
-        for (int res = 128; res <= max_res; res *= 2) {
-            baked g;
-            if (bake(&bunny, all[k], res, GROWTH_RAYS, &g))
+        /* Every resolution baked first, then their frames interleaved over RUNS rounds: a ratio of
+         * two medians measured minutes apart swayed with the shared machine (3 frames a resolution,
+         * one resolution after the other, once showed binary 256^3 -> 512^3 x2.78 where 9 rounds
+         * of the same two grids gave x2.0). */
+        baked g[GROWTH_LEVELS];
+        int levels = 0;
+        for (int res = 128; res <= max_res && levels < GROWTH_LEVELS; res *= 2, levels++)
+            if (bake(&bunny, all[k], res, GROWTH_RAYS, &g[levels]))
                 return 1;
-            double v[3];
-            for (int run = 0; run < 3; run++)
-                v[run] = frame(&bunny, &g, 256, 0);
-            double m = bench_median(v, 3), evals = (double)last_evals, pre = 0;
-            if (!all[k]->cone) {
-                for (int run = 0; run < 3; run++)
-                    v[run] = frame_shadows(&bunny, &g, 256, 0, SHADOW_VOXEL);
-                pre = bench_median(v, 3);
+        double march[GROWTH_LEVELS][RUNS], voxel[GROWTH_LEVELS][RUNS], evals[GROWTH_LEVELS];
+        for (int run = 0; run < RUNS; run++)
+            for (int l = 0; l < levels; l++) {
+                march[l][run] = frame(&bunny, &g[l], 256, 0);
+                if (run == 0)
+                    evals[l] = (double)last_evals;
+                if (!all[k]->cone)
+                    voxel[l][run] = frame_shadows(&bunny, &g[l], 256, 0, SHADOW_VOXEL);
             }
-            if (prev > 0)
-                printf("  %d^3 x%.2f%s (x%.2f)", res, m / prev, m / prev <= 2.0 ? "" : "!", evals / prev_evals);
+        printf("    %-14s", all[k]->name);
+        double prev = 0, prev_pre = 0;
+        for (int l = 0; l < levels; l++) {
+            double m = bench_median(march[l], RUNS), pre = all[k]->cone ? 0 : bench_median(voxel[l], RUNS);
+            if (l > 0)
+                printf("  %d^3 x%.2f%s (x%.2f)", 128 << l, m / prev, m / prev <= 2.0 ? "" : "!",
+                       evals[l] / (evals[l - 1] > 0 ? evals[l - 1] : 1));
             else
-                printf("  %d^3 %.1f ms (%.0fk evals)", res, 1e3 * m, 1e-3 * evals);
+                printf("  %d^3 %.1f ms (%.0fk evals)", 128 << l, 1e3 * m, 1e-3 * evals[l]);
             if (pre > 0 && prev_pre > 0)
                 printf(" [x%.2f%s]", pre / prev_pre, pre / prev_pre <= 2.0 ? "" : "!");
             else if (pre > 0)
                 printf(" [%.1f ms]", 1e3 * pre);
             prev_pre = pre;
             prev = m;
-            prev_evals = evals > 0 ? evals : 1;
-            unbake(&g);
         }
         printf("\n");
+        for (int l = 0; l < levels; l++)
+            unbake(&g[l]);
     }
 
     /* (d) */
