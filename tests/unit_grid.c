@@ -194,7 +194,8 @@ static int mip_consistent(const voxel_grid *g)
                         if (cx < nf && cy < nf && cz < nf && grid_index(g, l - 1, cx, cy, cz) >= 0)
                             any = 1;
                     }
-                    if (any != (grid_index(g, l, x, y, z) >= 0))
+                    /* grid_level_occupied reads the level's plain bits where it keeps them. */
+                    if (any != (grid_index(g, l, x, y, z) >= 0) || any != grid_level_occupied(&g->level[l], x, y, z))
                         return 0;
                     c += any;
                 }
@@ -1136,8 +1137,32 @@ static int identical_arrays(const voxel_grid *a, const voxel_grid *b)
         if (A->n != B->n || A->words_per_col != B->words_per_col || A->words != B->words || A->count != B->count ||
             memcmp(A->cols, B->cols, cols * sizeof *A->cols) || memcmp(A->bits, B->bits, A->words * sizeof *A->bits) ||
             memcmp(A->prefix, B->prefix, A->words * sizeof *A->prefix) ||
-            memcmp(A->coords, B->coords, A->count * sizeof *A->coords))
+            memcmp(A->coords, B->coords, A->count * sizeof *A->coords) || !A->dense != !B->dense ||
+            (A->dense && memcmp(A->dense, B->dense, cols * (size_t)A->words_per_col * sizeof *A->dense)))
             return 0;
+    }
+    return 1;
+}
+
+/* The coarse levels' plain bits (grid_level.dense) are kept exactly where grid.h says (levels 1 and
+ * up whose n^2 ceil(n / 64) words fit in GRID_DENSE_MAX_BYTES) and hold each column's words as the
+ * sparse form has them, found here by the mask's popcount rather than in storage order. */
+static int dense_bits_as_documented(const voxel_grid *g)
+{
+    for (int l = 0; l < g->levels; l++) {
+        const grid_level *L = &g->level[l];
+        size_t cols = (size_t)L->n * (size_t)L->n, W = (size_t)L->words_per_col;
+        int expected = l > 0 && cols * W * sizeof(uint64_t) <= GRID_DENSE_MAX_BYTES;
+        if (!L->dense != !expected)
+            return 0;
+        for (size_t c = 0; L->dense && c < cols; c++)
+            for (size_t j = 0; j < W; j++) {
+                uint64_t mask = L->cols[c] & 0xffffu, want = 0;
+                if ((mask >> j) & 1u)
+                    want = L->bits[(L->cols[c] >> 16) + (uint64_t)__builtin_popcountll(mask & ((UINT64_C(1) << j) - 1u))];
+                if (L->dense[c * W + j] != want)
+                    return 0;
+            }
     }
     return 1;
 }
@@ -1173,6 +1198,9 @@ static void test_sorted_cells(void)
         int ok = grid_build(&g, &m, ns[i], &e) == 0;
         ok = ok && grid_build_sorted_cells(&r, ns[i], lo, hi, g.level[0].coords, g.level[0].count, &e) == 0;
         CHECK(name, ok && identical_arrays(&g, &r));
+        snprintf(name, sizeof name, "grid n=%d: the coarse levels' plain bits where grid.h says, equal to the sparse words",
+                 ns[i]);
+        CHECK(name, ok && dense_bits_as_documented(&g) && dense_bits_as_documented(&r));
         if (ok)
             grid_free(&r);
         grid_free(&g);

@@ -123,6 +123,18 @@ void estimate_truth(const scene *s, int width, int height, int spp, int threads,
     finish(out, threads);
 }
 
+/* The coarse levels' plain bits (grid_level.dense) of a res^3 grid: levels 1 and up whose
+ * n^2 ceil(n / 64) words take at most GRID_DENSE_MAX_BYTES. */
+static double coarse_bits_bytes(int res)
+{
+    double bytes = 0;
+    for (int n = (res + 1) / 2; n >= 1; n = n > 1 ? (n + 1) / 2 : 0) {
+        double b = (double)n * n * ((n + 63) / 64) * 8;
+        bytes += b <= (double)GRID_DENSE_MAX_BYTES ? b : 0;
+    }
+    return bytes;
+}
+
 /* A voxel run with v level-0 voxels at res^3: dense_bits when the grid is voxelised here (a bake, or a
  * render that bakes), not when it is rebuilt from a .vox file's cells; records: their bytes. */
 static void estimate_grid_run(const scene *s, int res, double v, int dense_bits, double records, int rays, int width,
@@ -135,7 +147,8 @@ static void estimate_grid_run(const scene *s, int res, double v, int dense_bits,
     /* The build's dense bits (n^3 bits, plus an eighth for the next level), or the cells read from a
      * .vox file (4 bytes a voxel); the columns of every level (n^2 words, plus a third for the coarser
      * ones), and per voxel its coordinates and bits. */
-    out->grid_bytes = (dense_bits ? n * n * n / 8 * 1.15 : v * 4) + n * n * 8 * 1.34 + v * 1.15 * 8;
+    out->grid_bytes = (dense_bits ? n * n * n / 8 * 1.15 : v * 4) + n * n * 8 * 1.34 + v * 1.15 * 8 +
+                      coarse_bits_bytes(res);
     out->record_bytes = records;
     out->work_bytes = (double)parallel_threads(threads) * rays * sizeof(vx_sample);
     if (width > 0) {

@@ -320,7 +320,7 @@ void grid_set_mapping(voxel_grid *g, int n, const double lo[3], const double hi[
 static int build_levels(voxel_grid *g, dense_bits dense, vx_err *e)
 {
     for (int l = 0; l < g->levels; l++) {
-        if (compact_level(&g->level[l], &dense, e)) {
+        if (compact_level(&g->level[l], &dense, e) || level_fill_dense(&g->level[l], l, e)) {
             dense_free(&dense);
             grid_free(g);
             return -1;
@@ -436,6 +436,7 @@ void grid_free(voxel_grid *g)
         big_free(L->bits, bits_bytes(L));
         big_free(L->prefix, prefix_bytes(L));
         big_free(L->coords, coords_bytes(L));
+        big_free(L->dense, dense_bytes(L));
     }
     memset(g, 0, sizeof *g);
 }
@@ -445,7 +446,7 @@ size_t grid_bytes(const voxel_grid *g)
     size_t bytes = sizeof *g;
     for (int l = 0; l < g->levels; l++) {
         const grid_level *L = &g->level[l];
-        bytes += cols_bytes(L) + bits_bytes(L) + prefix_bytes(L) + coords_bytes(L);
+        bytes += cols_bytes(L) + bits_bytes(L) + prefix_bytes(L) + coords_bytes(L) + (L->dense ? dense_bytes(L) : 0);
     }
     return bytes;
 }

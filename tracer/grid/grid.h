@@ -23,7 +23,9 @@
  * stored words), so a cell's dense index is prefix + popcount(bits below it): O(1), 3 loads.
  * Memory is 8 bytes per column (N^2) + 12 bytes per non-zero word + 4 bytes per non-empty voxel
  * (its packed coordinates), instead of N^3/8 bytes of bits: it grows with the surface, not the
- * volume. Dense indices follow (x, y, z) lexicographic order.
+ * volume. Dense indices follow (x, y, z) lexicographic order. The coarse levels (1 and up) whose
+ * columns' words fit in GRID_DENSE_MAX_BYTES are kept as plain bits too (grid_level.dense), for the
+ * walks' emptiness tests.
  *
  * A built grid is read-only, so any number of threads may query and traverse it. */
 #ifndef VX_GRID_H
@@ -40,6 +42,10 @@
 #ifdef __cplusplus
 extern "C" {
 #endif
+
+/* The most a coarse level's plain bits take, n^2 ceil(n / 64) words (2 MiB: every coarse level of a
+ * 256^3 grid, 306 kB in all; from level 1 of a 512^3 one, 2.4 MB; from level 2 of a 1024^3 one). */
+#define GRID_DENSE_MAX_BYTES ((size_t)2 << 20)
 
 /* Voxelises every triangle of m into an n^3 grid (mapping above) and builds all MIP levels, with
  * 2 threads. Errors (g is then zeroed): n outside 1..GRID_MAX_N, a mesh without triangles, a vertex

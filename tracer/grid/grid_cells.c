@@ -127,7 +127,7 @@ static int levels_from_sorted_cells(voxel_grid *g, const uint32_t *cells, size_t
 {
     int rc = level_from_cells(&g->level[0], g->n, cells, count, e);
     for (int l = 1; rc == 0 && l < g->levels; l++)
-        rc = level_from_children(&g->level[l], &g->level[l - 1], e);
+        rc = (level_from_children(&g->level[l], &g->level[l - 1], e) || level_fill_dense(&g->level[l], l, e)) ? -1 : 0;
     if (rc)
         grid_free(g);
     return rc;

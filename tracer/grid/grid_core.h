@@ -34,6 +34,13 @@ typedef struct {
     VX_GLOBAL uint32_t *coords; /* per non-empty cell, by dense index: x << 20 | y << 10 | z */
     size_t words;      /* stored words */
     size_t count;      /* non-empty cells */
+    /* The level's occupancy as plain bits as well, column by column: bit z % 64 of word
+     * (x n + y) words_per_col + z / 64. Only for the coarse levels (1 and up) small enough
+     * (grid.h's GRID_DENSE_MAX_BYTES), whose lookups are the walks' emptiness tests: one load
+     * where the sparse form takes two dependent ones and a popcount. NULL elsewhere: level 0, whose
+     * lookups want the dense index anyway; the levels too large; the OpenCL kernels, which upload the
+     * sparse form alone. */
+    VX_GLOBAL uint64_t *dense;
 } grid_level;
 
 typedef struct voxel_grid {
@@ -61,9 +68,14 @@ VX_INLINE int64_t grid_level_index(const grid_level *L, int x, int y, int z)
     return (int64_t)L->prefix[w] + (int64_t)VX_POPCOUNT64(bits & ((((uint64_t)1) << b) - 1u));
 }
 
-/* Whether a cell known to be inside the level is non-empty (the index without the prefix load). */
+/* Whether a cell known to be inside the level is non-empty: from the plain bits when the level keeps
+ * them, else the index without the prefix load. */
 VX_INLINE int grid_level_occupied(const grid_level *L, int x, int y, int z)
 {
+    if (L->dense) {
+        size_t w = ((size_t)x * (size_t)L->n + (size_t)y) * (size_t)L->words_per_col + ((unsigned)z >> 6);
+        return (int)((L->dense[w] >> ((unsigned)z & 63u)) & 1u);
+    }
     uint64_t col = L->cols[(size_t)x * (size_t)L->n + (size_t)y];
     unsigned j = (unsigned)z >> 6;
     uint32_t mask = (uint32_t)(col & 0xffffu);

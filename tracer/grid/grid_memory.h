@@ -1,5 +1,6 @@
 /* Inside the grid builders (grid.c from triangles, grid_cells.c from a list of cells): how a sparse
- * level's arrays are allocated and sized, the bit trick that halves a column, and the mapping.
+ * level's arrays are allocated and sized, the bit trick that halves a column, the coarse levels'
+ * plain bits and the mapping.
  * Not for the grid's users: they read grid.h. */
 #ifndef VX_GRID_MEMORY_H
 #define VX_GRID_MEMORY_H
@@ -64,6 +65,30 @@ static inline size_t cols_bytes(const grid_level *L) { return (size_t)L->n * (si
 static inline size_t bits_bytes(const grid_level *L) { return (L->words + 1) * sizeof *L->bits; }
 static inline size_t prefix_bytes(const grid_level *L) { return (L->words + 1) * sizeof *L->prefix; }
 static inline size_t coords_bytes(const grid_level *L) { return (L->count + 1) * sizeof *L->coords; }
+
+/* The coarse levels' plain bits (grid_level.dense), up to grid.h's GRID_DENSE_MAX_BYTES a level. */
+static inline size_t dense_bytes(const grid_level *L)
+{
+    return (size_t)L->n * (size_t)L->n * (size_t)L->words_per_col * sizeof *L->dense;
+}
+
+/* Level `level`'s plain bits from its sparse form (complete), where it keeps them: each stored word
+ * copied to its place in its column. 0, or -1 when out of memory. */
+static inline int level_fill_dense(grid_level *L, int level, vx_err *e)
+{
+    L->dense = NULL;
+    if (level == 0 || dense_bytes(L) > GRID_DENSE_MAX_BYTES)
+        return 0;
+    L->dense = big_alloc(dense_bytes(L));
+    if (!L->dense)
+        return vx_fail(e, "grid_build: out of memory for a %d^3 level's bits", L->n);
+    for (size_t c = 0; c < (size_t)L->n * (size_t)L->n; c++) {
+        size_t w = (size_t)(L->cols[c] >> 16);
+        for (uint64_t m = L->cols[c] & 0xffffu; m; m &= m - 1)
+            L->dense[c * (size_t)L->words_per_col + (size_t)__builtin_ctzll(m)] = L->bits[w++];
+    }
+    return 0;
+}
 
 /* The mapping documented in grid.h for n cells a side over bounds lo/hi, and the level count. */
 void grid_set_mapping(voxel_grid *g, int n, const double lo[3], const double hi[3]);

@@ -42,6 +42,7 @@ static void vx_cl_grid_from_params(voxel_grid *g, __global const vx_cl_grid_para
         L->bits = bits + P->level_words[l];
         L->prefix = prefix + P->level_words[l];
         L->coords = 0;
+        L->dense = 0; /* the sparse form's lookups alone */
         L->words = 0;
         L->count = (size_t)P->level_count[l];
     }
