@@ -38,8 +38,8 @@ typedef struct {
      * (x n + y) words_per_col + z / 64. Only for the coarse levels (1 and up) small enough
      * (grid.h's GRID_DENSE_MAX_BYTES), whose lookups are the walks' emptiness tests: one load
      * where the sparse form takes two dependent ones and a popcount. NULL elsewhere: level 0, whose
-     * lookups want the dense index anyway; the levels too large; the OpenCL kernels, which upload the
-     * sparse form alone. */
+     * lookups want the dense index anyway, and the levels too large. The OpenCL kernels get them in
+     * their bits buffer (tracer/backends/opencl/cl/grid_params.h). */
     VX_GLOBAL uint64_t *dense;
 } grid_level;
 

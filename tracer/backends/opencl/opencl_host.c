@@ -6,6 +6,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "cl/grid_params.h"
 #include "opencl_program.h"
 #include "parallel.h"
 
@@ -83,13 +84,15 @@ int opencl_launch_counters(opencl_launch *L, int which, vx_err *e)
 
 int opencl_launch_grid(opencl_launch *L, int cols, int bits, int prefix, const voxel_grid *g, vx_err *e)
 {
-    size_t ncols = 0, words = 0;
+    size_t ncols = 0, words = 0, dense = 0;
     for (int l = 0; l < g->levels; l++) {
         ncols += (size_t)g->level[l].n * (size_t)g->level[l].n;
         words += g->level[l].words;
+        dense += (size_t)vx_cl_dense_words(&g->level[l]);
     }
+    /* bits: the stored words, then the plain bits (vx_cl_grid_params_fill's offsets) */
     if (opencl_launch_buffer(L, cols, CL_MEM_READ_ONLY, ncols * sizeof(uint64_t), NULL, e) ||
-        opencl_launch_buffer(L, bits, CL_MEM_READ_ONLY, words * sizeof(uint64_t), NULL, e) ||
+        opencl_launch_buffer(L, bits, CL_MEM_READ_ONLY, (words + dense) * sizeof(uint64_t), NULL, e) ||
         opencl_launch_buffer(L, prefix, CL_MEM_READ_ONLY, words * sizeof(uint32_t), NULL, e))
         return -1;
     return 0;
@@ -114,6 +117,14 @@ int opencl_launch_grid_upload(opencl_launch *L, int cols, int bits, int prefix, 
             return -1;
         c += nc;
         w += G->words;
+    }
+    for (int l = 0; l < g->levels; l++) { /* after every level's stored words, as the offsets say */
+        size_t nd = (size_t)vx_cl_dense_words(&g->level[l]);
+        if (nd && opencl_check(clEnqueueWriteBuffer(q, L->buf[bits], CL_FALSE, w * sizeof(uint64_t),
+                                                    nd * sizeof(uint64_t), g->level[l].dense, 0, NULL, NULL),
+                               "uploading the grid's plain bits", e))
+            return -1;
+        w += nd;
     }
     return 0;
 }

@@ -1,5 +1,6 @@
 /* The voxel grid as the host hands it to an OpenCL kernel: the mapping and, per level, where its
- * tables start in the concatenated cols / bits+prefix buffers. Shared by the voxel kernel's and the
+ * tables start in the concatenated cols / bits+prefix buffers (the bits buffer also holds the coarse
+ * levels' plain bits, after the stored words). Shared by the voxel kernel's and the
  * cone kernel's parameter blocks (tracer/backends/opencl/cl/render_params.h, render_cone_params.h), filled by the
  * host (vx_cl_grid_params_fill) and turned back into a voxel_grid by the kernel
  * (vx_cl_grid_from_params), so that both kernels read the grid the same way. Only types C on
@@ -14,12 +15,17 @@ typedef struct {
     double voxel_size_d;
     uint64_t level_cols[GRID_MAX_LEVELS];  /* where each level's column table starts in the cols buffer */
     uint64_t level_words[GRID_MAX_LEVELS]; /* where each level's words start in the bits and prefix buffers */
+    /* where each level's plain bits (grid_level.dense) start in the bits buffer, after every level's
+     * stored words; VX_CL_NO_DENSE: the level has none */
+    uint64_t level_dense[GRID_MAX_LEVELS];
     uint64_t level_count[GRID_MAX_LEVELS]; /* non-empty cells per level (the records' level offsets) */
     vec3 origin;
     float voxel_size;
     int n, levels;
     int level_n[GRID_MAX_LEVELS];
 } vx_cl_grid_params;
+
+#define VX_CL_NO_DENSE (~(uint64_t)0)
 
 #ifdef __OPENCL_VERSION__
 /* The grid as grid_core.h expects it, its level tables pointing into the buffers (the coordinates,
@@ -42,14 +48,20 @@ static void vx_cl_grid_from_params(voxel_grid *g, __global const vx_cl_grid_para
         L->bits = bits + P->level_words[l];
         L->prefix = prefix + P->level_words[l];
         L->coords = 0;
-        L->dense = 0; /* the sparse form's lookups alone */
+        L->dense = P->level_dense[l] == VX_CL_NO_DENSE ? 0 : bits + P->level_dense[l];
         L->words = 0;
         L->count = (size_t)P->level_count[l];
     }
 }
 #else
+/* The words of a level's plain bits, 0 when it keeps none. */
+static inline uint64_t vx_cl_dense_words(const grid_level *L)
+{
+    return L->dense ? (uint64_t)L->n * (uint64_t)L->n * (uint64_t)L->words_per_col : 0;
+}
+
 /* The host side: the mapping and the level offsets, levels concatenated in order (as the backends
- * upload the tables). */
+ * upload the tables: every level's stored words, then the plain bits of those that keep them). */
 static inline void vx_cl_grid_params_fill(vx_cl_grid_params *p, const voxel_grid *g)
 {
     uint64_t cols = 0, words = 0;
@@ -60,6 +72,11 @@ static inline void vx_cl_grid_params_fill(vx_cl_grid_params *p, const voxel_grid
         p->level_n[l] = g->level[l].n;
         cols += (uint64_t)g->level[l].n * (uint64_t)g->level[l].n;
         words += g->level[l].words;
+    }
+    for (int l = 0; l < GRID_MAX_LEVELS; l++) {
+        uint64_t dense = l < g->levels ? vx_cl_dense_words(&g->level[l]) : 0;
+        p->level_dense[l] = dense ? words : VX_CL_NO_DENSE;
+        words += dense;
     }
     for (int a = 0; a < 3; a++)
         p->origin_d[a] = g->origin_d[a];
