@@ -123,15 +123,12 @@ void estimate_truth(const scene *s, int width, int height, int spp, int threads,
     finish(out, threads);
 }
 
-/* The coarse levels' plain bits (grid_level.dense) of a res^3 grid: levels 1 and up whose
- * n^2 ceil(n / 64) words take at most GRID_DENSE_MAX_BYTES. */
+/* The coarse levels' plain bits (grid_level.dense) of a res^3 grid, level by level as grid.h keeps them. */
 static double coarse_bits_bytes(int res)
 {
     double bytes = 0;
-    for (int n = (res + 1) / 2; n >= 1; n = n > 1 ? (n + 1) / 2 : 0) {
-        double b = (double)n * n * ((n + 63) / 64) * 8;
-        bytes += b <= (double)GRID_DENSE_MAX_BYTES ? b : 0;
-    }
+    for (int level = 1, n = (res + 1) / 2; n >= 1; level++, n = n > 1 ? (n + 1) / 2 : 0)
+        bytes += (double)grid_dense_words(level, n) * sizeof(uint64_t);
     return bytes;
 }
 

@@ -436,7 +436,7 @@ void grid_free(voxel_grid *g)
         big_free(L->bits, bits_bytes(L));
         big_free(L->prefix, prefix_bytes(L));
         big_free(L->coords, coords_bytes(L));
-        big_free(L->dense, dense_bytes(L));
+        big_free(L->dense, dense_bytes(L, l));
     }
     memset(g, 0, sizeof *g);
 }
@@ -446,7 +446,7 @@ size_t grid_bytes(const voxel_grid *g)
     size_t bytes = sizeof *g;
     for (int l = 0; l < g->levels; l++) {
         const grid_level *L = &g->level[l];
-        bytes += cols_bytes(L) + bits_bytes(L) + prefix_bytes(L) + coords_bytes(L) + (L->dense ? dense_bytes(L) : 0);
+        bytes += cols_bytes(L) + bits_bytes(L) + prefix_bytes(L) + coords_bytes(L) + (L->dense ? dense_bytes(L, l) : 0);
     }
     return bytes;
 }

@@ -47,6 +47,15 @@ extern "C" {
  * 256^3 grid, 306 kB in all; from level 1 of a 512^3 one, 2.4 MB; from level 2 of a 1024^3 one). */
 #define GRID_DENSE_MAX_BYTES ((size_t)2 << 20)
 
+/* The words of the plain bits (grid_level.dense) of level `level`, n cells a side: n^2 ceil(n / 64)
+ * where the level keeps them (1 and up, at most GRID_DENSE_MAX_BYTES), else 0. The one rule the
+ * builders, the OpenCL upload and the memory estimate follow. */
+static inline size_t grid_dense_words(int level, int n)
+{
+    size_t words = (size_t)n * (size_t)n * (size_t)((n + 63) / 64);
+    return level > 0 && words * sizeof(uint64_t) <= GRID_DENSE_MAX_BYTES ? words : 0;
+}
+
 /* Voxelises every triangle of m into an n^3 grid (mapping above) and builds all MIP levels, with
  * 2 threads. Errors (g is then zeroed): n outside 1..GRID_MAX_N, a mesh without triangles, a vertex
  * index out of range, non-finite coordinates. Zero-area triangles are skipped (they have no surface;

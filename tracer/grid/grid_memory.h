@@ -66,10 +66,10 @@ static inline size_t bits_bytes(const grid_level *L) { return (L->words + 1) * s
 static inline size_t prefix_bytes(const grid_level *L) { return (L->words + 1) * sizeof *L->prefix; }
 static inline size_t coords_bytes(const grid_level *L) { return (L->count + 1) * sizeof *L->coords; }
 
-/* The coarse levels' plain bits (grid_level.dense), up to grid.h's GRID_DENSE_MAX_BYTES a level. */
-static inline size_t dense_bytes(const grid_level *L)
+/* Bytes of level `level`'s plain bits (grid_level.dense; grid.h's grid_dense_words), 0 where it keeps none. */
+static inline size_t dense_bytes(const grid_level *L, int level)
 {
-    return (size_t)L->n * (size_t)L->n * (size_t)L->words_per_col * sizeof *L->dense;
+    return grid_dense_words(level, L->n) * sizeof *L->dense;
 }
 
 /* Level `level`'s plain bits from its sparse form (complete), where it keeps them: each stored word
@@ -77,9 +77,9 @@ static inline size_t dense_bytes(const grid_level *L)
 static inline int level_fill_dense(grid_level *L, int level, vx_err *e)
 {
     L->dense = NULL;
-    if (level == 0 || dense_bytes(L) > GRID_DENSE_MAX_BYTES)
+    if (!dense_bytes(L, level))
         return 0;
-    L->dense = big_alloc(dense_bytes(L));
+    L->dense = big_alloc(dense_bytes(L, level));
     if (!L->dense)
         return vx_fail(e, "grid_build: out of memory for a %d^3 level's bits", L->n);
     for (size_t c = 0; c < (size_t)L->n * (size_t)L->n; c++) {

@@ -88,7 +88,7 @@ int opencl_launch_grid(opencl_launch *L, int cols, int bits, int prefix, const v
     for (int l = 0; l < g->levels; l++) {
         ncols += (size_t)g->level[l].n * (size_t)g->level[l].n;
         words += g->level[l].words;
-        dense += (size_t)vx_cl_dense_words(&g->level[l]);
+        dense += (size_t)vx_cl_dense_words(g, l);
     }
     /* bits: the stored words, then the plain bits (vx_cl_grid_params_fill's offsets) */
     if (opencl_launch_buffer(L, cols, CL_MEM_READ_ONLY, ncols * sizeof(uint64_t), NULL, e) ||
@@ -119,7 +119,7 @@ int opencl_launch_grid_upload(opencl_launch *L, int cols, int bits, int prefix, 
         w += G->words;
     }
     for (int l = 0; l < g->levels; l++) { /* after every level's stored words, as the offsets say */
-        size_t nd = (size_t)vx_cl_dense_words(&g->level[l]);
+        size_t nd = (size_t)vx_cl_dense_words(g, l);
         if (nd && opencl_check(clEnqueueWriteBuffer(q, L->buf[bits], CL_FALSE, w * sizeof(uint64_t),
                                                     nd * sizeof(uint64_t), g->level[l].dense, 0, NULL, NULL),
                                "uploading the grid's plain bits", e))

@@ -54,10 +54,12 @@ static void vx_cl_grid_from_params(voxel_grid *g, __global const vx_cl_grid_para
     }
 }
 #else
-/* The words of a level's plain bits, 0 when it keeps none. */
-static inline uint64_t vx_cl_dense_words(const grid_level *L)
+#include "grid.h"
+
+/* The words of level l's plain bits, 0 when it keeps none. */
+static inline uint64_t vx_cl_dense_words(const voxel_grid *g, int l)
 {
-    return L->dense ? (uint64_t)L->n * (uint64_t)L->n * (uint64_t)L->words_per_col : 0;
+    return g->level[l].dense ? (uint64_t)grid_dense_words(l, g->level[l].n) : 0;
 }
 
 /* The host side: the mapping and the level offsets, levels concatenated in order (as the backends
@@ -74,7 +76,7 @@ static inline void vx_cl_grid_params_fill(vx_cl_grid_params *p, const voxel_grid
         words += g->level[l].words;
     }
     for (int l = 0; l < GRID_MAX_LEVELS; l++) {
-        uint64_t dense = l < g->levels ? vx_cl_dense_words(&g->level[l]) : 0;
+        uint64_t dense = l < g->levels ? vx_cl_dense_words(g, l) : 0;
         p->level_dense[l] = dense ? words : VX_CL_NO_DENSE;
         words += dense;
     }
