@@ -100,31 +100,26 @@ int opencl_launch_grid(opencl_launch *L, int cols, int bits, int prefix, const v
 
 int opencl_launch_grid_upload(opencl_launch *L, int cols, int bits, int prefix, const voxel_grid *g, vx_err *e)
 {
+    /* Every table goes where the kernels' parameters say it starts: the one statement of the layout. */
+    vx_cl_grid_params p;
+    vx_cl_grid_params_fill(&p, g);
     cl_command_queue q = L->rt->queue;
-    size_t c = 0, w = 0;
     for (int l = 0; l < g->levels; l++) {
         const grid_level *G = &g->level[l];
-        size_t nc = (size_t)G->n * (size_t)G->n;
-        cl_int err = clEnqueueWriteBuffer(q, L->buf[cols], CL_FALSE, c * sizeof(uint64_t), nc * sizeof(uint64_t),
-                                          G->cols, 0, NULL, NULL);
+        size_t nc = (size_t)G->n * (size_t)G->n, nd = (size_t)vx_cl_dense_words(g, l);
+        cl_int err = clEnqueueWriteBuffer(q, L->buf[cols], CL_FALSE, p.level_cols[l] * sizeof(uint64_t),
+                                          nc * sizeof(uint64_t), G->cols, 0, NULL, NULL);
         if (err == CL_SUCCESS && G->words)
-            err = clEnqueueWriteBuffer(q, L->buf[bits], CL_FALSE, w * sizeof(uint64_t), G->words * sizeof(uint64_t),
-                                       G->bits, 0, NULL, NULL);
+            err = clEnqueueWriteBuffer(q, L->buf[bits], CL_FALSE, p.level_words[l] * sizeof(uint64_t),
+                                       G->words * sizeof(uint64_t), G->bits, 0, NULL, NULL);
         if (err == CL_SUCCESS && G->words)
-            err = clEnqueueWriteBuffer(q, L->buf[prefix], CL_FALSE, w * sizeof(uint32_t),
+            err = clEnqueueWriteBuffer(q, L->buf[prefix], CL_FALSE, p.level_words[l] * sizeof(uint32_t),
                                        G->words * sizeof(uint32_t), G->prefix, 0, NULL, NULL);
+        if (err == CL_SUCCESS && nd)
+            err = clEnqueueWriteBuffer(q, L->buf[bits], CL_FALSE, p.level_dense[l] * sizeof(uint64_t),
+                                       nd * sizeof(uint64_t), G->dense, 0, NULL, NULL);
         if (opencl_check(err, "uploading the grid", e))
             return -1;
-        c += nc;
-        w += G->words;
-    }
-    for (int l = 0; l < g->levels; l++) { /* after every level's stored words, as the offsets say */
-        size_t nd = (size_t)vx_cl_dense_words(g, l);
-        if (nd && opencl_check(clEnqueueWriteBuffer(q, L->buf[bits], CL_FALSE, w * sizeof(uint64_t),
-                                                    nd * sizeof(uint64_t), g->level[l].dense, 0, NULL, NULL),
-                               "uploading the grid's plain bits", e))
-            return -1;
-        w += nd;
     }
     return 0;
 }
