@@ -229,6 +229,14 @@ for model in ("alpha", "binary"):
     faults = st_on.get("render_page_faults")
     report(f"--stats render_page_faults: few faults inside the render's clock ({model})",
            isinstance(faults, (int, float)) and 0 <= faults < 200, str(faults))
+    # From a .vox, nothing before the frame used a second thread: the render starts its helper before
+    # its clocks (parallel_prestart). Started by the frame's first parallel_for, the helper's stack
+    # and thread-local storage (vmesh's 267 kB of views) faulted in inside the clock: 72 faults here,
+    # 73 and 1.2 ms of binary's bunny frame (issue 15).
+    _, st_fresh = render(SPHERES, f"fresh_{model}", "--vox", path(f"rt_{model}.vox"), *SMALL, "--threads", "2",
+                         model=None)
+    report(f"render --vox, 2 threads: the helper thread started before the frame's clock ({model})",
+           st_fresh["threads"] == 2 and st_fresh["render_page_faults"] < 24, str(st_fresh["render_page_faults"]))
     # The shading cache is sized by the image (tracer/render/shading_cache.h): 4 slots of 24 B a
     # pixel, at most one a voxel. Beside it, with or without it, the shadow memo: these models'
     # opacity does not depend on the direction, and the scene has one directional light with

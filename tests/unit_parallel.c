@@ -4,7 +4,9 @@
  * thread per call would be a new one each time) and does take items; a parallel_for called from
  * inside an item, two callers at once and a forked child all finish with every item run; and two
  * thousand short calls in a row lose no wake-up (a lost one hangs: the alarm turns that into a
- * failure). */
+ * failure). First of all, in a process with no thread started yet: parallel_prestart starts the pool's
+ * helpers there and then, so that the parallel_for after it (a timed one) starts none. */
+#include <dirent.h>
 #include <pthread.h>
 #include <stdatomic.h>
 #include <stdio.h>
@@ -50,6 +52,21 @@ static int runs_each_once(int64_t count, int threads)
     return count == 0 ? worst == -1 : worst >= 0 && worst < threads;
 }
 
+/* The threads the process has now (the entries of /proc/self/task), or -1 when that cannot be read. */
+static int process_threads(void)
+{
+    DIR *d = opendir("/proc/self/task");
+    if (!d)
+        return -1;
+    int n = 0;
+    for (struct dirent *e; (e = readdir(d));)
+        n += e->d_name[0] != '.';
+    closedir(d);
+    return n;
+}
+
+static void nothing(void *p, int64_t item, int thread) { (void)p, (void)item, (void)thread; }
+
 /* Items that take a while, recording which thread ran them. */
 typedef struct {
     atomic_int taken_by_1;
@@ -94,6 +111,19 @@ int main(void)
 {
     /* A hang (a lost wake-up, a deadlock) ends the test with SIGALRM instead of blocking the suite. */
     alarm(120);
+    int alone = process_threads();
+    parallel_prestart(1);
+    int after_one = process_threads();
+    parallel_prestart(3);
+    int after_three = process_threads();
+    parallel_for(64, 3, nothing, NULL, NULL);
+    parallel_prestart(3);
+    int after_calls = process_threads();
+    printf("# threads: %d at start, %d after parallel_prestart(1), %d after parallel_prestart(3), %d after a "
+           "parallel_for on 3 and parallel_prestart(3) again\n", alone, after_one, after_three, after_calls);
+    CHECK("parallel_prestart(1) starts no thread", alone == 1 && after_one == 1);
+    CHECK("parallel_prestart(3) starts the two helpers before it returns", alone == 1 && after_three == 3);
+    CHECK("a parallel_for on 3 threads after it, and parallel_prestart again, start none", after_calls == 3);
     const int64_t counts[] = {0, 1, 2, 3, 7, 64, 1000};
     const int threads[] = {1, 2, 3, 8, 300};
     int wrong = 0, cases = 0;

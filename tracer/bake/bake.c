@@ -358,6 +358,7 @@ int bake_run_models(const rt_scene *rt, const voxel_grid *g, int count, const vx
     }
     bake_job j = {rt, g, count, m, o, params, rec, scratch, cyc};
     size_t voxels = grid_count(g, 0);
+    parallel_prestart(threads); /* before the clock (parallel.h) */
     double t0 = now_seconds();
     parallel_for((int64_t)((voxels + VOXELS_PER_ITEM - 1) / VOXELS_PER_ITEM), threads, bake_item, &j,
                  o->progress ? "bake" : NULL);
@@ -412,6 +413,7 @@ int bake_scene_models(const scene *s, int count, const vx_model *const *m, const
                       int res, const bake_options *o, voxel_grid *g, void **records, bake_counts *counts,
                       double *grid_seconds, vx_err *e)
 {
+    parallel_prestart(parallel_threads(o->threads)); /* before the grid's clock (parallel.h) */
     double t0 = now_seconds();
     double lo[3], hi[3]; /* an animated scene: one lattice for every frame */
     int animated = anim_grid_bounds(s, lo, hi);

@@ -204,6 +204,14 @@ static void spawn_run(job *j, int threads)
     free(args);
 }
 
+static void prestart_item(void *ctx, int64_t item, int thread) { (void)ctx, (void)item, (void)thread; }
+
+void parallel_prestart(int threads)
+{
+    /* One item a thread: pool_run starts the helpers it lacks and returns once each has taken part. */
+    parallel_for(threads, threads, prestart_item, NULL, NULL);
+}
+
 void parallel_for(int64_t count, int threads, parallel_fn fn, void *ctx, const char *label)
 {
     if (count <= 0)

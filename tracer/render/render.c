@@ -93,6 +93,8 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
     if (image_alloc(out, o->width, o->height, 3, e))
         return -1;
     int threads = parallel_threads(o->threads);
+    /* Before any of this render's clocks (the precomputed shadows', the frame's): parallel.h. */
+    parallel_prestart(threads);
     /* The precomputed shadows (when the method asks for them), built or taken from the cache before
      * the render's clock starts: their time is reported apart (counts->shadows). */
     shadow_request sr = {o->shadow_method, o->shadow_res, o->threads, slicemap_fill_model};

@@ -298,12 +298,17 @@ static int voxel_precompute(render_job *j, voxel_state *st, vx_err *e)
     size_t voxels = grid_count(j->g, 0);
     int lights = j->s->light_count < VX_MAX_LIGHTS ? j->s->light_count : VX_MAX_LIGHTS;
     size_t bytes = (voxels ? voxels : 1) * (size_t)lights * sizeof *st->shadow_T;
+    /* Every core when the options say 0 (render_options.threads), as the frame: parallel_for takes
+     * its count as given, and 0 ran the precomputation on one thread (bunny 256^3, alpha: 24.0 ms
+     * against 12.5 with --threads 2). */
+    int threads = parallel_threads(j->o->threads);
+    parallel_prestart(threads); /* before the clock (parallel.h) */
     double t0 = now_seconds();
     float *T = vx_alloc_touched(bytes, 0);
     if (!T)
         return vx_fail(e, "out of memory for the voxels' precomputed shadows (%zu voxels, %d lights)", voxels, lights);
     shadow_precompute_job J = {j, T, voxels};
-    parallel_for(SHADOW_PRECOMPUTE_SHARES, j->o->threads, shadow_precompute_share, &J,
+    parallel_for(SHADOW_PRECOMPUTE_SHARES, threads, shadow_precompute_share, &J,
                  j->o->progress ? "shadows" : NULL);
     st->shadow_T = T;
     j->shadow_build_seconds = now_seconds() - t0;

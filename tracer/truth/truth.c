@@ -368,6 +368,8 @@ int truth_render(const rt_scene *rt, const truth_options *o, image *out, truth_c
     if (image_alloc(out, o->width, o->height, 3, e))
         return -1;
     int threads = parallel_threads(o->threads);
+    /* Before the slicemap's clock and the frame's (parallel.h). */
+    parallel_prestart(threads);
     truth_counts *per_thread = calloc((size_t)threads, sizeof(truth_counts));
     if (!per_thread) {
         image_free(out);
