@@ -91,6 +91,7 @@ cJSON *stats_truth(const scene *s, const truth_options *o, const truth_counts *c
     cJSON_AddNumberToObject(j, "rays", (double)(c->primary_rays + c->shadow_rays));
     cJSON_AddNumberToObject(j, "primary_rays", (double)c->primary_rays);
     cJSON_AddNumberToObject(j, "shadow_rays", (double)c->shadow_rays);
+    cJSON_AddNumberToObject(j, "truth_page_faults", (double)c->page_faults);
     stats_add_shadows(j, &c->shadows);
     cJSON_AddNumberToObject(j, "voxels", 0);
     cJSON_AddNumberToObject(j, "bytes_per_voxel", 0);

@@ -5,19 +5,13 @@
 
 #include <stdlib.h>
 #include <string.h>
-#include <sys/resource.h>
 
 #include "camera.h"
+#include "prefault.h"
 #include "render_internal.h"
 
 /* The scene reader refuses more lights than the tracers' fixed per-voxel arrays hold. */
 _Static_assert(VX_MAX_LIGHTS >= LIGHT_MAX_COUNT, "a scene's lights must fit the tracers' light arrays");
-
-static long minor_faults(void)
-{
-    struct rusage ru;
-    return getrusage(RUSAGE_SELF, &ru) ? 0 : ru.ru_minflt;
-}
 
 void render_default_options(render_options *o)
 {
@@ -123,7 +117,7 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
     }
     /* The image's pages touched here, not by the render threads (see render_voxel.c's prepare). */
     memset(out->data, 0, (size_t)o->width * (size_t)o->height * 3 * sizeof *out->data);
-    long f0 = minor_faults();
+    long f0 = vx_minor_faults();
     double t0 = now_seconds(), setup = t0 - p0 - j.shadow_build_seconds; /* the precomputation apart */
     if (marcher->begin)
         marcher->begin(&j, threads);
@@ -134,7 +128,7 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
     memset(counts, 0, sizeof *counts);
     counts->seconds = t1 - t0;
     counts->setup_seconds = setup;
-    counts->page_faults = minor_faults() - f0;
+    counts->page_faults = vx_minor_faults() - f0;
     counts->shadows = sst;
     if (sst.method == SHADOW_VOXEL) {
         counts->shadows.build_seconds = j.shadow_build_seconds;

@@ -22,6 +22,7 @@ typedef struct {
 typedef struct {
     double seconds;
     uint64_t primary_rays, shadow_rays;
+    long page_faults;     /* the process's minor page faults during `seconds` (render_counts.page_faults' twin) */
     shadow_stats shadows; /* the shadow method, its precomputation (outside `seconds`), its queries */
 } truth_counts;
 
