@@ -208,6 +208,13 @@ static void prestart_item(void *ctx, int64_t item, int thread) { (void)ctx, (voi
 
 void parallel_prestart(int threads)
 {
+    /* The pool's helpers were started by a pool_run, which waits until each has taken part: when it
+     * has enough of them, nothing is left to start (a job would only wake them). */
+    pthread_mutex_lock(&the_pool.m);
+    int helpers = the_pool.helpers;
+    pthread_mutex_unlock(&the_pool.m);
+    if (threads <= 1 || helpers >= threads - 1 || helpers >= POOL_MAX_HELPERS)
+        return;
     /* One item a thread: pool_run starts the helpers it lacks and returns once each has taken part. */
     parallel_for(threads, threads, prestart_item, NULL, NULL);
 }
