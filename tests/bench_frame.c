@@ -1,5 +1,8 @@
 /* Frame-time benchmark (issue 15's figures), each a ratio against a reference measured in the same
- * run, medians of RUNS interleaved renders, the machine's load average printed beside them:
+ * run, medians of RUNS interleaved renders, the machine's load average printed beside them. A ratio is
+ * the median of the rounds' own ratios (bench_paired_ratio: both times of a pair a second apart),
+ * printed with their quartiles where a goal is checked, so that a verdict near its threshold can be
+ * told from the rounds' spread:
  *  (a) every model's frame time, bunny 256^3, 256x256, 4 spp (heitz-neyret: one cone per pixel),
  *      against the 50 ms goal and over the truth's in the same rounds, and vmesh over alpha (goal
  *      <= 2); beside them, the per-voxel models' frames under Brito et al.'s protocol, shadows
@@ -8,14 +11,16 @@
  *      RTX 2080, shadows precomputed);
  *  (b) binary's frame time over the Embree truth's at 4 spp on the same image (goal <= 1);
  *  (c) frame time growth per doubling of the grid (128^3 -> ... -> MAX^3) for each model, the image
- *      fixed (goal <= 2 per doubling), medians of RUNS rounds with each model's resolutions
- *      interleaved; the growth grids are baked with GROWTH_RAYS rays per voxel,
- *      which changes the records a little, not the marching. Beside each, the growth of the model's
- *      evaluations (render_counts.model_evals: voxels shaded, or cone elements), which is what a
- *      model whose own work dominates grows with; and, in square brackets, the per-voxel models'
- *      growth with --shadows voxel (the frame without its shadow rays, precomputed before it);
+ *      fixed (goal <= 2 per doubling), RUNS rounds with each model's resolutions interleaved, each
+ *      round's frame over the one below's in the same round; the growth grids are baked with
+ *      GROWTH_RAYS rays per voxel, which changes the records a little, not the marching. Beside each,
+ *      the growth of the model's evaluations (render_counts.model_evals: voxels shaded, or cone
+ *      elements), which is what a model whose own work dominates grows with; and, in square brackets,
+ *      the per-voxel models' growth with --shadows voxel (the frame without its shadow rays,
+ *      precomputed before it);
  *  (d) binary's speed-up from 1 to 2 threads on city 256^3 (goal >= 1.8), the median of SPEEDUP_RUNS
- *      paired frames' ratios;
+ *      paired frames' ratios, and their quartiles (the shared host's second core is slower in some
+ *      runs than in others: 1.75 to 1.95 between runs of an hour, each run's quartiles within 0.05);
  *  (e) `render --vox`'s grid at MAX^3: rebuilt from the file's level-0 cells (grid_build_sorted_cells)
  *      over voxelising the scene again (what it did before .vox version 4), and the bit array that
  *      the voxelisation needs and the rebuild does not;
@@ -170,11 +175,14 @@ static int scene_frames(const scene *s)
         }
         t[n][run] = truth_frame(&rt, 256);
     }
-    double truth = bench_median(t[n], RUNS);
-    printf("(f) frame time, %s 256^3, 256x256, 4 spp (medians of %d; truth at 4 spp %.1f ms):", s->name, RUNS,
-           1e3 * truth);
+    double over[BAKE_MAX_MODELS], lo, hi;
     for (int k = 0; k < n; k++)
-        printf(" %s %.1f ms (x%.1f)", m[k]->name, 1e3 * bench_median(t[k], RUNS), bench_median(t[k], RUNS) / truth);
+        over[k] = bench_paired_ratio(t[k], t[n], RUNS, &lo, &hi); /* before the medians sort the times */
+    double truth = bench_median(t[n], RUNS);
+    printf("(f) frame time, %s 256^3, 256x256, 4 spp (medians of %d; truth at 4 spp %.1f ms; in brackets over the "
+           "truth's, the median of the rounds' ratios):", s->name, RUNS, 1e3 * truth);
+    for (int k = 0; k < n; k++)
+        printf(" %s %.1f ms (x%.1f)", m[k]->name, 1e3 * bench_median(t[k], RUNS), over[k]);
     printf("\n    with shadows precomputed per voxel (--shadows voxel), frame (precomputation):");
     for (int k = 0; k < n; k++)
         if (!m[k]->cone)
@@ -204,6 +212,10 @@ int main(int argc, char **argv)
     int n = 0;
     while (all[n])
         n++;
+    if (n > 15) { /* med[] and the ratios below hold 15 models and the truth */
+        fprintf(stderr, "bench_frame: %d models, at most 15\n", n);
+        return 1;
+    }
     printf("bench_frame: %d threads, load average %.2f at the start\n", parallel_threads(0), load_average());
 
     /* (a), (b) */
@@ -225,16 +237,21 @@ int main(int argc, char **argv)
         }
         t[n * RUNS + run] = truth_frame(&rt, 256);
     }
+    /* Each model's frame over the truth's of the same round, before the medians sort the times. */
+    double over_truth[16], over_lo[16], over_hi[16];
+    for (int k = 0; k < n; k++)
+        over_truth[k] = bench_paired_ratio(&t[k * RUNS], &t[n * RUNS], RUNS, &over_lo[k], &over_hi[k]);
     for (int k = 0; k <= n && k < 16; k++)
         med[k] = bench_median(&t[k * RUNS], RUNS);
     /* Beside each time, its multiple of the truth's frame in the same rounds: the shared machine's
      * speed drifts by a fifth within minutes, which moves every time but hardly their ratios. */
     printf("(a) frame time, bunny 256^3, 256x256, 4 spp (medians of %d), goal <= 50 ms; in brackets over the "
-           "truth's %.1f ms at 4 spp, same rounds:\n", RUNS, 1e3 * med[n]);
+           "truth's %.1f ms at 4 spp (the median of the %d rounds' ratios, each frame over the truth's of its "
+           "round):\n", RUNS, 1e3 * med[n], RUNS);
     int alpha = -1, vmesh = -1, binary = -1;
     for (int k = 0; k < n; k++) {
         printf("    %-14s %8.1f ms  %-4s (x%.2f)\n", all[k]->name, 1e3 * med[k], med[k] <= 0.050 ? "ok" : "over",
-               med[k] / med[n]);
+               over_truth[k]);
         alpha = strcmp(all[k]->name, "alpha") ? alpha : k;
         vmesh = strcmp(all[k]->name, "vmesh") ? vmesh : k;
         binary = strcmp(all[k]->name, "binary") ? binary : k;
@@ -253,15 +270,16 @@ int main(int argc, char **argv)
         printf("    vmesh over the paper's 37 ms (RTX 2080, 27 fps at 256^3, shadows precomputed): %.2f\n",
                bench_median(&pre[vmesh * RUNS], RUNS) / 0.037);
     if (binary >= 0)
-        printf("(b) binary / truth at 4 spp, same image: %.2f (goal <= 1; truth %.1f ms)\n", med[binary] / med[n],
-               1e3 * med[n]);
+        printf("(b) binary / truth at 4 spp, same image: %.2f (goal <= 1; the median of %d same-round ratios, their "
+               "quartiles %.2f-%.2f; the medians' ratio %.2f; truth %.1f ms)\n",
+               over_truth[binary], RUNS, over_lo[binary], over_hi[binary], med[binary] / med[n], 1e3 * med[n]);
     for (int k = 0; k < n; k++)
         unbake(&b[k]);
 
     /* (c) */
-    printf("(c) frame time growth per doubling, bunny 256x256 (grids baked with %d rays; medians of %d rounds, the "
-           "resolutions interleaved; in parentheses the growth of the model's evaluations, in brackets the frame's "
-           "with --shadows voxel):\n",
+    printf("(c) frame time growth per doubling, bunny 256x256 (grids baked with %d rays; %d rounds, the "
+           "resolutions interleaved; a growth is the median of the rounds' own ratios, in parentheses their "
+           "quartiles and the growth of the model's evaluations, in brackets the frame's with --shadows voxel):\n",
            GROWTH_RAYS, RUNS);
     for (int k = 0; k < n; k++) {
         /* Every resolution baked first, then their frames interleaved over RUNS rounds: a ratio of
@@ -282,21 +300,26 @@ int main(int argc, char **argv)
                 if (!all[k]->cone)
                     voxel[l][run] = frame_shadows(&bunny, &g[l], 256, 0, SHADOW_VOXEL);
             }
+        /* Each doubling's growth is the median of the rounds' own ratios (a resolution's frame over the
+         * one below's, a second apart), taken before the medians below sort the times. */
+        double grow[GROWTH_LEVELS], grow_lo[GROWTH_LEVELS], grow_hi[GROWTH_LEVELS], grow_pre[GROWTH_LEVELS];
+        for (int l = 1; l < levels; l++) {
+            double lo, hi;
+            grow[l] = bench_paired_ratio(march[l], march[l - 1], RUNS, &grow_lo[l], &grow_hi[l]);
+            grow_pre[l] = all[k]->cone ? 0 : bench_paired_ratio(voxel[l], voxel[l - 1], RUNS, &lo, &hi);
+        }
         printf("    %-14s", all[k]->name);
-        double prev = 0, prev_pre = 0;
         for (int l = 0; l < levels; l++) {
             double m = bench_median(march[l], RUNS), pre = all[k]->cone ? 0 : bench_median(voxel[l], RUNS);
             if (l > 0)
-                printf("  %d^3 x%.2f%s (x%.2f)", 128 << l, m / prev, m / prev <= 2.0 ? "" : "!",
-                       evals[l] / (evals[l - 1] > 0 ? evals[l - 1] : 1));
+                printf("  %d^3 x%.2f%s (x%.2f-%.2f; evals x%.2f)", 128 << l, grow[l], grow[l] <= 2.0 ? "" : "!",
+                       grow_lo[l], grow_hi[l], evals[l] / (evals[l - 1] > 0 ? evals[l - 1] : 1));
             else
                 printf("  %d^3 %.1f ms (%.0fk evals)", 128 << l, 1e3 * m, 1e-3 * evals[l]);
-            if (pre > 0 && prev_pre > 0)
-                printf(" [x%.2f%s]", pre / prev_pre, pre / prev_pre <= 2.0 ? "" : "!");
+            if (pre > 0 && l > 0)
+                printf(" [x%.2f%s]", grow_pre[l], grow_pre[l] <= 2.0 ? "" : "!");
             else if (pre > 0)
                 printf(" [%.1f ms]", 1e3 * pre);
-            prev_pre = pre;
-            prev = m;
         }
         printf("\n");
         for (int l = 0; l < levels; l++)
@@ -307,19 +330,19 @@ int main(int argc, char **argv)
     const vx_model *bin = model_find("binary");
     baked c;
     if (bin && bake(&city, bin, 256, RAYS, &c) == 0) {
-        double one[SPEEDUP_RUNS], two[SPEEDUP_RUNS], ratio[SPEEDUP_RUNS];
+        double one[SPEEDUP_RUNS], two[SPEEDUP_RUNS];
         long faults = 0;
         for (int run = 0; run < SPEEDUP_RUNS; run++) {
             one[run] = frame(&city, &c, 256, 1);
             faults = last_page_faults > faults ? last_page_faults : faults;
             two[run] = frame(&city, &c, 256, 2);
             faults = last_page_faults > faults ? last_page_faults : faults;
-            ratio[run] = one[run] / two[run];
         }
+        double lo, hi, speedup = bench_paired_ratio(one, two, SPEEDUP_RUNS, &lo, &hi);
         printf("(d) binary, city 256^3, 256x256 (medians of %d pairs): 1 thread %.1f ms, 2 threads %.1f ms, speed-up "
-               "%.2f (goal >= 1.8); at most %ld page faults inside a frame's clock\n",
-               SPEEDUP_RUNS, 1e3 * bench_median(one, SPEEDUP_RUNS), 1e3 * bench_median(two, SPEEDUP_RUNS),
-               bench_median(ratio, SPEEDUP_RUNS), faults);
+               "%.2f (goal >= 1.8; the pairs' quartiles %.2f-%.2f); at most %ld page faults inside a frame's clock\n",
+               SPEEDUP_RUNS, 1e3 * bench_median(one, SPEEDUP_RUNS), 1e3 * bench_median(two, SPEEDUP_RUNS), speedup,
+               lo, hi, faults);
         unbake(&c);
     }
     /* (e) */
