@@ -27,9 +27,10 @@ static inline void bench_quartiles(double *v, int n, double *lo, double *hi)
     *hi = v[3 * n / 4];
 }
 
-/* The median of the ratios num[i] / den[i] of n same-round pairs, and their quartiles: a ratio of two
- * times measured seconds apart, so that the shared machine's drift over a run (a fifth within
- * minutes) moves both of a pair alike, where a ratio of two medians mixes rounds. */
+/* The median of the ratios num[i] / den[i] of n same-round pairs (n at most 64; num and den are left
+ * as they are), and their quartiles: a ratio of two times measured seconds apart, so that the shared
+ * machine's drift over a run (a fifth within minutes) moves both of a pair alike, where a ratio of
+ * two medians mixes rounds. */
 static inline double bench_paired_ratio(const double *num, const double *den, int n, double *lo, double *hi)
 {
     double r[64];
