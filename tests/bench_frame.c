@@ -241,7 +241,7 @@ int main(int argc, char **argv)
     double over_truth[16], over_lo[16], over_hi[16];
     for (int k = 0; k < n; k++)
         over_truth[k] = bench_paired_ratio(&t[k * RUNS], &t[n * RUNS], RUNS, &over_lo[k], &over_hi[k]);
-    for (int k = 0; k <= n && k < 16; k++)
+    for (int k = 0; k <= n; k++)
         med[k] = bench_median(&t[k * RUNS], RUNS);
     /* Beside each time, its multiple of the truth's frame in the same rounds: the shared machine's
      * speed drifts by a fifth within minutes, which moves every time but hardly their ratios. */
@@ -301,25 +301,23 @@ int main(int argc, char **argv)
                     voxel[l][run] = frame_shadows(&bunny, &g[l], 256, 0, SHADOW_VOXEL);
             }
         /* Each doubling's growth is the median of the rounds' own ratios (a resolution's frame over the
-         * one below's, a second apart), taken before the medians below sort the times. */
+         * one below's, a second apart), taken before the median below sorts the lowest's times. */
         double grow[GROWTH_LEVELS], grow_lo[GROWTH_LEVELS], grow_hi[GROWTH_LEVELS], grow_pre[GROWTH_LEVELS];
         for (int l = 1; l < levels; l++) {
             double lo, hi;
             grow[l] = bench_paired_ratio(march[l], march[l - 1], RUNS, &grow_lo[l], &grow_hi[l]);
             grow_pre[l] = all[k]->cone ? 0 : bench_paired_ratio(voxel[l], voxel[l - 1], RUNS, &lo, &hi);
         }
-        printf("    %-14s", all[k]->name);
-        for (int l = 0; l < levels; l++) {
-            double m = bench_median(march[l], RUNS), pre = all[k]->cone ? 0 : bench_median(voxel[l], RUNS);
-            if (l > 0)
-                printf("  %d^3 x%.2f%s (x%.2f-%.2f; evals x%.2f)", 128 << l, grow[l], grow[l] <= 2.0 ? "" : "!",
-                       grow_lo[l], grow_hi[l], evals[l] / (evals[l - 1] > 0 ? evals[l - 1] : 1));
-            else
-                printf("  %d^3 %.1f ms (%.0fk evals)", 128 << l, 1e3 * m, 1e-3 * evals[l]);
-            if (pre > 0 && l > 0)
+        /* The lowest resolution's times, then each doubling's growth. */
+        printf("    %-14s  128^3 %.1f ms (%.0fk evals)", all[k]->name, 1e3 * bench_median(march[0], RUNS),
+               1e-3 * evals[0]);
+        if (!all[k]->cone)
+            printf(" [%.1f ms]", 1e3 * bench_median(voxel[0], RUNS));
+        for (int l = 1; l < levels; l++) {
+            printf("  %d^3 x%.2f%s (x%.2f-%.2f; evals x%.2f)", 128 << l, grow[l], grow[l] <= 2.0 ? "" : "!",
+                   grow_lo[l], grow_hi[l], evals[l] / (evals[l - 1] > 0 ? evals[l - 1] : 1));
+            if (!all[k]->cone)
                 printf(" [x%.2f%s]", grow_pre[l], grow_pre[l] <= 2.0 ? "" : "!");
-            else if (pre > 0)
-                printf(" [%.1f ms]", 1e3 * pre);
         }
         printf("\n");
         for (int l = 0; l < levels; l++)
