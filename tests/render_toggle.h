@@ -15,6 +15,23 @@
 
 typedef void (*render_switch)(render_options *o, int on);
 
+/* Switches that more than one test turns. All three exact speed-ups together (the depth bounds and
+ * slabs, the shadow rays' and light cones' ends, the empty-space skip), on 3 threads so that both
+ * images take the pool, its bands and their tail. */
+static inline void render_toggle_all_speedups(render_options *o, int on)
+{
+    o->threads = 3;
+    o->pixel_bounds = o->shadow_clip = o->empty_skip = on;
+}
+/* 3 threads (on) against 1. */
+static inline void render_toggle_threads(render_options *o, int on) { o->threads = on ? 3 : 1; }
+/* The per-voxel models' shadows precomputed per voxel (on) against marched, on 3 threads. */
+static inline void render_toggle_voxel_shadows(render_options *o, int on)
+{
+    o->threads = 3;
+    o->shadow_method = on ? SHADOW_VOXEL : SHADOW_MARCH;
+}
+
 /* A background whose mean over 5 equal rays is not itself in float (0.9504637 and 0.42332646 come
  * back an ulp off): a pixel an optimisation fills without marching (pixel_bounds.h's empty pixels)
  * must sum its rays' background as the march does. Set before baking (it is not in the records). */

@@ -57,17 +57,6 @@ static void skip_switch(render_options *o, int on)
     o->threads = 3;
     o->empty_skip = on;
 }
-static void all_switch(render_options *o, int on)
-{
-    o->threads = 3;
-    o->pixel_bounds = o->shadow_clip = o->empty_skip = on;
-}
-static void threads_switch(render_options *o, int on) { o->threads = on ? 3 : 1; }
-static void voxel_shadows_switch(render_options *o, int on)
-{
-    o->threads = 3;
-    o->shadow_method = on ? SHADOW_VOXEL : SHADOW_MARCH;
-}
 
 static const struct {
     render_switch set;
@@ -76,9 +65,9 @@ static const struct {
 } switches[] = {{bounds_switch, "the depth bounds", 0},
                 {clip_switch, "the shadow rays' ends", 0},
                 {skip_switch, "the empty-space skip", 0},
-                {all_switch, "all three", 0},
-                {threads_switch, "3 threads (off: 1)", 0},
-                {voxel_shadows_switch, "shadows precomputed per voxel", 1}};
+                {render_toggle_all_speedups, "all three", 0},
+                {render_toggle_threads, "3 threads (off: 1)", 0},
+                {render_toggle_voxel_shadows, "shadows precomputed per voxel", 1}};
 
 /* Model m baked once on scene s, then every switch off and on (render_toggle_compare). */
 static void case_checks(const char *label, const scene *s, const vx_model *m)

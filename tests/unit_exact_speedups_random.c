@@ -5,8 +5,10 @@
  * point near the grid's centre with a field of view of 15 to 100 degrees, any roll; a directional
  * light from any direction, or a point light inside or around the grid. Every model is baked once
  * per scene; each view renders with the depth bounds, the shadow rays' ends and the empty-space skip
- * all off, then all on (render_toggle_compare: three shapes and ray counts, 3 threads). A speed-up
- * that moved a single ray's cells from some view would change a pixel. */
+ * all off, then all on; on 1 thread, then 3; and, for the per-voxel models, with its shadows marched,
+ * then precomputed per voxel (--shadows voxel, whose image is march's). Each pair goes through
+ * render_toggle_compare (three shapes and ray counts). A speed-up that moved a single ray's cells
+ * from some view would change a pixel. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -20,12 +22,6 @@
 
 #define VIEWS_PER_SCENE 12
 #define BAKE_RES 40
-
-static void all_switch(render_options *o, int on)
-{
-    o->threads = 3;
-    o->pixel_bounds = o->shadow_clip = o->empty_skip = on;
-}
 
 /* xorshift64*: the views' numbers, the same on every machine. */
 static double next_unit(uint64_t *s)
@@ -136,7 +132,10 @@ static void scene_checks(const char *path, uint64_t seed)
             snprintf(name, sizeof name, "%s, random view %d (camera %.3g %.3g %.3g, light %s)", label, v,
                      s.camera.position.x, s.camera.position.y, s.camera.position.z,
                      s.lights[0].type == LIGHT_DIRECTIONAL ? "directional" : "point");
-            render_toggle_compare(name, &s, &g, *m, rec, all_switch, "every exact speed-up");
+            render_toggle_compare(name, &s, &g, *m, rec, render_toggle_all_speedups, "every exact speed-up");
+            render_toggle_compare(name, &s, &g, *m, rec, render_toggle_threads, "3 threads (off: 1)");
+            if ((*m)->voxel)
+                render_toggle_compare(name, &s, &g, *m, rec, render_toggle_voxel_shadows, "shadows precomputed per voxel");
             shown += view_shows_voxels(&s, &g, *m, rec);
         }
         char name[500];
