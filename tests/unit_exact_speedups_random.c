@@ -43,7 +43,8 @@ static vec3 random_direction(uint64_t *s)
     }
 }
 
-/* A camera at pos looking at `at` with roll: an orthonormal frame as scene.c builds it. */
+/* A camera drawn as the top of this file says, its frame orthonormal as scene.c builds it (right =
+ * forward x up); the roll comes from the random up. */
 static camera random_camera(uint64_t *s, vec3 centre, float size)
 {
     camera c;
